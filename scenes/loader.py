@@ -1,0 +1,425 @@
+"""The scene language: a TOML file parsed into a validated ``Scene``.
+
+File layout (every key is checked; unknown keys are errors)::
+
+    [scene]      name, description
+    [room]       outline = [[x, y], ...], wall_height, wall_thickness
+    [[walls]]    start = [x, y], end = [x, y], thickness, height        (interior walls)
+    [[obstacles]] name, center = [x, y], size = [sx, sy, sz], yaw_deg
+    [[cameras]]  name, kind = "horizontal" | "overhead" | "oblique", position = [x, y, z],
+                 yaw_deg, pitch_deg  or  look_at = [x, y, z], fovy_deg, resolution = [w, h],
+                 fps, privacy (overhead), region = [xmin, ymin, xmax, ymax] (overhead)
+    [sensors]    see ``SensorSpec``
+    [render]     shadows
+    [walkers]    count, motion, speed = [min, max], pause = [min, max], pause_probability,
+                 height, radius, phoneless, process_noise = [q_pos, q_vel], bob_amplitude
+    [[walkers.people]]  name, motion, waypoints, loop, start, speed, pause, pause_probability,
+                 phone, height, radius, color
+
+``walkers.count`` walkers are made: the first from ``walkers.people`` (in order), the rest from
+the ``[walkers]`` template. The last ``phoneless`` walkers carry no phone.
+
+Overrides (``--set key=value``) are applied to the parsed TOML before validation; the key is
+a dotted path, list items by index or ``*`` for all (``cameras.*.privacy=true``).
+"""
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .camera import CAMERA_KINDS, Camera, yaw_pitch_towards
+from .spec import (
+    MOTION_MODELS,
+    Floorplan,
+    GaussMarkovParams,
+    Obstacle,
+    RenderSpec,
+    Scene,
+    SensorSpec,
+    Wall,
+    WalkerSpec,
+    point_in_polygon,
+)
+
+# Distinct appearance classes: the colour name is the label a camera may report.
+PALETTE: tuple[tuple[str, tuple[float, float, float]], ...] = (
+    ("red", (0.85, 0.10, 0.10)),
+    ("blue", (0.10, 0.25, 0.90)),
+    ("green", (0.10, 0.70, 0.15)),
+    ("orange", (1.00, 0.55, 0.00)),
+    ("purple", (0.55, 0.15, 0.75)),
+    ("cyan", (0.00, 0.80, 0.85)),
+    ("magenta", (0.95, 0.10, 0.70)),
+    ("yellow", (0.95, 0.90, 0.10)),
+    ("brown", (0.50, 0.30, 0.10)),
+    ("navy", (0.05, 0.05, 0.45)),
+    ("lime", (0.60, 1.00, 0.30)),
+    ("pink", (1.00, 0.65, 0.75)),
+)
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be used; the message names the file, the field and the problem."""
+
+
+def bundled_scenes() -> list[str]:
+    """Names of the scenes shipped with trackroom."""
+    return sorted(p.name[:-5] for p in resources.files("scenes").iterdir() if p.name.endswith(".toml"))
+
+
+def resolve_scene_path(name_or_path: str | Path) -> Path:
+    """A bundled scene name (``bearing_hall``) or a path to a TOML file."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise SceneError(f"{p}: no such scene file")
+        return p
+    candidate = Path(str(resources.files("scenes").joinpath(f"{name_or_path}.toml")))
+    if not candidate.exists():
+        raise SceneError(
+            f"{name_or_path}: not a scene file or a bundled scene (bundled: {', '.join(bundled_scenes())})"
+        )
+    return candidate
+
+
+def load_scene(name_or_path: str | Path, overrides: list[str] | dict[str, Any] | None = None) -> Scene:
+    """Read, override and validate a scene; raises ``SceneError`` with a clear message."""
+    path = resolve_scene_path(name_or_path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(f"{path}: not valid TOML: {e}") from None
+    return parse_scene(raw, source=str(path), overrides=overrides)
+
+
+def parse_scene(raw: dict, source: str = "<scene>", overrides=None) -> Scene:
+    raw = copy.deepcopy(raw)
+    if overrides:
+        items = overrides.items() if isinstance(overrides, dict) else (_split_override(source, o) for o in overrides)
+        for key, value in items:
+            _apply_override(raw, key, value, source)
+    return _Validator(source).scene(raw)
+
+
+# ----------------------------------------------------------------------------- overrides
+def _split_override(source: str, text: str) -> tuple[str, Any]:
+    if "=" not in text:
+        raise SceneError(f"{source}: --set {text!r}: expected key=value")
+    key, value = text.split("=", 1)
+    try:
+        parsed = tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value  # a bare string
+    return key.strip(), parsed
+
+
+def _apply_override(raw: dict, key: str, value: Any, source: str) -> None:
+    parts = key.split(".")
+
+    def walk(node, i):
+        part = parts[i]
+        last = i == len(parts) - 1
+        if isinstance(node, list):
+            if part == "*":
+                targets = range(len(node))
+            elif part.isdigit() and int(part) < len(node):
+                targets = [int(part)]
+            else:
+                raise SceneError(f"{source}: --set {key}: {part!r} is not an index of a list of {len(node)}")
+            for j in targets:
+                if last:
+                    node[j] = value
+                else:
+                    walk(node[j], i + 1)
+            return
+        if not isinstance(node, dict):
+            raise SceneError(f"{source}: --set {key}: {'.'.join(parts[:i])} is not a table")
+        if last:
+            node[part] = value
+        else:
+            walk(node.setdefault(part, {}), i + 1)
+
+    walk(raw, 0)
+
+
+# ----------------------------------------------------------------------------- validation
+class _Validator:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, problem: str):
+        raise SceneError(f"{self.source}: {where}: {problem}")
+
+    def table(self, node, where: str, allowed: set[str], required: set[str] = frozenset()) -> dict:
+        if not isinstance(node, dict):
+            self.fail(where, f"expected a table, got {type(node).__name__}")
+        for k in node:
+            if k not in allowed:
+                self.fail(f"{where}.{k}" if where else k, f"unknown key (allowed: {', '.join(sorted(allowed))})")
+        for k in required:
+            if k not in node:
+                self.fail(f"{where}.{k}" if where else k, "missing")
+        return node
+
+    def number(self, node, key, where, default=None, positive=False, nonneg=False) -> float:
+        if key not in node:
+            if default is None:
+                self.fail(f"{where}.{key}", "missing")
+            return float(default)
+        v = node[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            self.fail(f"{where}.{key}", f"expected a finite number, got {v!r}")
+        if positive and v <= 0:
+            self.fail(f"{where}.{key}", f"must be positive, got {v}")
+        if nonneg and v < 0:
+            self.fail(f"{where}.{key}", f"must not be negative, got {v}")
+        return float(v)
+
+    def vector(self, node, key, where, n, default=None, nonneg=False) -> tuple[float, ...]:
+        if key not in node:
+            if default is None:
+                self.fail(f"{where}.{key}", "missing")
+            return tuple(default)
+        v = node[key]
+        if (
+            not isinstance(v, list)
+            or len(v) != n
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v)
+        ):
+            self.fail(f"{where}.{key}", f"expected {n} numbers, got {v!r}")
+        if nonneg and any(x < 0 for x in v):
+            self.fail(f"{where}.{key}", f"must not be negative, got {v!r}")
+        return tuple(float(x) for x in v)
+
+    def points(self, node, key, where, min_len=1) -> tuple[tuple[float, float], ...]:
+        v = node.get(key, [])
+        if not isinstance(v, list) or len(v) < min_len:
+            self.fail(f"{where}.{key}", f"expected a list of at least {min_len} [x, y] points")
+        out = []
+        for j, p in enumerate(v):
+            if not isinstance(p, list) or len(p) != 2 or not all(isinstance(x, (int, float)) for x in p):
+                self.fail(f"{where}.{key}[{j}]", f"expected [x, y], got {p!r}")
+            out.append((float(p[0]), float(p[1])))
+        return tuple(out)
+
+    def boolean(self, node, key, where, default: bool) -> bool:
+        v = node.get(key, default)
+        if not isinstance(v, bool):
+            self.fail(f"{where}.{key}", f"expected true or false, got {v!r}")
+        return v
+
+    def string(self, node, key, where, default=None, choices=None) -> str:
+        v = node.get(key, default)
+        if v is None:
+            self.fail(f"{where}.{key}", "missing")
+        if not isinstance(v, str):
+            self.fail(f"{where}.{key}", f"expected a string, got {v!r}")
+        if choices and v not in choices:
+            self.fail(f"{where}.{key}", f"{v!r} is not one of {', '.join(choices)}")
+        return v
+
+    # -- sections
+    def scene(self, raw: dict) -> Scene:
+        self.table(
+            raw, "", {"scene", "room", "walls", "obstacles", "cameras", "sensors", "render", "walkers"}, {"scene", "room"}
+        )
+        meta = self.table(raw["scene"], "scene", {"name", "description"}, {"name"})
+        floorplan = self.floorplan(raw)
+        sensors = self.sensors(raw.get("sensors", {}))
+        render = self.table(raw.get("render", {}), "render", {"shadows"})
+        cameras = self.cameras(raw.get("cameras", []), floorplan, sensors)
+        walkers = self.walkers(raw.get("walkers", {}), floorplan)
+        return Scene(
+            name=self.string(meta, "name", "scene"),
+            description=self.string(meta, "description", "scene", default=""),
+            floorplan=floorplan,
+            cameras=cameras,
+            walkers=walkers,
+            sensors=sensors,
+            render=RenderSpec(shadows=self.boolean(render, "shadows", "render", False)),
+            source=self.source,
+            raw=raw,
+        )
+
+    def floorplan(self, raw: dict) -> Floorplan:
+        room = self.table(raw["room"], "room", {"outline", "wall_height", "wall_thickness"}, {"outline"})
+        outline = np.asarray(self.points(room, "outline", "room", min_len=3))
+        area = 0.5 * np.sum(outline[:, 0] * np.roll(outline[:, 1], -1) - np.roll(outline[:, 0], -1) * outline[:, 1])
+        if abs(area) < 1e-6:
+            self.fail("room.outline", "the outline encloses no area")
+        wh = self.number(room, "wall_height", "room", 2.5, positive=True)
+        wt = self.number(room, "wall_thickness", "room", 0.1, positive=True)
+        walls = []
+        for i, w in enumerate(raw.get("walls", [])):
+            where = f"walls[{i}]"
+            self.table(w, where, {"start", "end", "thickness", "height"}, {"start", "end"})
+            a, b = self.vector(w, "start", where, 2), self.vector(w, "end", where, 2)
+            if np.hypot(b[0] - a[0], b[1] - a[1]) < 1e-6:
+                self.fail(where, "start and end are the same point")
+            walls.append(Wall(a, b, self.number(w, "thickness", where, wt, positive=True), self.number(w, "height", where, wh, positive=True)))
+        obstacles = []
+        for i, o in enumerate(raw.get("obstacles", [])):
+            where = f"obstacles[{i}]"
+            self.table(o, where, {"name", "center", "size", "yaw_deg"}, {"center", "size"})
+            size = self.vector(o, "size", where, 3)
+            if min(size) <= 0:
+                self.fail(f"{where}.size", f"every side must be positive, got {list(size)}")
+            c = self.vector(o, "center", where, 2)
+            obstacles.append(Obstacle(c, size, math.radians(self.number(o, "yaw_deg", where, 0.0)), o.get("name", f"obstacle{i}")))
+            if not bool(np.all(point_in_polygon(Obstacle(c, size).corners(), outline))):
+                self.fail(where, f"obstacle at {list(c)} is not inside the room outline")
+        return Floorplan(outline, tuple(walls), tuple(obstacles), wh, wt)
+
+    def sensors(self, node) -> SensorSpec:
+        d = SensorSpec()
+        allowed = set(SensorSpec.__dataclass_fields__)
+        self.table(node, "sensors", allowed)
+        kw = {}
+        for k in allowed:
+            if k not in node:
+                continue
+            if k == "magnetic_field":
+                kw[k] = self.vector(node, k, "sensors", 3)
+            else:
+                positive = k.endswith("rate")
+                kw[k] = self.number(node, k, "sensors", getattr(d, k), positive=positive, nonneg=True)
+        s = SensorSpec(**kw)
+        if not _divides(s.imu_rate, s.sim_rate):
+            self.fail("sensors.imu_rate", f"{s.imu_rate} Hz must divide sensors.sim_rate = {s.sim_rate} Hz")
+        return s
+
+    def cameras(self, nodes, floorplan: Floorplan, sensors: SensorSpec) -> tuple[Camera, ...]:
+        if not isinstance(nodes, list):
+            self.fail("cameras", "expected an array of tables [[cameras]]")
+        out, names = [], set()
+        allowed = {"name", "kind", "position", "yaw_deg", "pitch_deg", "look_at", "fovy_deg", "resolution", "fps", "privacy", "region"}
+        for i, c in enumerate(nodes):
+            where = f"cameras[{i}]"
+            self.table(c, where, allowed, {"name", "kind", "position", "fovy_deg", "resolution", "fps"})
+            name = self.string(c, "name", where)
+            where = f"cameras[{i}] ({name})"
+            if name in names:
+                self.fail(f"{where}.name", f"duplicate camera name {name!r}")
+            names.add(name)
+            kind = self.string(c, "kind", where, choices=CAMERA_KINDS)
+            pos = np.asarray(self.vector(c, "position", where, 3))
+            if "look_at" in c:
+                if "yaw_deg" in c or "pitch_deg" in c:
+                    self.fail(where, "give either look_at or yaw_deg/pitch_deg, not both")
+                yaw, pitch = yaw_pitch_towards(pos, self.vector(c, "look_at", where, 3))
+            else:
+                default_pitch = -90.0 if kind == "overhead" else 0.0
+                yaw = math.radians(self.number(c, "yaw_deg", where, 0.0))
+                pitch = math.radians(self.number(c, "pitch_deg", where, default_pitch))
+            if kind == "horizontal" and abs(pitch) > 1e-6:
+                self.fail(f"{where}.pitch_deg", "a horizontal camera's optical axis must be parallel to the floor (pitch 0)")
+            if kind == "overhead" and pitch > math.radians(-60):
+                self.fail(f"{where}.pitch_deg", "an overhead camera must look down (pitch <= -60 degrees)")
+            fovy = self.number(c, "fovy_deg", where, positive=True)
+            if fovy >= 170:
+                self.fail(f"{where}.fovy_deg", f"{fovy} degrees: must be below 170 (pinhole model)")
+            res = self.vector(c, "resolution", where, 2)
+            if min(res) < 8 or any(r != int(r) for r in res):
+                self.fail(f"{where}.resolution", f"expected [width, height] in whole pixels >= 8, got {list(res)}")
+            fps = self.number(c, "fps", where, positive=True)
+            if not _divides(fps, sensors.sim_rate):
+                self.fail(f"{where}.fps", f"{fps} Hz must divide sensors.sim_rate = {sensors.sim_rate} Hz")
+            if not (floorplan.inside(pos[:2]) or _near_outline(pos[:2], floorplan)):
+                self.fail(f"{where}.position", f"camera at {pos.tolist()} is outside the room")
+            if not 0 < pos[2] <= floorplan.wall_height + 1.0:
+                self.fail(f"{where}.position", f"height {pos[2]} m is below the floor or above the ceiling")
+            privacy = self.boolean(c, "privacy", where, False)
+            region = None
+            if "region" in c:
+                region = self.vector(c, "region", where, 4)
+                if not (region[0] < region[2] and region[1] < region[3]):
+                    self.fail(f"{where}.region", "expected [xmin, ymin, xmax, ymax] with min < max")
+            if kind != "overhead" and (privacy or region is not None):
+                self.fail(where, "privacy and region apply to overhead cameras only")
+            out.append(
+                Camera(
+                    name=name, kind=kind, position=pos, yaw=yaw, pitch=pitch, fovy=math.radians(fovy),
+                    width=int(res[0]), height=int(res[1]), fps=fps, privacy=privacy,
+                    quantum=sensors.privacy_quantum_m if privacy else 0.0, region=region,
+                )
+            )
+        return tuple(out)
+
+    def walkers(self, node, floorplan: Floorplan) -> tuple[WalkerSpec, ...]:
+        template_keys = {"count", "motion", "speed", "pause", "pause_probability", "height", "radius", "phoneless", "process_noise", "bob_amplitude", "people"}
+        self.table(node, "walkers", template_keys)
+        people = node.get("people", [])
+        if not isinstance(people, list):
+            self.fail("walkers.people", "expected an array of tables [[walkers.people]]")
+        count = int(self.number(node, "count", "walkers", len(people) if people else 1, nonneg=True))
+        if count != self.number(node, "count", "walkers", count):
+            self.fail("walkers.count", "must be a whole number")
+        if count > len(PALETTE):
+            self.fail("walkers.count", f"{count} walkers: at most {len(PALETTE)} (one distinct colour each)")
+        phoneless = int(self.number(node, "phoneless", "walkers", 0, nonneg=True))
+        if phoneless > count:
+            self.fail("walkers.phoneless", f"{phoneless} phoneless walkers but only {count} walkers")
+        person_keys = {"name", "motion", "waypoints", "loop", "start", "speed", "pause", "pause_probability", "phone", "height", "radius", "color", "process_noise", "bob_amplitude"}
+        colours = dict(PALETTE)
+        out = []
+        for i in range(count):
+            p = people[i] if i < len(people) else {}
+            where = f"walkers.people[{i}]" if i < len(people) else f"walkers (walker {i})"
+            self.table(p, where, person_keys)
+            merged = {k: v for k, v in node.items() if k not in ("count", "phoneless", "people")}
+            merged.update(p)
+            cname = self.string(merged, "color", where, default=PALETTE[i][0], choices=list(colours))
+            motion = self.string(merged, "motion", where, default="random_waypoint", choices=MOTION_MODELS)
+            speed = self.vector(merged, "speed", where, 2, default=(0.5, 1.5), nonneg=True) if isinstance(merged.get("speed", []), list) else (self.number(merged, "speed", where, nonneg=True),) * 2
+            pause = self.vector(merged, "pause", where, 2, default=(0.0, 5.0), nonneg=True)
+            pn = self.vector(merged, "process_noise", where, 2, default=(2e-10, 2e-6), nonneg=True)
+            waypoints = self.points(merged, "waypoints", where, min_len=2) if motion == "waypoints" else ()
+            start = self.vector(merged, "start", where, 2) if "start" in merged else None
+            height = self.number(merged, "height", where, 1.75, positive=True)
+            radius = self.number(merged, "radius", where, 0.2, positive=True)
+            if speed[0] > speed[1]:
+                self.fail(f"{where}.speed", f"min {speed[0]} exceeds max {speed[1]}")
+            if motion in ("random_waypoint", "random_walk", "waypoints") and speed[1] <= 0:
+                self.fail(f"{where}.speed", "a walking person needs a positive speed")
+            for label, pts in (("start", [start] if start else []), ("waypoints", list(waypoints))):
+                for j, q in enumerate(pts):
+                    clear = float(floorplan.clearance(np.asarray(q)))
+                    if clear < radius:
+                        what = "outside the room" if not np.isfinite(clear) else "inside a wall or obstacle"
+                        self.fail(f"{where}.{label}" + (f"[{j}]" if label == "waypoints" else ""), f"{list(q)} is {what} (clearance {clear:.2f} m < radius {radius} m)")
+            name = p.get("name", f"p{i}")
+            if not isinstance(name, str):
+                self.fail(f"{where}.name", "expected a string")
+            out.append(
+                WalkerSpec(
+                    name=name, color=colours[cname], color_name=cname, motion=motion, height=height, radius=radius,
+                    speed=speed, pause=pause,
+                    pause_probability=self.number(merged, "pause_probability", where, 0.5, nonneg=True),
+                    waypoints=waypoints, loop=self.boolean(merged, "loop", where, False), start=start,
+                    phone=self.boolean(merged, "phone", where, True) and i < count - phoneless,
+                    gauss_markov=GaussMarkovParams(*pn),
+                    bob_amplitude=self.number(merged, "bob_amplitude", where, 0.03, nonneg=True),
+                )
+            )
+        names = [w.name for w in out]
+        if len(set(names)) != len(names):
+            self.fail("walkers.people", f"duplicate walker names {names}")
+        cols = [w.color_name for w in out]
+        if len(set(cols)) != len(cols):
+            self.fail("walkers.people", f"two walkers share a colour: {cols}")
+        return tuple(out)
+
+
+def _divides(rate: float, base: float) -> bool:
+    k = base / rate
+    return abs(k - round(k)) < 1e-9
+
+
+def _near_outline(xy, floorplan: Floorplan) -> bool:
+    return any(float(w.distance(xy)) <= w.thickness + 1e-9 for w in floorplan.outline_walls())

@@ -1,0 +1,253 @@
+"""Typed scene objects: what a scene file describes, after validation.
+
+All lengths in metres, angles in radians (the TOML file uses degrees, suffixed ``_deg``),
+rates in Hz. See ``scenes/loader.py`` for the file format and validation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .camera import Camera
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A straight wall segment from ``start`` to ``end`` (floor x, y) of given thickness and height."""
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+    thickness: float = 0.1
+    height: float = 2.5
+
+    def distance(self, xy) -> np.ndarray:
+        """Distance (m) from floor points (..., 2) to the wall's centre line segment."""
+        return segment_distance(xy, self.start, self.end)
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A box on the floor: centre (x, y), full size (sx, sy, sz), yaw (radians)."""
+
+    center: tuple[float, float]
+    size: tuple[float, float, float]
+    yaw: float = 0.0
+    name: str = ""
+
+    def local(self, xy) -> np.ndarray:
+        """Floor points (..., 2) in the box's frame (origin at its centre, axes along its sides)."""
+        d = np.asarray(xy, float) - np.asarray(self.center, float)
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        return np.stack([d[..., 0] * c + d[..., 1] * s, -d[..., 0] * s + d[..., 1] * c], axis=-1)
+
+    def distance(self, xy) -> np.ndarray:
+        """Distance (m) from floor points to the box footprint (0 inside)."""
+        q = np.abs(self.local(xy)) - 0.5 * np.asarray(self.size[:2], float)
+        return np.hypot(np.maximum(q[..., 0], 0.0), np.maximum(q[..., 1], 0.0))
+
+    def corners(self) -> np.ndarray:
+        """Footprint corners (4, 2), counter-clockwise."""
+        hx, hy = 0.5 * self.size[0], 0.5 * self.size[1]
+        local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        return local @ np.array([[c, s], [-s, c]]) + np.asarray(self.center, float)
+
+
+def segment_distance(xy, a, b) -> np.ndarray:
+    """Distance from points (..., 2) to the segment a-b."""
+    p = np.asarray(xy, float)
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    ab = b - a
+    denom = float(ab @ ab)
+    s = np.clip(((p - a) @ ab) / denom, 0.0, 1.0) if denom > 0 else np.zeros(p.shape[:-1])
+    return np.linalg.norm(p - (a + s[..., None] * ab), axis=-1)
+
+
+def point_in_polygon(xy, polygon) -> np.ndarray:
+    """Even-odd rule test of floor points (..., 2) against a polygon (N, 2)."""
+    p = np.asarray(xy, float)
+    poly = np.asarray(polygon, float)
+    x, y = p[..., 0], p[..., 1]
+    inside = np.zeros(p.shape[:-1], bool)
+    for (x0, y0), (x1, y1) in zip(poly, np.roll(poly, -1, axis=0)):
+        crosses = (y0 > y) != (y1 > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+        inside ^= crosses & (x < xint)
+    return inside
+
+
+@dataclass(frozen=True)
+class Floorplan:
+    """The room outline (polygon, walls along it), interior walls and box obstacles."""
+
+    outline: np.ndarray  # (N, 2)
+    walls: tuple[Wall, ...]  # interior walls
+    obstacles: tuple[Obstacle, ...]
+    wall_height: float = 2.5
+    wall_thickness: float = 0.1
+
+    def outline_walls(self) -> tuple[Wall, ...]:
+        pts = [tuple(map(float, p)) for p in self.outline]
+        return tuple(
+            Wall(a, b, self.wall_thickness, self.wall_height) for a, b in zip(pts, pts[1:] + pts[:1])
+        )
+
+    def all_walls(self) -> tuple[Wall, ...]:
+        return self.outline_walls() + tuple(self.walls)
+
+    def inside(self, xy) -> np.ndarray:
+        return point_in_polygon(xy, self.outline)
+
+    def clearance(self, xy) -> np.ndarray:
+        """Free distance (m) from floor points to the nearest wall surface or obstacle.
+
+        Negative or zero means inside a wall or obstacle; points outside the room get -inf.
+        """
+        xy = np.asarray(xy, float)
+        d = np.full(xy.shape[:-1], np.inf)
+        for w in self.all_walls():
+            d = np.minimum(d, w.distance(xy) - 0.5 * w.thickness)
+        for o in self.obstacles:
+            d = np.minimum(d, o.distance(xy))
+        return np.where(self.inside(xy), d, -np.inf)
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        lo, hi = self.outline.min(axis=0), self.outline.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    def to_dict(self) -> dict:
+        return {
+            "outline": self.outline.tolist(),
+            "wall_height": self.wall_height,
+            "wall_thickness": self.wall_thickness,
+            "walls": [
+                {"start": list(w.start), "end": list(w.end), "thickness": w.thickness, "height": w.height}
+                for w in self.walls
+            ],
+            "obstacles": [
+                {"name": o.name, "center": list(o.center), "size": list(o.size), "yaw": o.yaw}
+                for o in self.obstacles
+            ],
+        }
+
+    @staticmethod
+    def from_dict(d: dict) -> "Floorplan":
+        return Floorplan(
+            outline=np.asarray(d["outline"], float),
+            walls=tuple(Wall(tuple(w["start"]), tuple(w["end"]), w["thickness"], w["height"]) for w in d["walls"]),
+            obstacles=tuple(
+                Obstacle(tuple(o["center"]), tuple(o["size"]), o["yaw"], o.get("name", "")) for o in d["obstacles"]
+            ),
+            wall_height=d["wall_height"],
+            wall_thickness=d["wall_thickness"],
+        )
+
+
+MOTION_MODELS = ("random_waypoint", "random_walk", "gauss_markov", "waypoints", "standing")
+
+
+@dataclass(frozen=True)
+class GaussMarkovParams:
+    """Rahimi eq. 1 expressed per second: x' = A(dt) x + nu, nu ~ N(0, Sigma(dt)).
+
+    A(dt) = [[1, dt], [0, 1]] per axis; Sigma(dt) = diag(q_pos dt, q_vel dt) per axis, so the
+    paper's A (dt = 0.5 s) and Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s step are
+    q_pos = 2e-10 m^2/s and q_vel = 2e-6 m^2/s^3.
+    """
+
+    q_pos: float = 2e-10
+    q_vel: float = 2e-6
+
+    def A(self, dt: float) -> np.ndarray:
+        a = np.array([[1.0, dt], [0.0, 1.0]])
+        return np.kron(np.eye(2), a)  # state [x, vx, y, vy]
+
+    def Sigma(self, dt: float) -> np.ndarray:
+        return np.diag([self.q_pos * dt, self.q_vel * dt, self.q_pos * dt, self.q_vel * dt])
+
+
+@dataclass(frozen=True)
+class WalkerSpec:
+    """One person. ``motion`` picks the motion model (see ``sim/walkers.py``).
+
+    speed: (min, max) walking speed, m/s. pause: (min, max) stop length at a waypoint, s.
+    waypoints: for ``waypoints`` motion, the scripted path (x, y); ``loop`` returns to the start.
+    start: initial floor position (None: drawn at random in free space).
+    gauss_markov: process noise of the ``gauss_markov`` model (also kept in the recording's
+    metadata, so an estimator can be handed the matched prior).
+    """
+
+    name: str
+    color: tuple[float, float, float]
+    color_name: str
+    motion: str = "random_waypoint"
+    height: float = 1.75
+    radius: float = 0.2
+    speed: tuple[float, float] = (0.5, 1.5)
+    pause: tuple[float, float] = (0.0, 5.0)
+    pause_probability: float = 0.5
+    waypoints: tuple[tuple[float, float], ...] = ()
+    loop: bool = False
+    start: tuple[float, float] | None = None
+    phone: bool = True
+    gauss_markov: GaussMarkovParams = field(default_factory=GaussMarkovParams)
+    bob_amplitude: float = 0.03  # gait bob, metres peak-to-peak
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """Sensor rates and noise (all one-sigma).
+
+    bearing_sigma_px: horizontal image coordinate noise (bearing cameras), pixels.
+    box_sigma_px: tracking-window edge noise (oblique cameras), pixels.
+    floor_sigma_m: overhead floor position noise per axis (Teixeira: 0.15 m).
+    privacy_quantum_m: privacy-camera position quantisation (Teixeira: 0.15 m).
+    still_speed: speed (m/s) below which a privacy camera does not see a person.
+    imu_rate: phone sample rate, Hz. accel_sigma (m/s^2), gyro_sigma (rad/s), mag_sigma
+    (field units; MuJoCo's default field has magnitude 0.5).
+    magnetic_field: ``option.magnetic`` (world frame).
+    sim_rate: base simulation rate, Hz; truth is sampled at it and every sensor rate divides it.
+    """
+
+    bearing_sigma_px: float = 1.0
+    box_sigma_px: float = 1.0
+    floor_sigma_m: float = 0.15
+    privacy_quantum_m: float = 0.15
+    still_speed: float = 0.1
+    imu_rate: float = 100.0
+    accel_sigma: float = 0.03
+    gyro_sigma: float = 0.01
+    mag_sigma: float = 0.02
+    magnetic_field: tuple[float, float, float] = (0.0, -0.5, 0.0)
+    sim_rate: float = 100.0
+
+
+@dataclass(frozen=True)
+class RenderSpec:
+    """Rendering options (rendered sensing mode)."""
+
+    shadows: bool = False
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: floor plan, cameras, walkers and sensors."""
+
+    name: str
+    description: str
+    floorplan: Floorplan
+    cameras: tuple[Camera, ...]
+    walkers: tuple[WalkerSpec, ...]
+    sensors: SensorSpec
+    render: RenderSpec
+    source: str = ""  # the file it came from
+    raw: dict = field(default_factory=dict, repr=False, compare=False)  # parsed TOML, after overrides
+
+    def camera(self, name: str) -> Camera:
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        raise KeyError(f"scene {self.name!r} has no camera {name!r}")
