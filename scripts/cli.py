@@ -16,8 +16,7 @@ import sys
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering on the CPU; set before mujoco loads
 
 
-class CommandError(Exception):
-    """A command cannot do what was asked; the message is shown as is."""
+from scripts.errors import CommandError  # noqa: E402  (re-exported: commands raise it)
 
 
 def _expected_errors() -> tuple[type[BaseException], ...]:
