@@ -1,0 +1,131 @@
+"""Rendering: the rendered image agrees with the Camera model; backgrounds, segmentation, video."""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco
+import numpy as np
+import pytest
+
+from scenes.camera import Camera
+from sim.render import SceneRenderer, VideoSink, read_video
+
+
+class TinyWorld:
+    """A minimal MjSpec world for tests: a floor, cameras from ``Camera`` objects and mocap people
+    (a capsule of radius r from the floor to height h, in the person's colour)."""
+
+    def __init__(self, cameras: list[Camera], colors, radius=0.2, height=1.75, size=10.0):
+        spec = mujoco.MjSpec()
+        spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
+        w = spec.worldbody
+        w.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[size, size, 0.1], pos=[size / 2, size / 2, 0],
+                   rgba=[0.6, 0.6, 0.55, 1])
+        w.add_light(pos=[size / 2, size / 2, 4.0], dir=[0, 0, -1], castshadow=False)
+        for c in cameras:
+            cam = w.add_camera(name=c.name, pos=list(c.position), fovy=float(np.degrees(c.fovy)))
+            cam.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
+            cam.alt.xyaxes = list(c.mujoco_xyaxes())
+        self.bodies = []
+        for i, col in enumerate(colors):
+            b = w.add_body(name=f"p{i}", mocap=True, pos=[100.0 + i, 0, 0])
+            b.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[radius, 0, 0],
+                       fromto=[0, 0, radius, 0, 0, height - radius], rgba=[*col, 1])
+            self.bodies.append(f"p{i}")
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.radius, self.height = radius, height
+        self.camera_ids = {c.name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, c.name) for c in cameras}
+        self.person_geoms = [np.flatnonzero(self.model.geom_bodyid == self.model.body(n).id) for n in self.bodies]
+        self.person_of_geom = np.full(self.model.ngeom, -1, np.int16)
+        for i, g in enumerate(self.person_geoms):
+            self.person_of_geom[g] = i
+
+    def place(self, xy):
+        for i, p in enumerate(np.asarray(xy, float)):
+            self.data.mocap_pos[self.model.body(self.bodies[i]).mocapid[0]] = [p[0], p[1], 0.0]
+        mujoco.mj_forward(self.model, self.data)
+
+
+def horizontal_cam(**kw) -> Camera:
+    base = dict(name="h", kind="horizontal", position=np.array([5.0, 0.06, 1.5]), yaw=np.pi / 2, pitch=0.0,
+                fovy=np.radians(30), width=320, height=240, fps=4.0)
+    base.update(kw)
+    return Camera(**base)
+
+
+def overhead_cam(**kw) -> Camera:
+    base = dict(name="o", kind="overhead", position=np.array([5.0, 5.0, 2.95]), yaw=0.0, pitch=-np.pi / 2,
+                fovy=np.radians(120), width=320, height=240, fps=20.0, region=(0.0, 0.0, 10.0, 10.0))
+    base.update(kw)
+    return Camera(**base)
+
+
+@pytest.fixture(scope="module")
+def world():
+    cams = [horizontal_cam(), overhead_cam()]
+    return TinyWorld(cams, [(0.85, 0.1, 0.1), (0.1, 0.25, 0.9)]), cams
+
+
+def test_rendered_person_centre_matches_camera_model(world):
+    w, (hc, oc) = world
+    w.place([[4.2, 5.0], [100, 100]])
+    with SceneRenderer(w.model, w.person_of_geom) as r:
+        seg = r.segment(w.data, w.camera_ids["h"], hc.width, hc.height)
+    cols = np.nonzero(seg == 0)[1]
+    u_seg = cols.mean() + 0.5  # pixel centres
+    assert len(cols) > 500
+    assert abs(u_seg - hc.bearing_u([4.2, 5.0])) < 0.5
+
+
+def test_background_hides_people_and_restores_model(world):
+    w, (hc, oc) = world
+    w.place([[5.0, 5.0], [6.0, 5.0]])
+    before = w.model.geom_rgba.copy()
+    with SceneRenderer(w.model, w.person_of_geom) as r:
+        bg = r.background(w.data, w.camera_ids["o"], oc.width, oc.height, np.concatenate(w.person_geoms))
+        rgb, seg = r.rgb_and_segment(w.data, w.camera_ids["o"], oc.width, oc.height)
+        w.place([[100, 100], [101, 100]])
+        empty = r.rgb(w.data, w.camera_ids["o"], oc.width, oc.height)
+    np.testing.assert_array_equal(w.model.geom_rgba, before)
+    np.testing.assert_array_equal(bg, empty)
+    changed = np.abs(rgb.astype(int) - bg.astype(int)).max(axis=2) > 0
+    assert set(np.unique(seg)) == {-1, 0, 1}
+    # the people are exactly where the image differs from the background
+    assert (changed == (seg >= 0)).mean() > 0.995
+
+
+def test_shadows_flag(world):
+    w, _ = world
+    r = SceneRenderer(w.model, w.person_of_geom, shadows=True)
+    assert r.renderer(160, 120).scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW]
+    r.close()
+    r = SceneRenderer(w.model, w.person_of_geom)
+    assert not r.renderer(160, 120).scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW]
+    r.close()
+
+
+def test_renderer_grows_offscreen_buffer(world):
+    w, _ = world
+    with SceneRenderer(w.model, w.person_of_geom) as r:
+        img = r.rgb(w.data, w.camera_ids["h"], 800, 600)
+    assert img.shape == (600, 800, 3)
+
+
+def test_video_round_trip(tmp_path, world):
+    w, (hc, _) = world
+    sink = VideoSink(tmp_path)
+    frames = []
+    with SceneRenderer(w.model, w.person_of_geom) as r:
+        for x in (3.0, 4.0, 5.0):
+            w.place([[x, 5.0], [100, 100]])
+            frames.append(r.rgb(w.data, w.camera_ids["h"], 160, 120).copy())
+            sink.write("h", frames[-1], 4.0)
+    sink.close()
+    back = read_video(sink.path("h"))
+    assert len(back) == 3
+    # lossy codec: close, not equal
+    assert np.abs(back[1].astype(int) - frames[1].astype(int)).mean() < 6
+    assert len(read_video(sink.path("h"), frames=[2])) == 1
