@@ -1,0 +1,205 @@
+"""HMM matcher (Teixeira et al.) on hand-made tiny cases built directly in the table formats.
+
+Each person is a piecewise-linear path through key frames (t, x, y); the helpers below turn
+those into ``floor_detections`` (20 Hz, optional noise, privacy quantisation and blindness to
+people standing still) and ``imu`` (100 Hz specific force with a sin^2 gait bob in the phone
+frame, magnetometer = world field rotated into the phone frame; the phone's x axis points along
+the walking direction, held while standing).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.ndimage import gaussian_filter1d
+
+from estimators.base import EstimatorError
+from estimators.gait import GaitModel
+from estimators.hmm_matcher import HMMMatcher
+from metrics.score import evaluate
+from scenes.loader import load_scene
+from sim.recording import Calibration, Observations, Recording, Truth
+
+G = 9.81
+FIELD = (0.0, -0.5, 0.0)
+
+
+def path(keys, t):
+    """Positions (N, 2) along key frames [(t, x, y), ...] (linear, held before/after), smoothed
+    by a 0.25 s Gaussian so that accelerations stay human (no velocity steps)."""
+    k = np.asarray(keys, float)
+    p = np.stack([np.interp(t, k[:, 0], k[:, 1]), np.interp(t, k[:, 0], k[:, 2])], axis=1)
+    return gaussian_filter1d(p, 0.25 / (t[1] - t[0]), axis=0, mode="nearest")
+
+
+def synthetic_recording(people: dict[str, list], phones: dict[str, str], duration: float, seed: int = 0,
+                        floor_sigma: float = 0.0, privacy: bool = False, accel_sigma: float = 0.03,
+                        mag_sigma: float = 0.02, bob: float = 0.03) -> Recording:
+    """people: person id -> key frames; phones: person id -> phone id (absent: no phone)."""
+    rng = np.random.default_rng(seed)
+    scene = load_scene("overhead_lab", {"cameras.*.privacy": privacy})
+    rate, fps = 100.0, 20.0
+    t = np.arange(int(round(duration * rate))) / rate
+    truth, det, imu = [], [], []
+    for pid, keys in people.items():
+        p = path(keys, t)
+        v = np.gradient(p, t, axis=0)
+        speed = np.hypot(v[:, 0], v[:, 1])
+        walking = speed > 0.05
+        yaw = np.arctan2(v[:, 1], v[:, 0])
+        # heading held while standing (first walking heading before the first step)
+        idx = np.where(walking, np.arange(len(t)), -1)
+        idx = np.maximum.accumulate(idx)
+        first = np.flatnonzero(walking)[0] if walking.any() else 0
+        yaw = np.where(idx >= 0, yaw[np.maximum(idx, 0)], yaw[first])
+        # gait bob: z = A a(s) (sin^2(pi phi) - 1/2), phi = integral of step rate
+        amp = bob * np.clip(speed / 0.5, 0, 1)
+        phi = np.cumsum(1.0 + 0.6 * speed) / rate
+        z = amp * (np.sin(np.pi * phi) ** 2 - 0.5)
+        az = np.gradient(np.gradient(z, t), t)
+        a = np.gradient(v, t, axis=0)
+        phone = phones.get(pid, "")
+        truth.append(pd.DataFrame({"t": t, "person_id": pid, "x": p[:, 0], "y": p[:, 1], "z": 0.9 + z, "yaw": yaw,
+                                   "vx": v[:, 0], "vy": v[:, 1], "walking": walking, "phone_id": phone}))
+        cam_rows = np.arange(0, len(t), int(rate / fps))
+        seen = cam_rows if not privacy else cam_rows[speed[cam_rows] > 0.1]
+        xy = p[seen] + floor_sigma * rng.standard_normal((len(seen), 2))
+        if privacy:
+            xy = np.round(xy / 0.15) * 0.15
+        det.append(pd.DataFrame({"t": t[seen], "camera": "ceil_sw", "x": xy[:, 0], "y": xy[:, 1]}))
+        if phone:
+            c, s = np.cos(yaw), np.sin(yaw)
+            f = np.stack([a[:, 0], a[:, 1], az + G], axis=1)  # specific force, world frame
+            fx, fy = c * f[:, 0] + s * f[:, 1], -s * f[:, 0] + c * f[:, 1]  # rotate by -yaw
+            mx, my = c * FIELD[0] + s * FIELD[1], -s * FIELD[0] + c * FIELD[1]
+            n = len(t)
+            imu.append(pd.DataFrame({
+                "t": t, "phone_id": phone,
+                "ax": fx + accel_sigma * rng.standard_normal(n), "ay": fy + accel_sigma * rng.standard_normal(n),
+                "az": f[:, 2] + accel_sigma * rng.standard_normal(n),
+                "gx": 0.0, "gy": 0.0, "gz": 0.0,
+                "mx": mx + mag_sigma * 0.5 * rng.standard_normal(n), "my": my + mag_sigma * 0.5 * rng.standard_normal(n),
+                "mz": 0.0 + mag_sigma * 0.5 * rng.standard_normal(n),
+            }))
+    sort = lambda parts: pd.concat(parts, ignore_index=True).sort_values("t", kind="stable").reset_index(drop=True)
+    cams = {c.name: c for c in scene.cameras}
+    noise = dataclasses.asdict(scene.sensors)
+    noise.update(floor_sigma_m=floor_sigma, magnetic_field=list(FIELD))
+    return Recording(
+        calibration=Calibration(cameras=cams, floorplan=scene.floorplan, noise=noise),
+        observations=Observations({"floor_detections": sort(det), "imu": sort(imu)}, duration),
+        truth=Truth({"people": sort(truth)}),
+        meta={"scene": "synthetic", "seed": seed, "sensing": "analytic"},
+    )
+
+
+def run(rec: Recording, **params) -> pd.DataFrame:
+    return HMMMatcher(**params).estimate(rec.observations, rec.calibration)
+
+
+def per_person_accuracy(rec: Recording, tracks: pd.DataFrame, t_from: float = 0.0) -> dict[str, float]:
+    """Fraction of frames (t >= t_from) in which the track nearest each person claims its phone."""
+    truth = rec.truth.people
+    out = {}
+    for pid, g in truth.groupby("person_id"):
+        hits = n = 0
+        for t, row in tracks[tracks["t"] >= t_from].groupby("t"):
+            tr = g.iloc[np.argmin(np.abs(g["t"].to_numpy() - t))]
+            d = np.hypot(row["x"] - tr["x"], row["y"] - tr["y"]).to_numpy()
+            if d.min() > 0.6:
+                continue
+            n += 1
+            hits += row["phone_id"].iloc[int(np.argmin(d))] == tr["phone_id"]
+        out[pid] = hits / max(n, 1)
+    return out
+
+
+# Two people cross at right angles in the middle of the room at t = 4 s.
+CROSSING = {"A": [(0, 2, 5), (1, 2, 5), (7, 8, 5), (10, 8, 5)], "B": [(0, 5, 2), (1, 5, 2), (7, 5, 8), (10, 5, 8)]}
+# Fig. 4: A and B walk towards each other, meet, stand 3 s; then A walks away and B stays still.
+MEETING = {"A": [(0, 2, 5), (3, 4.75, 5), (6, 4.75, 5), (9, 4.75, 8), (12, 4.75, 8)],
+           "B": [(0, 8, 5), (3, 5.25, 5), (12, 5.25, 5)]}
+
+
+def test_crossing_people_are_identified_after_the_crossing():
+    rec = synthetic_recording(CROSSING, {"A": "phA", "B": "phB"}, 10.0, floor_sigma=0.1)
+    tracks = run(rec)
+    acc = per_person_accuracy(rec, tracks, t_from=1.0)
+    assert min(acc.values()) > 0.9, acc
+    ev = evaluate(rec, tracks)
+    assert ev.identification.id_accuracy > 0.9
+
+
+def test_crossing_with_swapped_phones_follows_the_phones():
+    # the same paths with the phones exchanged: the claims must follow the phones, not the paths
+    rec = synthetic_recording(CROSSING, {"A": "phB", "B": "phA"}, 10.0, floor_sigma=0.1)
+    acc = per_person_accuracy(rec, run(rec), t_from=1.0)
+    assert min(acc.values()) > 0.9, acc
+
+
+@pytest.mark.parametrize("privacy", [False, True])
+def test_meeting_then_one_stays_still(privacy):
+    rec = synthetic_recording(MEETING, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.05, privacy=privacy)
+    tracks = run(rec)
+    # after A leaves (t > 7 s) the walker must carry A's phone: the still phone says "stopped"
+    late = per_person_accuracy(rec, tracks, t_from=7.5)
+    assert late["A"] > 0.9, late
+    if not privacy:
+        assert late["B"] > 0.9, late
+    else:
+        # B is invisible to a privacy camera while standing: no track may claim B's phone near A
+        claims = tracks[(tracks["t"] > 7.5) & (tracks["phone_id"] == "phB")]
+        assert len(claims) == 0
+
+
+def test_phoneless_person_gets_no_phone():
+    people = {"A": [(0, 2, 2), (6, 8, 2), (12, 8, 8)], "B": [(0, 2, 8), (6, 8, 8), (12, 2, 8)],
+              "C": [(0, 5, 3), (4, 5, 7), (8, 2, 5), (12, 8, 5)]}
+    rec = synthetic_recording(people, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.1)
+    tracks = run(rec)
+    truth_c = rec.truth.people.query("person_id == 'C'")
+    bad = 0
+    for t, row in tracks.groupby("t"):
+        tr = truth_c.iloc[np.argmin(np.abs(truth_c["t"].to_numpy() - t))]
+        d = np.hypot(row["x"] - tr["x"], row["y"] - tr["y"]).to_numpy()
+        bad += bool(d.min() < 0.5 and row["phone_id"].iloc[int(np.argmin(d))] != "")
+    assert bad / len(tracks["t"].unique()) < 0.05
+    acc = per_person_accuracy(rec, tracks, t_from=1.0)
+    assert acc["A"] > 0.9 and acc["B"] > 0.9, acc
+
+
+def test_output_columns_and_determinism():
+    rec = synthetic_recording(CROSSING, {"A": "phA", "B": "phB"}, 4.0, floor_sigma=0.1)
+    a, b = run(rec), run(rec)
+    assert list(a.columns) == ["t", "track_id", "x", "y", "vx", "vy", "phone_id"]
+    pd.testing.assert_frame_equal(a, b)
+    # a phone is claimed by at most one track per frame
+    claimed = a[a["phone_id"] != ""]
+    assert not claimed.duplicated(["t", "phone_id"]).any()
+
+
+def test_bad_input_is_named(tmp_path):
+    rec = synthetic_recording(CROSSING, {"A": "phA", "B": "phB"}, 2.0)
+    obs = Observations({"floor_detections": rec.observations["floor_detections"]}, 2.0)
+    with pytest.raises(EstimatorError, match="IMU"):
+        HMMMatcher().estimate(obs, rec.calibration)
+    with pytest.raises(EstimatorError, match="evidence_weight"):
+        run(rec, evidence_weight=0.0)
+    bad = tmp_path / "gait.json"
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="gait model"):
+        run(rec, gait_model=str(bad))
+    assert HMMMatcher.applies_to(obs, rec.calibration) is not None
+
+
+def test_gait_model_separates_walking_from_standing():
+    rec = synthetic_recording(MEETING, {"A": "phA", "B": "phB"}, 12.0)
+    from estimators.gait import bobbing_feature, load_default
+
+    imu = rec.observations["imu"].query("phone_id == 'phB'")
+    tq = np.array([1.5, 9.0])  # B walking at 1.5 s, standing at 9 s
+    g = bobbing_feature(imu["t"].to_numpy(), imu[["ax", "ay", "az"]].to_numpy(), tq, 0.8)
+    assert list(load_default().walking(g)) == [True, False]
+    assert isinstance(load_default(), GaitModel)
