@@ -1,0 +1,171 @@
+"""The Bayesian Cramér-Rao bound of a whole trajectory seen by bearing cameras, and RMSE / sqrt(CRB).
+
+Model (Rahimi et al. eqs. 1-4; state s_k = [x, vx, y, vy], k = 0..T-1):
+
+    s_{k+1} = A s_k + nu_k,  nu_k ~ N(0, Q),   s_0 ~ N(m_0, P_0)
+    y_j = u(x_{k_j}) + w_j,  w_j ~ N(0, sigma^2)       (one row j per observed (k, camera))
+
+For the observation pattern of a recording, the information of the trajectory X (4T) is
+
+    J_X = G^T G + sum_j H_j^T H_j / sigma^2,        H_j = d u / d s_{k_j} at the *true* state,
+
+with G the whitened prior factor (block tridiagonal G^T G). The bound on any estimator's error is
+E[(X^ - X)(X^ - X)^T] >= J_X^{-1}; we need only its 4x4 diagonal blocks, which a Kalman filter
+and Rauch-Tung-Striebel smoother with the linearised measurements compute in O(T) (the
+covariance recursions do not depend on the measured values), never forming a dense 4T x 4T inverse:
+
+    filter:   P_k|k = (P_k|k-1^{-1} + sum_{j: k_j = k} H_j^T H_j / sigma^2)^{-1}  (as scalar Joseph
+              updates),  P_k+1|k = A P_k|k A^T + Q
+    smoother: C_k = P_k|k A^T P_k+1|k^{-1},  P_k|T = P_k|k + C_k (P_k+1|T - P_k+1|k) C_k^T
+
+The trajectory bound reported is CRB = (1/T) sum_k (P_k|T[x,x] + P_k|T[y,y])  [m^2], the bound on
+the mean squared position error, so RMSE / sqrt(CRB) >= ~1 for any estimator (= 1 for an efficient
+one). ``rmse_over_crb`` is that ratio.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from scenes.camera import Camera
+
+POS = (0, 2)  # x and y in the state [x, vx, y, vy]
+
+
+def bearing_jacobians(cameras: dict[str, Camera], cam_names, xy, z_h: float = 0.9) -> np.ndarray:
+    """d u / d s (J, 4) of the horizontal image coordinate u (px) at floor points xy (J, 2).
+
+    u = (P_0 . [x, y, z_h, 1]) / (P_2 . [x, y, z_h, 1]) for each observation's camera; for a
+    horizontal camera this is Rahimi eq. 4. Velocity columns are zero.
+    """
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    names = np.asarray(cam_names, object)
+    H = np.zeros((len(xy), 4))
+    for name in set(names.tolist()):
+        if name not in cameras:
+            raise KeyError(f"observation from camera {name!r} that is not in the calibration")
+        P = np.asarray(cameras[name].P, float)
+        m = names == name
+        hom = np.column_stack([xy[m], np.full(m.sum(), z_h), np.ones(m.sum())])
+        num, den = hom @ P[0], hom @ P[2]
+        grad = (P[0, :2][None, :] * den[:, None] - num[:, None] * P[2, :2][None, :]) / (den**2)[:, None]
+        H[np.ix_(m, POS)] = grad
+    return H
+
+
+def _obs_information(T: int, k, H, sigma: float) -> np.ndarray:
+    """Per-step observation information sum_j H_j^T H_j / sigma^2, (T, 4, 4)."""
+    info = np.zeros((T, 4, 4))
+    k = np.asarray(k, int)
+    if len(k):
+        np.add.at(info, k, np.einsum("ji,jk->jik", H, H) / sigma**2)
+    return info
+
+
+def smoothed_covariances(A, Q, P0, T: int, k, H, sigma: float) -> np.ndarray:
+    """The 4x4 diagonal blocks of J_X^{-1} (T, 4, 4) by Kalman filter + RTS recursions.
+
+    Covariance form throughout (the paper's prior makes the predicted covariances nearly singular,
+    ~1e10 condition, so the information-form update 1/(1/P + H^T H) loses digits): each scalar
+    measurement updates P by the Joseph form P <- (I - K h) P (I - K h)^T + sigma^2 K K^T,
+    K = P h^T / (h P h^T + sigma^2), and the smoother gain is a linear solve, not an inverse.
+    """
+    A, Q, P0 = (np.asarray(M, float) for M in (A, Q, P0))
+    k = np.asarray(k, int)
+    H = np.asarray(H, float).reshape(-1, 4)
+    order = np.argsort(k, kind="stable")
+    k, H = k[order], H[order]
+    starts = np.searchsorted(k, np.arange(T + 1))
+    eye = np.eye(4)
+    Pf = np.empty((T, 4, 4))
+    Pp = np.empty((T, 4, 4))
+    Pp[0] = P0
+    for t in range(T):
+        P = Pp[t]
+        for h in H[starts[t] : starts[t + 1]]:
+            Ph = P @ h
+            K = Ph / (h @ Ph + sigma**2)
+            IKH = eye - np.outer(K, h)
+            P = IKH @ P @ IKH.T + sigma**2 * np.outer(K, K)
+        Pf[t] = P
+        if t + 1 < T:
+            Pp[t + 1] = A @ P @ A.T + Q
+    Ps = Pf.copy()
+    for t in range(T - 2, -1, -1):
+        Ck = np.linalg.solve(Pp[t + 1], A @ Pf[t]).T  # P_t|t A^T P_t+1|t^{-1} (both symmetric)
+        Ps[t] = Pf[t] + Ck @ (Ps[t + 1] - Pp[t + 1]) @ Ck.T
+        Ps[t] = 0.5 * (Ps[t] + Ps[t].T)
+    return Ps
+
+
+def information_matrix(A, Q, P0, T: int, k, H, sigma: float) -> sp.csc_matrix:
+    """The sparse trajectory information J_X = G^T G + sum_j H_j^T H_j / sigma^2, (4T, 4T)."""
+    A, Q, P0 = (np.asarray(M, float) for M in (A, Q, P0))
+    W = np.linalg.cholesky(np.linalg.inv(Q)).T  # W^T W = Q^{-1}
+    W0 = np.linalg.cholesky(np.linalg.inv(P0)).T
+    rows = [sp.hstack([sp.csc_matrix(W0), sp.csc_matrix((4, 4 * (T - 1)))])] if T > 1 else [sp.csc_matrix(W0)]
+    for t in range(1, T):
+        r = sp.lil_matrix((4, 4 * T))
+        r[:, 4 * (t - 1) : 4 * t] = W @ A
+        r[:, 4 * t : 4 * t + 4] = -W
+        rows.append(r.tocsc())
+    G = sp.vstack(rows, format="csc")
+    info = _obs_information(T, k, H, sigma)
+    return (G.T @ G + sp.block_diag(list(info), format="csc")).tocsc()
+
+
+@dataclass(frozen=True)
+class TrajectoryCRB:
+    """cov: smoothed bound covariances (T, 4, 4); pos_var: x + y variance bound per step (m^2);
+    crb: their mean (m^2), the bound on the mean squared position error."""
+
+    cov: np.ndarray
+    pos_var: np.ndarray
+    crb: float
+
+    @property
+    def sqrt_crb(self) -> float:
+        return float(np.sqrt(self.crb))
+
+
+def trajectory_crb(
+    xy_true,
+    k,
+    cam_names,
+    cameras: dict[str, Camera],
+    sigma_px: float,
+    dt: float,
+    q_pos: float,
+    q_vel: float,
+    first_sigma=(100.0, 10.0, 100.0, 10.0),
+    z_h: float = 0.9,
+) -> TrajectoryCRB:
+    """The bound for a true path xy_true (T, 2) on a grid of step dt (s), observed at steps k by
+    cameras cam_names (one entry per observation), with the Gauss-Markov prior (q_pos, q_vel per
+    second: Q = diag(q_pos dt, q_vel dt, q_pos dt, q_vel dt)) and the weak first-state prior
+    N(m_0, diag(first_sigma)^2) the estimator uses."""
+    xy_true = np.asarray(xy_true, float)
+    T = len(xy_true)
+    k = np.asarray(k, int)
+    if len(k) and (k.min() < 0 or k.max() >= T):
+        raise ValueError(f"observation steps outside 0..{T - 1}")
+    A = np.kron(np.eye(2), np.array([[1.0, dt], [0.0, 1.0]]))
+    Q = np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
+    P0 = np.diag(np.asarray(first_sigma, float) ** 2)
+    H = bearing_jacobians(cameras, cam_names, xy_true[k], z_h) if len(k) else np.zeros((0, 4))
+    cov = smoothed_covariances(A, Q, P0, T, k, H, sigma_px)
+    pos_var = cov[:, 0, 0] + cov[:, 2, 2]
+    return TrajectoryCRB(cov=cov, pos_var=pos_var, crb=float(np.mean(pos_var)))
+
+
+def rmse(xy_est, xy_true) -> float:
+    """Root mean squared position error (m) over matched steps."""
+    e = np.asarray(xy_est, float) - np.asarray(xy_true, float)
+    return float(np.sqrt(np.mean(np.sum(e**2, axis=-1))))
+
+
+def rmse_over_crb(xy_est, xy_true, bound: TrajectoryCRB) -> float:
+    """RMSE / sqrt(CRB): 1 for an efficient estimator, larger for one that falls short of the bound."""
+    return rmse(xy_est, xy_true) / bound.sqrt_crb

@@ -1,0 +1,139 @@
+"""QP smoother (Rahimi et al.): recovery, constraints, walls, statuses, bad input."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from estimators import get
+from estimators.base import EstimatorError
+from estimators.qp_model import Bearings, Prior
+from estimators.qp_smoother import QPSmoother
+from scenes.spec import GaussMarkovParams
+
+from .qp_fixtures import bearings_of, hall_calibration, observations, straight_walk
+
+
+@pytest.fixture(scope="module")
+def cal():
+    return hall_calibration()
+
+
+def rmse(tracks, xy):
+    e = np.c_[tracks.x.to_numpy(), tracks.y.to_numpy()] - xy
+    return float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+
+
+def test_registered():
+    assert get("qp_smoother") is QPSmoother
+
+
+def test_noiseless_two_camera_straight_walk_to_1cm(cal):
+    xy = straight_walk()
+    df = bearings_of(cal, {"red": xy}, 0.25, sigma_px=0.0)
+    assert df.camera.nunique() == 2
+    tracks = QPSmoother().estimate(observations(df, 60.0), cal)
+    assert len(tracks) == len(xy) and np.allclose(tracks.t, np.arange(len(xy)) * 0.25)
+    err = np.hypot(tracks.x - xy[:, 0], tracks.y - xy[:, 1])
+    assert err.max() < 0.01
+    d = tracks.attrs["qp_smoother"]["red"]
+    assert d["converged"] and d["qp_not_solved"] == 0 and d["violation_m"] < 1e-6
+
+
+def test_prior_factor_matches_gauss_markov_density():
+    """G^T G is the inverse covariance of the chain (eq. 2): check 0.5 |G X - g|^2 against a dense log-density."""
+    T, dt, pm = 5, 0.25, GaussMarkovParams(1e-3, 1e-1)
+    pr = Prior.build(T, dt, pm, first_mean=(1, 0, 2, 0), first_sigma=(3, 1, 3, 1))
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=4 * T)
+    A, Q = pm.A(dt), pm.Sigma(dt)
+    s = X.reshape(T, 4)
+    e0 = s[0] - np.array([1, 0, 2, 0])
+    q = e0 @ np.diag(1 / np.array([9, 1, 9, 1.0])) @ e0
+    for k in range(1, T):
+        d = s[k] - A @ s[k - 1]
+        q += d @ np.linalg.solve(Q, d)
+    r = pr.residual(X)
+    assert np.isclose(r @ r, q, rtol=1e-10)
+
+
+def test_bearing_jacobian_matches_finite_differences(cal):
+    xy = np.array([[4.0, 3.0], [3.0, 6.0]])
+    obs = Bearings.from_arrays([0, 1], ["cam_south", "cam_west"], [100.0, 200.0], cal.cameras, 2.0)
+    X = np.zeros(8)
+    X[[0, 2, 4, 6]] = xy.ravel()
+    J = obs.jacobian(X, 8).toarray()
+    h = 1e-6
+    for i in range(8):
+        dX = np.zeros(8)
+        dX[i] = h
+        fd = (obs.residual(X + dX) - obs.residual(X - dX)) / (2 * h)
+        assert np.allclose(J[:, i], fd, atol=1e-5)
+    # for a horizontal camera the P-based bearing is eq. 4 (Camera.bearing_u)
+    assert np.allclose(obs.predict(X), [cal.cameras["cam_south"].bearing_u(xy[0]), cal.cameras["cam_west"].bearing_u(xy[1])])
+
+
+def test_noisy_walk_within_10cm_and_constraints_hold(cal):
+    xy = straight_walk()
+    df = bearings_of(cal, {"red": xy}, 0.25, sigma_px=1.0, seed=3)
+    est = QPSmoother()
+    tracks = est.estimate(observations(df, 60.0), cal)
+    assert rmse(tracks, xy) <= 0.10
+    # every observed point in front of its camera by the margin (eq. 9)
+    k = np.rint(df.t / 0.25).astype(int).to_numpy()
+    for name in df.camera.unique():
+        cam = cal.cameras[name]
+        m = (df.camera == name).to_numpy()
+        p = np.c_[tracks.x.to_numpy()[k[m]], tracks.y.to_numpy()[k[m]]] - cam.position[:2]
+        assert np.all(p @ [np.cos(cam.yaw), np.sin(cam.yaw)] >= 0.2 - 1e-6)
+
+
+def test_walls_keep_every_point_inside_the_room(cal):
+    """One camera only: depth is poorly fixed and the unconstrained estimate may leave the room."""
+    xy = straight_walk(T=120)
+    df = bearings_of(cal, {"red": xy}, 0.25, sigma_px=1.0, seed=4)
+    df = df[df.camera == "cam_south"].reset_index(drop=True)
+    tracks = QPSmoother(walls=True, max_iter=30).estimate(observations(df, 30.0), cal)
+    inside = cal.floorplan.inside(np.c_[tracks.x, tracks.y])
+    assert inside.all()
+    assert tracks.x.between(0.05, 9.95).all() and tracks.y.between(0.05, 9.95).all()
+
+
+def test_empty_bearings_give_empty_tracks(cal):
+    df = pd.DataFrame({"t": pd.Series(dtype=float), "camera": pd.Series(dtype=object), "u": pd.Series(dtype=float), "label": pd.Series(dtype=object)})
+    tracks = QPSmoother().estimate(observations(df, 10.0), cal)
+    assert len(tracks) == 0 and {"t", "track_id", "x", "y"} <= set(tracks.columns)
+
+
+def test_camera_that_sees_nobody_is_harmless(cal):
+    """Only one camera reports, the others never see anyone: a track, no crash, statuses reported."""
+    xy = straight_walk(T=80)
+    df = bearings_of(cal, {"red": xy}, 0.25, sigma_px=1.0)
+    df = df[df.camera == "cam_south"].reset_index(drop=True)
+    tracks = QPSmoother().estimate(observations(df, 20.0), cal)
+    assert len(tracks) == 80 and np.isfinite(tracks[["x", "y"]].to_numpy()).all()
+    assert "converged" in tracks.attrs["qp_smoother"]["red"]
+
+
+def test_unknown_camera_is_a_clear_error(cal):
+    df = pd.DataFrame({"t": [0.0], "camera": ["cam_nowhere"], "u": [100.0], "label": ["red"]})
+    with pytest.raises(EstimatorError, match="cam_nowhere"):
+        QPSmoother().estimate(observations(df, 1.0), cal)
+
+
+def test_off_grid_times_and_bad_params_are_errors(cal):
+    df = pd.DataFrame({"t": [0.1], "camera": ["cam_south"], "u": [100.0], "label": ["red"]})
+    with pytest.raises(EstimatorError, match="frame grid"):
+        QPSmoother().estimate(observations(df, 1.0), cal)
+    with pytest.raises(EstimatorError, match="init"):
+        QPSmoother(init="bogus").estimate(observations(df, 1.0), cal)
+
+
+def test_two_labels_are_two_tracks_and_online_runs(cal):
+    a = straight_walk(T=120)
+    b = straight_walk(T=120, p0=(8.5, 8.0), v=(-0.1, -0.11))
+    df = bearings_of(cal, {"red": a, "blue": b}, 0.25, sigma_px=0.5, seed=2)
+    tracks = QPSmoother(window_s=15.0, lag_s=5.0, hop_s=2.5).estimate(observations(df, 30.0), cal)
+    assert set(tracks.track_id) == {"red", "blue"}
+    assert (tracks.groupby("track_id").size() == 120).all()
+    assert tracks.attrs["qp_smoother"]["red"]["windows"] > 1
