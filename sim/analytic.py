@@ -1,0 +1,256 @@
+"""Analytic sensing: camera observations from ground truth through the camera model.
+
+Geometry (vectorised over frames and people, no MuJoCo): a person is a vertical cylinder of
+radius r from the floor to height h around its axis (x, y); its body centre c = (x, y, z).
+Pixels come from the scene's camera model s [u, v, 1]^T = P [X; 1] (``scenes.camera.Camera``).
+
+Field of view (``in_fov``):
+- overhead: the projected body centre lies in the image, in front of the camera;
+- horizontal and oblique: the body centre is in front of the camera, its u lies in [0, W) and the
+  projected axis from floor to head overlaps the rows [0, H).
+
+Visibility (``visible``): in the field of view and not occluded. Occlusion is decided by MuJoCo
+ray casts (``mj_multiRay``, one call per camera frame) from the camera's optical centre to points
+on the person's axis at VIS_FRACTIONS of the height (body centre, chest, head). A point is seen
+when the first geom the ray hits is the person's own capsule (or nothing lies before the point);
+walls, obstacles and other people's capsules occlude. A person is visible when at least one point
+is seen.
+
+Observations of visible people (noise from ``sim.noise``):
+- horizontal and oblique cameras -> ``bearings``: u of the projected body centre, label = the
+  walker's colour name (an appearance class, not an id);
+- oblique cameras -> ``boxes``: the window of the projected cylinder (its top and bottom circles,
+  clipped to the image), u of the body centre, and the image velocity of the body centre
+  d(u, v)/dt = f / Z (Xdot - X Zdot / Z, Ydot - Y Zdot / Z) (px/s; X, Y, Z camera coordinates,
+  dots their rates R v). ``track`` is the camera's tracker id: kept while the person stays
+  visible from frame to frame, a new one after a gap;
+- overhead cameras -> ``floor_detections``: (x, y) plus noise; with a ``region``, only where the
+  *measured* position lies in [xmin, xmax) x [ymin, ymax); a privacy camera quantises and misses
+  people whose true horizontal speed is below ``sensors.still_speed``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pandas as pd
+
+from scenes.camera import Camera
+from scenes.spec import Scene
+
+from . import noise
+from .walkers import Trajectories
+from .world import World
+
+VIS_FRACTIONS = (0.5, 0.75, 0.95)  # of the person's height, floor = 0
+CIRCLE_SAMPLES = 16  # points on each rim of the cylinder for its window
+
+
+def frame_steps(cam: Camera, traj: Trajectories) -> np.ndarray:
+    """Trajectory steps of a camera's frames: every rate/fps steps from t = 0."""
+    stride = int(round(traj.rate / cam.fps))
+    return np.arange(0, traj.n_steps, stride)
+
+
+@dataclass
+class CameraGeometry:
+    """Noise-free projections of every person at a camera's frames (F frames, P people)."""
+
+    steps: np.ndarray  # (F,)
+    uv: np.ndarray  # (F, P, 2) projected body centre
+    depth: np.ndarray  # (F, P)
+    in_fov: np.ndarray  # (F, P) bool
+    edges: np.ndarray | None = None  # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique)
+    flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
+
+
+def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np.ndarray, steps: np.ndarray) -> CameraGeometry:
+    """Projections, field of view and (oblique) windows and flow at ``steps``."""
+    c = traj.pos[:, steps].transpose(1, 0, 2)  # (F, P, 3)
+    uv, depth = cam.project(c)
+    if cam.kind == "overhead":
+        in_fov = cam.in_image(uv, depth)
+    else:
+        foot = c.copy()
+        foot[..., 2] = c[..., 2] - 0.5 * heights
+        head = c.copy()
+        head[..., 2] = foot[..., 2] + heights
+        v_foot = cam.project(foot)[0][..., 1]
+        v_head = cam.project(head)[0][..., 1]
+        lo, hi = np.minimum(v_foot, v_head), np.maximum(v_foot, v_head)
+        in_fov = (depth > 1e-6) & (uv[..., 0] >= 0) & (uv[..., 0] < cam.width) & (hi >= 0) & (lo < cam.height)
+    geo = CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov)
+    if cam.kind == "oblique":
+        ang = np.linspace(0, 2 * np.pi, CIRCLE_SAMPLES, endpoint=False)
+        ring = np.stack([np.cos(ang), np.sin(ang)], -1)  # (S, 2)
+        base = c[..., None, :2] + radii[None, :, None, None] * ring  # (F, P, S, 2)
+        z0 = (c[..., 2] - 0.5 * heights)[..., None, None]
+        pts = np.concatenate(
+            [
+                np.concatenate([base, np.broadcast_to(z0, base.shape[:-1] + (1,))], -1),
+                np.concatenate([base, np.broadcast_to(z0 + heights[None, :, None, None], base.shape[:-1] + (1,))], -1),
+            ],
+            axis=-2,
+        )
+        puv, _ = cam.project(pts)
+        edges = np.stack(
+            [puv[..., 0].min(-1), puv[..., 0].max(-1), puv[..., 1].min(-1), puv[..., 1].max(-1)], -1
+        )
+        edges[..., 0:2] = np.clip(edges[..., 0:2], 0, cam.width)
+        edges[..., 2:4] = np.clip(edges[..., 2:4], 0, cam.height)
+        pc = cam.to_camera(c)  # (F, P, 3)
+        vc = traj.vel[:, steps].transpose(1, 0, 2) @ cam.R.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            Z = pc[..., 2]
+            flow = cam.focal / Z[..., None] * (vc[..., :2] - pc[..., :2] * (vc[..., 2] / Z)[..., None])
+        geo.edges, geo.flow = edges, np.nan_to_num(flow)
+    return geo
+
+
+class Occlusion:
+    """Ray-cast visibility of every person at every camera frame (see the module docstring).
+
+    Call ``on_step(k)`` with the world posed at trajectory step k (``World.set_step`` or
+    ``set_pose``); ``finish()`` poses and casts the frames that were not visited.
+    """
+
+    def __init__(self, world: World, scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry]):
+        self.world, self.scene, self.traj, self.geometry = world, scene, traj, geometry
+        self.heights = np.array([w.height for w in scene.walkers])
+        self.visible = {name: np.zeros_like(g.in_fov) for name, g in geometry.items()}
+        self.cams = [scene.camera(name) for name in geometry]
+        self.frame_of = {name: {int(k): f for f, k in enumerate(g.steps)} for name, g in geometry.items()}
+        self.done: set[int] = set()
+        self._geomid = np.zeros(len(VIS_FRACTIONS) * max(1, world.n_people), np.int32)
+        self._dist = np.zeros(len(VIS_FRACTIONS) * max(1, world.n_people))
+
+    def on_step(self, k: int) -> None:
+        hit = False
+        for cam in self.cams:
+            f = self.frame_of[cam.name].get(k)
+            if f is None:
+                continue
+            hit = True
+            g = self.geometry[cam.name]
+            people = np.flatnonzero(g.in_fov[f])
+            if people.size:
+                self.visible[cam.name][f, people] = self.cast(cam, k, people)
+        if hit:
+            self.done.add(k)
+
+    def cast(self, cam: Camera, k: int, people: np.ndarray) -> np.ndarray:
+        """Visible flags of ``people`` from ``cam`` with the world posed at step k."""
+        m, d = self.world.model, self.world.data
+        centre = self.traj.pos[people, k]  # (n, 3)
+        floor_z = centre[:, 2] - 0.5 * self.heights[people]
+        z = floor_z[:, None] + np.outer(self.heights[people], VIS_FRACTIONS)  # (n, V)
+        pts = np.concatenate([np.broadcast_to(centre[:, None, :2], z.shape + (2,)), z[..., None]], -1).reshape(-1, 3)
+        origin = np.asarray(cam.position, float)
+        vec = pts - origin
+        length = np.linalg.norm(vec, axis=1)
+        vec /= length[:, None]
+        nray = len(pts)
+        geomid, dist = self._geomid[:nray], self._dist[:nray]
+        mujoco.mj_multiRay(m, d, origin, vec.ravel(), None, 1, -1, geomid, dist, None, nray, float(length.max() + 1.0))
+        own = np.repeat(self.world.person_geom[people], len(VIS_FRACTIONS))
+        seen = (geomid == own) | (geomid < 0) | (dist >= length - 1e-6)
+        return seen.reshape(len(people), -1).any(axis=1)
+
+    def finish(self) -> None:
+        todo = sorted({int(k) for g in self.geometry.values() for k in g.steps} - self.done)
+        for k in todo:
+            self.world.set_pose(self.traj, k)
+            self.on_step(k)
+
+
+def camera_geometry(scene: Scene, traj: Trajectories) -> dict[str, CameraGeometry]:
+    heights = np.array([w.height for w in scene.walkers])
+    radii = np.array([w.radius for w in scene.walkers])
+    return {c.name: project_people(c, traj, heights, radii, frame_steps(c, traj)) for c in scene.cameras}
+
+
+def _sorted(df: pd.DataFrame, value: str) -> pd.DataFrame:
+    # by time, camera, then a measured value: row order must not reveal who is who
+    return df.sort_values(["t", "camera", value], kind="mergesort", ignore_index=True)
+
+
+def observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], visible: dict[str, np.ndarray], rngs: dict[str, np.random.Generator]) -> dict[str, pd.DataFrame]:
+    """bearings, boxes, floor_detections from the geometry and visibility (noise per camera)."""
+    s = scene.sensors
+    labels = np.array([w.color_name for w in scene.walkers], dtype=object)
+    out: dict[str, list] = {"bearings": [], "boxes": [], "floor_detections": []}
+    for cam in scene.cameras:
+        g, vis, rng = geometry[cam.name], visible[cam.name], rngs[cam.name]
+        f_idx, p_idx = np.nonzero(vis)  # row-major: by frame, then person
+        t = traj.t[g.steps[f_idx]]
+        if cam.kind in ("horizontal", "oblique") and len(f_idx):
+            u = noise.bearing(rng, g.uv[f_idx, p_idx, 0], s)
+            out["bearings"].append(pd.DataFrame({"t": t, "camera": cam.name, "u": u, "label": labels[p_idx]}))
+        if cam.kind == "oblique" and len(f_idx):
+            edges, u, flow = noise.box(rng, g.edges[f_idx, p_idx], g.uv[f_idx, p_idx, 0], g.flow[f_idx, p_idx], cam.fps, s)
+            track = _track_ids(vis, g.uv[..., 0])[f_idx, p_idx]
+            out["boxes"].append(
+                pd.DataFrame(
+                    {
+                        "t": t, "camera": cam.name, "track": track, "u": u,
+                        "u_left": edges[:, 0], "u_right": edges[:, 1], "v_top": edges[:, 2], "v_bottom": edges[:, 3],
+                        "flow_u": flow[:, 0], "flow_v": flow[:, 1],
+                    }
+                )
+            )
+        if cam.kind == "overhead":
+            keep = np.ones(len(f_idx), bool)
+            if cam.privacy:
+                speed = np.hypot(traj.vel[p_idx, g.steps[f_idx], 0], traj.vel[p_idx, g.steps[f_idx], 1])
+                keep = speed >= s.still_speed
+            xy = noise.floor_position(rng, traj.pos[p_idx, g.steps[f_idx], :2], s, cam.quantum if cam.privacy else 0.0)
+            if cam.region is not None:
+                x0, y0, x1, y1 = cam.region
+                keep &= (xy[:, 0] >= x0) & (xy[:, 0] < x1) & (xy[:, 1] >= y0) & (xy[:, 1] < y1)
+            if keep.any():
+                out["floor_detections"].append(pd.DataFrame({"t": t[keep], "camera": cam.name, "x": xy[keep, 0], "y": xy[keep, 1]}))
+    tables = {}
+    for kind, key in (("bearings", "u"), ("boxes", "u"), ("floor_detections", "x")):
+        if out[kind]:
+            df = pd.concat(out[kind], ignore_index=True)
+            if kind == "boxes":
+                df["track"] = df["track"].astype(np.int64)
+            tables[kind] = _sorted(df, key)
+    return tables
+
+
+def _track_ids(vis: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Per-camera tracker ids (F, P): a new id each time a person becomes visible, kept while
+    they stay visible in consecutive frames; numbered in order of appearance (by frame, then by
+    image column u, so the numbering does not follow the scene's walker order)."""
+    starts = vis & ~np.vstack([np.zeros((1, vis.shape[1]), bool), vis[:-1]])
+    ids = np.full(vis.shape, -1, np.int64)
+    f, p = np.nonzero(starts)
+    order = np.lexsort((u[f, p], f))
+    ids[f[order], p[order]] = np.arange(len(f))
+    # carry each id forward while visible
+    for f in range(1, vis.shape[0]):
+        cont = vis[f] & ~starts[f]
+        ids[f, cont] = ids[f - 1, cont]
+    return ids
+
+
+def visibility_table(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], visible: dict[str, np.ndarray]) -> pd.DataFrame:
+    """Truth ``visibility``: t, camera, person_id, in_fov, visible for every frame and person."""
+    names = np.array([w.name for w in scene.walkers], dtype=object)
+    frames = []
+    for cam in scene.cameras:
+        g = geometry[cam.name]
+        F, P = g.in_fov.shape
+        frames.append(
+            pd.DataFrame(
+                {
+                    "t": np.repeat(traj.t[g.steps], P), "camera": cam.name, "person_id": np.tile(names, F),
+                    "in_fov": g.in_fov.ravel(), "visible": visible[cam.name].ravel(),
+                }
+            )
+        )
+    if not frames:
+        return pd.DataFrame({"t": pd.Series(dtype=float), "camera": pd.Series(dtype=object), "person_id": pd.Series(dtype=object), "in_fov": pd.Series(dtype=bool), "visible": pd.Series(dtype=bool)})
+    return pd.concat(frames, ignore_index=True).sort_values(["t", "camera"], kind="mergesort", ignore_index=True)

@@ -1,0 +1,70 @@
+"""Phone IMU streams from MuJoCo's sensors.
+
+At every IMU sample (``sensors.imu_rate``, a divisor of the simulation rate) the world is put at
+that trajectory step (``World.set_step``: qpos, qvel, qacc, ``mj_inverse``) and the phone sites'
+accelerometer, gyro and magnetometer are read from ``sensordata``:
+
+    acc = R^T (a - g)   (specific force, m/s^2; g = (0, 0, -9.81))
+    gyro = R^T omega    (rad/s)
+    mag = R^T m         (m = option.magnetic)
+
+R the phone's world rotation (its walker's yaw). Noise is added by ``sim.noise.imu``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from . import noise
+from .walkers import Trajectories
+from .world import World
+
+IMU_COLUMNS = ["t", "phone_id", "ax", "ay", "az", "gx", "gy", "gz", "mx", "my", "mz"]
+
+
+def imu_steps(traj: Trajectories, imu_rate: float) -> np.ndarray:
+    """Trajectory step indices of the IMU samples."""
+    stride = int(round(traj.rate / imu_rate))
+    return np.arange(0, traj.n_steps, stride)
+
+
+def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=None) -> np.ndarray:
+    """Noise-free readings (P, len(steps), 9) [acc, gyro, mag]; NaN for walkers without a phone.
+
+    ``on_step(k)`` is called after each step is set (the simulator casts its rays there).
+    """
+    P = world.n_people
+    out = np.full((P, len(steps), 9), np.nan)
+    phones = [i for i in range(P) if world.phone_sensors[i] is not None]
+    adr = np.concatenate([np.concatenate([np.arange(a, a + 3) for a in world.phone_sensors[i]]) for i in phones]) if phones else np.zeros(0, int)
+    for j, k in enumerate(steps):
+        world.set_step(traj, int(k))
+        if phones:
+            out[phones, j] = world.data.sensordata[adr].reshape(len(phones), 9)
+        if on_step is not None:
+            on_step(int(k))
+    return out
+
+
+def imu_table(readings: np.ndarray, t: np.ndarray, phone_ids: list[str], scene, rng: np.random.Generator) -> pd.DataFrame:
+    """The ``imu`` observation table from noise-free readings (P, n, 9), sorted by t then phone."""
+    frames = []
+    for i, pid in enumerate(phone_ids):
+        if not pid:
+            continue
+        r = readings[i]
+        acc, gyro, mag = noise.imu(rng, r[:, 0:3], r[:, 3:6], r[:, 6:9], scene.sensors)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "t": t, "phone_id": pid,
+                    "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2],
+                    "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2],
+                    "mx": mag[:, 0], "my": mag[:, 1], "mz": mag[:, 2],
+                }
+            )
+        )
+    if not frames:
+        return pd.DataFrame({c: pd.Series(dtype=object if c == "phone_id" else float) for c in IMU_COLUMNS})
+    df = pd.concat(frames, ignore_index=True)
+    return df.sort_values(["t", "phone_id"], kind="mergesort", ignore_index=True)

@@ -1,0 +1,141 @@
+"""The simulation loop: scene + seed -> ``Recording``.
+
+1. Plan every walker's trajectory (``sim.walkers``) at ``sensors.sim_rate``.
+2. Build the MuJoCo world (``sim.world``).
+3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``mj_inverse``), read the
+   phones' sensors (``sim.imu``) and, at camera frames, cast the occlusion rays
+   (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
+4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
+   ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
+
+Randomness: one ``numpy.random.default_rng(seed)`` spawns independent streams, in this fixed
+order: motion, imu, cameras (one child per camera, scene order), rendering. The same scene and
+seed therefore give bit-identical tables, and e.g. adding a camera does not change the walkers.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import platform
+from importlib import metadata
+
+import numpy as np
+import pandas as pd
+
+from scenes.spec import Scene
+
+from . import analytic, imu
+from .recording import SENSING_MODES, Calibration, Observations, Recording, Truth
+from .walkers import Trajectories, plan_trajectories
+from .world import build_world
+
+VERSIONED = ("trackroom", "mujoco", "numpy", "scipy", "pandas", "pyarrow")
+
+
+def package_versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for name in VERSIONED:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def phone_ids(scene: Scene) -> list[str]:
+    """``phone{i}`` for walker i with a phone, "" without."""
+    return [f"phone{i}" if w.phone else "" for i, w in enumerate(scene.walkers)]
+
+
+def truth_people(scene: Scene, traj: Trajectories) -> pd.DataFrame:
+    """Truth ``people`` at the simulation rate, sorted by t then walker (scene order)."""
+    P, N = traj.n_people, traj.n_steps
+    yaw = np.angle(np.exp(1j * traj.yaw))  # wrapped to (-pi, pi]
+    return pd.DataFrame(
+        {
+            "t": np.tile(traj.t, P).reshape(P, N).T.ravel() if P else np.zeros(0),
+            "person_id": np.tile(np.array(traj.names, dtype=object), N),
+            "x": traj.pos[:, :, 0].T.ravel(), "y": traj.pos[:, :, 1].T.ravel(), "z": traj.pos[:, :, 2].T.ravel(),
+            "yaw": yaw.T.ravel(), "vx": traj.vel[:, :, 0].T.ravel(), "vy": traj.vel[:, :, 1].T.ravel(),
+            "walking": traj.walking.T.ravel(),
+            "phone_id": np.tile(np.array(phone_ids(scene), dtype=object), N),
+        }
+    )
+
+
+def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress: bool = False, save_frames=None) -> Recording:
+    """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
+
+    sensing: "analytic" (projection + ray-cast occlusion) or "rendered" (``sim.rendered``).
+    save_frames: passed to the rendered mode (where to keep rendered frames), ignored otherwise.
+    """
+    if sensing not in SENSING_MODES:
+        raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
+    if not duration or duration <= 0:
+        raise ValueError(f"duration must be positive, got {duration}")
+    rng = np.random.default_rng(seed)
+    motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)
+    cam_rngs = dict(zip([c.name for c in scene.cameras], cam_rng.spawn(len(scene.cameras))))
+
+    traj = plan_trajectories(scene, duration, motion_rng)
+    world = build_world(scene)
+    pids = phone_ids(scene)
+    steps = imu.imu_steps(traj, scene.sensors.imu_rate)
+
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(steps), desc=f"{scene.name} ({sensing})", unit="step", mininterval=0.5)
+    occlusion = None
+    if sensing == "analytic":
+        geometry = analytic.camera_geometry(scene, traj)
+        occlusion = analytic.Occlusion(world, scene, traj, geometry)
+
+    def on_step(k: int) -> None:
+        if occlusion is not None:
+            occlusion.on_step(k)
+        if bar is not None and k % 100 == 0:
+            bar.update(min(100 // max(1, int(steps[1] - steps[0]) if len(steps) > 1 else 1), len(steps) - bar.n))
+
+    readings = imu.read_phones(world, traj, steps, on_step=on_step)
+    if bar is not None:
+        bar.update(len(steps) - bar.n)
+        bar.close()
+    tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
+    truth_tables = {"people": truth_people(scene, traj)}
+    if sensing == "analytic":
+        occlusion.finish()
+        tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
+        truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
+    else:
+        try:
+            rendered = importlib.import_module("sim.rendered")
+        except ModuleNotFoundError as e:
+            raise RuntimeError("sensing='rendered' needs sim/rendered.py (the rendering pipeline), which is not installed") from e
+        obs, extra = rendered.observe(world, scene, traj, render_rng, save_frames)
+        tables.update(obs)
+        truth_tables.update(extra)
+    if len(tables["imu"]) == 0:
+        del tables["imu"]
+
+    meta = {
+        "scene": scene.name,
+        "source": scene.source,
+        "seed": int(seed),
+        "duration": float(duration),
+        "sensing": sensing,
+        "sim_rate": float(scene.sensors.sim_rate),
+        "walkers": [
+            {
+                "name": w.name, "color": w.color_name, "motion": w.motion, "phone_id": pids[i],
+                "gauss_markov": {"q_pos": traj.gauss_markov[i].q_pos, "q_vel": traj.gauss_markov[i].q_vel} if traj.gauss_markov[i] else None,
+            }
+            for i, w in enumerate(scene.walkers)
+        ],
+        "versions": package_versions(),
+    }
+    calibration = Calibration(
+        cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=dataclasses.asdict(scene.sensors)
+    )
+    return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta)

@@ -1,0 +1,618 @@
+"""Walker motion: smooth, collision-free trajectories for every person in a scene.
+
+Each walker's motion model (``WalkerSpec.motion``) proposes a *rough* floor path, sampled at the
+simulation rate, one *leg* at a time (a walk to a goal plus an optional stop, or a chunk of a
+random process):
+
+- ``random_waypoint`` (Teixeira sec. 7): a goal drawn uniformly in free space, a speed drawn
+  uniformly in ``speed``; on arrival a stop with probability ``pause_probability`` lasting
+  U(``pause``) seconds.
+- ``random_walk`` (Rahimi sec. 6, the synthetic target): the heading performs a random walk
+  (theta' = theta + N(0, SIGMA_HEADING^2 dt)), the speed a bounded random walk in ``speed``;
+  a step that would enter a wall is reflected about the wall normal (the gradient of the
+  clearance field: v <- v - 2 (v.n) n). The result is smoothed (Gaussian, RANDOM_WALK_SMOOTH s).
+- ``gauss_markov`` (Rahimi eq. 1): per axis [x, v]_{k+1} = [[1, dt], [0, 1]] [x, v]_k + nu,
+  nu ~ N(0, diag(q_pos dt, q_vel dt)). Chunks of GM_CHUNK seconds are drawn whole, from the
+  current state, until one stays in free space (a whole trajectory of minutes almost never would;
+  chunk-wise rejection keeps the process Gauss-Markov inside each chunk and the walker in the room).
+  When the scene gives no ``process_noise`` the walker uses ``DEFAULT_WALKER_GM`` (the scene's
+  default is the paper's stiff *prior*, for estimators; with it a walker goes straight through a
+  wall within seconds). The parameters used are reported in ``Trajectories.gauss_markov``.
+- ``waypoints``: the scripted path, planned leg by leg around walls and obstacles; ``loop``
+  returns to the first waypoint and repeats; otherwise the walker stands at the last one.
+- ``standing``: stands still at ``start`` (or a random free spot).
+
+Planning. Walls, obstacles and people standing still are obstacles on a floor grid of
+``GRID`` metres; a cell is free when its clearance is at least radius + MARGIN. A leg goes
+straight when the segment is free, otherwise along the shortest 8-connected grid path
+(``scipy.sparse.csgraph.dijkstra``) shortened by line-of-sight ("string pulling").
+Along a path the speed follows an acceleration-limited profile (|dv/dt| <= MAX_ACCEL), slowing at
+corners, from rest to rest.
+
+People avoid each other by priority: standing people first, then scripted walkers, then random
+ones, each in scene order. A proposed leg (including its stop) that comes within
+r_i + r_j + PERSONAL_SPACE of an already planned person is rejected; a random model proposes
+another leg (new goal, speed or draw), a scripted walker waits a second and tries again. After
+MAX_TRIES the leg is taken anyway (unavoidable meetings, e.g. in a narrow door).
+
+Smoothing and derivatives. The rough x, y path is fitted by a least-squares quintic B-spline with
+knots every KNOT_SPACING s (C4 continuous). Positions, velocities and accelerations are the
+spline and its exact derivatives at the sample times, so the accelerometer sees the true second
+derivative. The vertical body centre is
+
+    z(t) = h / 2 + A a(s) (sin^2(pi phi(t)) - 1/2),   phi(t) = integral of f(s) dt,
+
+with A = ``bob_amplitude`` (peak to peak), step rate f(s) = STEP_RATE_0 + STEP_RATE_SLOPE s (Hz,
+rising with speed s), a(s) = min(1, s / 0.5 m/s) fading the bob in and out at stops; z is
+interpolated by a quintic spline through its samples, so again z, z', z'' are consistent. The yaw
+follows the walking direction atan2(vy, vx) (held while standing), unwrapped, smoothed and fitted
+by a quintic spline (yaw, yaw rate, yaw acceleration).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import make_interp_spline, make_lsq_spline
+from scipy.ndimage import gaussian_filter1d, map_coordinates
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from scenes.spec import GaussMarkovParams, Scene, WalkerSpec
+
+GRID = 0.1  # planning grid, m
+MARGIN = 0.15  # extra clearance beyond the body radius when planning, m
+MAX_ACCEL = 0.8  # m/s^2, speed-profile acceleration limit
+PERSONAL_SPACE = 0.1  # m, kept between two bodies
+MAX_TRIES = 30
+KNOT_SPACING = 0.2  # s, smoothing spline knots
+YAW_SMOOTH = 0.15  # s, Gaussian smoothing of the heading before its spline
+RANDOM_WALK_SMOOTH = 0.4  # s, Gaussian smoothing of the reflected random walk (Rahimi: "smoothed")
+SIGMA_HEADING = 0.6  # rad / sqrt(s), random-walk heading diffusion
+SIGMA_SPEED = 0.15  # m/s / sqrt(s), random-walk speed diffusion
+RANDOM_WALK_CHUNK = 5.0  # s
+GM_CHUNK = 5.0  # s
+GM_MAX_DRAWS = 2000
+STEP_RATE_0 = 1.0  # Hz
+STEP_RATE_SLOPE = 0.6  # Hz per m/s
+WALKING_SPEED_BOB = 0.5  # m/s at which the gait bob reaches full amplitude
+# Walker default for gauss_markov when the scene sets no process_noise: a velocity random walk
+# strong enough to turn within a 10 m room (std of a velocity change over 5 s: sqrt(0.05*5) =
+# 0.5 m/s), with 1 cm/sqrt(s) position jitter. Measured in tests/test_walkers.py: few draws.
+DEFAULT_WALKER_GM = GaussMarkovParams(q_pos=1e-4, q_vel=0.05)
+
+
+@dataclass
+class Trajectories:
+    """Truth kinematics of every person at the simulation rate.
+
+    t (N,) s; pos, vel, acc (P, N, 3) in m, m/s, m/s^2 (z = body centre height incl. gait bob);
+    yaw, yaw_rate, yaw_acc (P, N) in rad, rad/s, rad/s^2 (unwrapped: continuous, not in (-pi, pi]);
+    walking (P, N): horizontal speed above ``walking_speed``. ``names`` the walkers' names.
+    ``gauss_markov``: per walker the (q_pos, q_vel) actually used by a gauss_markov walker (else None).
+    ``draws``: per walker, proposals drawn (rejections included) -- a planning diagnostic.
+    """
+
+    t: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    yaw: np.ndarray
+    yaw_rate: np.ndarray
+    yaw_acc: np.ndarray
+    walking: np.ndarray
+    names: tuple[str, ...] = ()
+    rate: float = 100.0
+    gauss_markov: list = field(default_factory=list)
+    draws: list = field(default_factory=list)
+
+    @property
+    def n_people(self) -> int:
+        return self.pos.shape[0]
+
+    @property
+    def n_steps(self) -> int:
+        return self.t.shape[0]
+
+    def speed(self) -> np.ndarray:
+        """Horizontal speed (P, N), m/s."""
+        return np.hypot(self.vel[..., 0], self.vel[..., 1])
+
+
+# ----------------------------------------------------------------------------- free space
+class FreeSpace:
+    """The floor plan as a clearance grid (m to the nearest wall/obstacle/standing person)."""
+
+    def __init__(self, floorplan, extra_discs: list[tuple[float, float, float]] = ()):
+        self.floorplan = floorplan
+        x0, y0, x1, y1 = floorplan.bounds()
+        self.origin = np.array([x0, y0])
+        self.nx = int(np.ceil((x1 - x0) / GRID)) + 1
+        self.ny = int(np.ceil((y1 - y0) / GRID)) + 1
+        gx = x0 + GRID * np.arange(self.nx)
+        gy = y0 + GRID * np.arange(self.ny)
+        self.centres = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1)  # (nx, ny, 2)
+        self.discs = list(extra_discs)
+        self.grid = self.clearance(self.centres)
+        self._grid_finite = np.where(np.isfinite(self.grid), self.grid, -1.0)
+        self._graphs: dict[float, tuple] = {}
+
+    def with_disc(self, x: float, y: float, r: float) -> "FreeSpace":
+        """A copy with one more round obstacle (a person standing still)."""
+        return FreeSpace(self.floorplan, self.discs + [(x, y, r)])
+
+    def clearance(self, xy) -> np.ndarray:
+        """Exact clearance (m) of floor points (..., 2); -inf outside the room."""
+        xy = np.asarray(xy, float)
+        d = self.floorplan.clearance(xy)
+        for cx, cy, r in self.discs:
+            d = np.minimum(d, np.hypot(xy[..., 0] - cx, xy[..., 1] - cy) - r)
+        return d
+
+    def clearance_fast(self, xy) -> np.ndarray:
+        """Bilinear lookup in the clearance grid (for the random walk's many small steps)."""
+        xy = np.atleast_2d(np.asarray(xy, float))
+        ij = ((xy - self.origin) / GRID).T
+        return map_coordinates(self._grid_finite, ij, order=1, mode="nearest")
+
+    def normal(self, xy) -> np.ndarray:
+        """Unit gradient of the clearance (points away from the nearest wall)."""
+        e = 0.5 * GRID
+        p = np.asarray(xy, float)
+        g = np.array(
+            [
+                self.clearance_fast(p + [e, 0])[0] - self.clearance_fast(p - [e, 0])[0],
+                self.clearance_fast(p + [0, e])[0] - self.clearance_fast(p - [0, e])[0],
+            ]
+        )
+        n = np.linalg.norm(g)
+        return g / n if n > 0 else np.zeros(2)
+
+    def segment_free(self, a, b, inflate: float) -> bool:
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (0.25 * GRID))) + 1)
+        s = np.linspace(0.0, 1.0, n)[:, None]
+        return bool((self.clearance(a + s * (b - a)) >= inflate - 1e-9).all())
+
+    def _graph(self, inflate: float):
+        if inflate not in self._graphs:
+            free = self.grid >= inflate
+            idx = np.arange(self.nx * self.ny).reshape(self.nx, self.ny)
+            rows, cols, w = [], [], []
+            for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                a = free[max(0, -di) : self.nx - max(0, di), max(0, -dj) : self.ny - max(0, dj)]
+                b = free[max(0, di) :, max(0, dj) : self.ny + min(0, dj) or None][: a.shape[0], : a.shape[1]]
+                ia = idx[max(0, -di) : self.nx - max(0, di), max(0, -dj) : self.ny - max(0, dj)]
+                ib = idx[max(0, di) :, max(0, dj) : self.ny + min(0, dj) or None][: a.shape[0], : a.shape[1]]
+                ok = a & b
+                rows.append(ia[ok])
+                cols.append(ib[ok])
+                w.append(np.full(ok.sum(), GRID * np.hypot(di, dj)))
+            r, c, ww = np.concatenate(rows), np.concatenate(cols), np.concatenate(w)
+            g = coo_matrix((ww, (r, c)), shape=(idx.size, idx.size)).tocsr()
+            self._graphs[inflate] = (g, free)
+        return self._graphs[inflate]
+
+    def nearest_free_cell(self, xy, inflate: float) -> int:
+        _, free = self._graph(inflate)
+        d2 = ((self.centres - np.asarray(xy, float)) ** 2).sum(-1)
+        d2 = np.where(free, d2, np.inf)
+        k = int(np.argmin(d2))
+        if not np.isfinite(d2.flat[k]):
+            raise ValueError("no free floor space for a walker of this radius")
+        return k
+
+    def plan(self, a, b, inflate: float) -> np.ndarray:
+        """Polyline (M, 2) from a to b that keeps ``inflate`` clearance (straight when possible)."""
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        if self.segment_free(a, b, inflate):
+            return np.stack([a, b])
+        g, _ = self._graph(inflate)
+        src, dst = self.nearest_free_cell(a, inflate), self.nearest_free_cell(b, inflate)
+        _, pred = dijkstra(g, directed=False, indices=src, return_predecessors=True)
+        if dst != src and pred[dst] < 0:
+            raise ValueError(f"no path from {a.tolist()} to {b.tolist()} for a walker of clearance {inflate:.2f} m")
+        cells = [dst]
+        while cells[-1] != src:
+            cells.append(int(pred[cells[-1]]))
+        pts = self.centres.reshape(-1, 2)[cells[::-1]]
+        pts = np.vstack([a, pts, b])
+        # string pulling: from each kept point, jump to the furthest point in line of sight
+        out, i = [pts[0]], 0
+        while i < len(pts) - 1:
+            j = len(pts) - 1
+            while j > i + 1 and not self.segment_free(pts[i], pts[j], inflate - 0.5 * GRID):
+                j -= 1
+            out.append(pts[j])
+            i = j
+        return np.array(out)
+
+    def random_free_point(self, rng: np.random.Generator, inflate: float) -> np.ndarray:
+        """Uniform over free cells, jittered within the cell and checked exactly."""
+        _, free = self._graph(inflate)
+        cells = np.flatnonzero(free)
+        if cells.size == 0:
+            raise ValueError("no free floor space for a walker of this radius")
+        for _ in range(100):
+            p = self.centres.reshape(-1, 2)[cells[rng.integers(cells.size)]] + rng.uniform(-0.5, 0.5, 2) * GRID
+            if self.clearance(p) >= inflate:
+                return p
+        return self.centres.reshape(-1, 2)[cells[rng.integers(cells.size)]]
+
+
+# ----------------------------------------------------------------------------- speed profile
+def follow_path(poly: np.ndarray, speed: float, dt: float) -> np.ndarray:
+    """Samples (n, 2) every dt s along a polyline, from rest to rest, at most ``speed``.
+
+    Speed cap per arc length: v_max(s) = speed, lowered at a corner of turn angle theta to
+    speed (1 + cos theta) / 2 (at least 0.3 m/s), 0 at both ends. With |dv/dt| <= a the reachable
+    profile is v(s)^2 = min over s' of (v_max(s')^2 + 2 a |s - s'|), computed by a running
+    minimum forwards and backwards. Time t(s) = integral ds / v.
+    """
+    seg = np.diff(poly, axis=0)
+    seglen = np.linalg.norm(seg, axis=1)
+    keep = seglen > 1e-9
+    poly = np.vstack([poly[:1], poly[1:][keep]])
+    seg, seglen = seg[keep], seglen[keep]
+    total = float(seglen.sum())
+    if total < 1e-6:
+        return poly[:1].copy()
+    ds = min(0.01, total / 20)
+    s = np.linspace(0.0, total, int(np.ceil(total / ds)) + 1)
+    cum = np.concatenate([[0.0], np.cumsum(seglen)])
+    cap2 = np.full(s.shape, speed**2)
+    dirs = seg / seglen[:, None]
+    for k in range(1, len(poly) - 1):
+        c = float(np.clip(dirs[k - 1] @ dirs[k], -1, 1))
+        v = max(0.3, speed * 0.5 * (1 + c))
+        cap2[np.argmin(np.abs(s - cum[k]))] = min(v, speed) ** 2
+    cap2[0] = cap2[-1] = 0.0
+    a2 = 2 * MAX_ACCEL
+    fwd = np.minimum.accumulate(cap2 - a2 * s) + a2 * s
+    bwd = (np.minimum.accumulate((cap2 + a2 * s)[::-1]))[::-1] - a2 * s
+    v = np.sqrt(np.maximum(np.minimum(fwd, bwd), 0.0))
+    vmid = 0.5 * (v[1:] + v[:-1])
+    tt = np.concatenate([[0.0], np.cumsum(np.diff(s) / np.maximum(vmid, 1e-3))])
+    n = int(np.ceil(tt[-1] / dt)) + 1
+    st = np.interp(np.arange(n) * dt, tt, s)
+    return np.stack([np.interp(st, cum, poly[:, 0]), np.interp(st, cum, poly[:, 1])], axis=1)
+
+
+# ----------------------------------------------------------------------------- motion models
+class _Model:
+    """Proposes legs: rough floor samples (n, 2) continuing from the current state."""
+
+    smooth = 0.0  # s of Gaussian pre-smoothing of the rough path
+
+    def __init__(self, spec: WalkerSpec, free: FreeSpace, dt: float, rng: np.random.Generator):
+        self.spec, self.free, self.dt, self.rng = spec, free, dt, rng
+        self.inflate = spec.radius + MARGIN
+
+    def start(self) -> np.ndarray:
+        if self.spec.start is not None:
+            return np.asarray(self.spec.start, float)
+        return self.free.random_free_point(self.rng, self.inflate)
+
+    def commit(self, leg: np.ndarray) -> None:
+        """Called when a proposed leg is accepted."""
+
+    def hard(self, leg: np.ndarray) -> bool:
+        """A hard constraint the leg must meet (beyond the planner's)."""
+        return True
+
+    def wait_leg(self, pos: np.ndarray, seconds: float = 1.0) -> np.ndarray:
+        return np.repeat(pos[None], max(1, int(round(seconds / self.dt))), axis=0)
+
+
+class _Standing(_Model):
+    def propose(self, pos, t):
+        return self.wait_leg(pos, 3600.0)
+
+
+class _RandomWaypoint(_Model):
+    def propose(self, pos, t):
+        spec, rng = self.spec, self.rng
+        goal = self.free.random_free_point(rng, self.inflate)
+        speed = rng.uniform(*spec.speed)
+        leg = follow_path(self.free.plan(pos, goal, self.inflate), speed, self.dt)
+        if rng.random() < spec.pause_probability:
+            leg = np.vstack([leg, self.wait_leg(leg[-1], rng.uniform(*spec.pause))])
+        return leg
+
+
+class _Waypoints(_Model):
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.targets = [np.asarray(w, float) for w in self.spec.waypoints]
+        self.next = 1
+        self.done = False
+
+    def start(self):
+        return self.targets[0].copy()
+
+    def propose(self, pos, t):
+        if self.done:
+            return self.wait_leg(pos, 3600.0)
+        speed = self.rng.uniform(*self.spec.speed)
+        self._goal_next = self.next + 1
+        return follow_path(self.free.plan(pos, self.targets[self.next % len(self.targets)], self.inflate), speed, self.dt)
+
+    def commit(self, leg):
+        if self.done:
+            return
+        self.next += 1
+        if self.next >= len(self.targets) and not self.spec.loop:
+            self.done = True
+        elif self.next > len(self.targets):
+            self.next = 1  # back at the start: go round again
+
+
+class _RandomWalk(_Model):
+    smooth = RANDOM_WALK_SMOOTH
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.heading = self.rng.uniform(-np.pi, np.pi)
+        self.speed = self.rng.uniform(*self.spec.speed)
+        self._state = None
+
+    def propose(self, pos, t):
+        rng, dt = self.rng, self.dt
+        lo, hi = self.spec.speed
+        n = int(round(RANDOM_WALK_CHUNK / dt))
+        dtheta = rng.normal(0.0, SIGMA_HEADING * np.sqrt(dt), n)
+        dspeed = rng.normal(0.0, SIGMA_SPEED * np.sqrt(dt), n)
+        heading, speed = self.heading, self.speed
+        p = np.array(pos, float)
+        out = np.empty((n, 2))
+        # the reflection needs the wall test at every step, so this loop is inherently sequential
+        for k in range(n):
+            heading += dtheta[k]
+            speed = float(np.clip(speed + dspeed[k], lo, hi))
+            v = speed * np.array([np.cos(heading), np.sin(heading)])
+            q = p + v * dt
+            if self.free.clearance_fast(q)[0] < self.inflate:
+                nrm = self.free.normal(p)
+                if v @ nrm < 0:
+                    v = v - 2 * (v @ nrm) * nrm  # reflect off the wall
+                heading = float(np.arctan2(v[1], v[0]))
+                q = p + v * dt
+                if self.free.clearance_fast(q)[0] < self.inflate:
+                    q = p  # wedged in a corner: stay this step
+            p = q
+            out[k] = p
+        self._state = (heading, speed)
+        return out
+
+    def commit(self, leg):
+        self.heading, self.speed = self._state
+
+
+class _GaussMarkov(_Model):
+    def __init__(self, spec, free, dt, rng, params: GaussMarkovParams):
+        super().__init__(spec, free, dt, rng)
+        self.params = params
+        speed = rng.uniform(*spec.speed)
+        h = rng.uniform(-np.pi, np.pi)
+        self.vel = speed * np.array([np.cos(h), np.sin(h)])
+        self._vel = None
+
+    def propose(self, pos, t):
+        """One chunk of Rahimi eq. 1 at step dt, drawn from the current state [x, v]."""
+        rng, dt, q = self.rng, self.dt, self.params
+        n = int(round(GM_CHUNK / dt))
+        nu_v = rng.normal(0.0, np.sqrt(q.q_vel * dt), (n, 2))
+        nu_x = rng.normal(0.0, np.sqrt(q.q_pos * dt), (n, 2))
+        v = self.vel + np.cumsum(nu_v, axis=0)
+        v_prev = np.vstack([self.vel, v[:-1]])  # x_{k+1} = x_k + dt v_k + nu_x
+        x = np.asarray(pos, float) + np.cumsum(dt * v_prev + nu_x, axis=0)
+        self._vel = v[-1]
+        return x
+
+    def hard(self, leg):
+        return bool((self.free.clearance(leg[:: max(1, int(0.05 / self.dt))]) >= self.inflate).all())
+
+    def commit(self, leg):
+        self.vel = self._vel
+
+
+def walker_gauss_markov(scene: Scene, i: int) -> GaussMarkovParams:
+    """The process noise a gauss_markov walker uses: the scene's ``process_noise`` when the file
+    (or an override) sets it for this walker, else ``DEFAULT_WALKER_GM``."""
+    raw = scene.raw.get("walkers", {}) if isinstance(scene.raw, dict) else {}
+    people = raw.get("people", []) if isinstance(raw, dict) else []
+    given = "process_noise" in raw or (i < len(people) and "process_noise" in people[i])
+    return scene.walkers[i].gauss_markov if given else DEFAULT_WALKER_GM
+
+
+# ----------------------------------------------------------------------------- smoothing
+def _lsq_quintic(t: np.ndarray, y: np.ndarray, spacing: float):
+    """Least-squares quintic B-spline of y(t) (N, d) with interior knots every ``spacing`` s."""
+    k = 5
+    n_int = max(0, int(np.floor((t[-1] - t[0]) / spacing)) - 1)
+    inner = np.linspace(t[0], t[-1], n_int + 2)[1:-1]
+    knots = np.concatenate([[t[0]] * (k + 1), inner, [t[-1]] * (k + 1)])
+    if len(t) < len(knots) - k:  # too short for a least-squares fit
+        return make_interp_spline(t, y, k=min(k, len(t) - 1 - (len(t) % 2 == 0)) if len(t) > 1 else 0)
+    return make_lsq_spline(t, y, knots, k=k, method="norm-eq")
+
+
+def _derivs(spl, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return spl(t), spl(t, 1), spl(t, 2)
+
+
+def _smooth_person(t: np.ndarray, rough: np.ndarray, spec: WalkerSpec, smooth_s: float, dt: float, still: bool):
+    """Spline the rough path; add the gait bob and the heading. Returns pos, vel, acc, yaw, yaw', yaw''."""
+    n = len(t)
+    if still:
+        pos = np.zeros((n, 3))
+        pos[:, :2] = rough[0]
+        pos[:, 2] = 0.5 * spec.height
+        z = np.zeros((n, 3))
+        return pos, z.copy(), z.copy(), np.zeros(n), np.zeros(n), np.zeros(n)
+    xy_in = gaussian_filter1d(rough, smooth_s / dt, axis=0, mode="nearest") if smooth_s > 0 else rough
+    spl = _lsq_quintic(t, xy_in, KNOT_SPACING)
+    p, v, a = _derivs(spl, t)
+    speed = np.hypot(v[:, 0], v[:, 1])
+    # gait bob: z = h/2 + A a(s) (sin^2(pi phi) - 1/2), phi = cumulative step count
+    f = STEP_RATE_0 + STEP_RATE_SLOPE * speed
+    phi = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * dt)])
+    amp = spec.bob_amplitude * np.clip(speed / WALKING_SPEED_BOB, 0.0, 1.0)
+    z = 0.5 * spec.height + amp * (np.sin(np.pi * phi) ** 2 - 0.5)
+    zs = make_interp_spline(t, z, k=5)
+    pz, vz, az = _derivs(zs, t)
+    # heading: direction of travel while moving, held while standing
+    heading = np.arctan2(v[:, 1], v[:, 0])
+    moving = speed > 0.2
+    if moving.any():
+        idx = np.where(moving, np.arange(n), -1)
+        idx = np.maximum.accumulate(idx)
+        idx[idx < 0] = np.flatnonzero(moving)[0]
+        heading = np.unwrap(heading[idx])
+    else:
+        heading = np.zeros(n)
+    heading = gaussian_filter1d(heading, YAW_SMOOTH / dt, mode="nearest")
+    ys = _lsq_quintic(t, heading, KNOT_SPACING)
+    yaw, yaw_rate, yaw_acc = _derivs(ys, t)
+    pos = np.column_stack([p, pz])
+    vel = np.column_stack([v, vz])
+    acc = np.column_stack([a, az])
+    return pos, vel, acc, yaw, yaw_rate, yaw_acc
+
+
+# ----------------------------------------------------------------------------- planning
+def _priority(spec: WalkerSpec) -> int:
+    return {"standing": 0, "waypoints": 1}.get(spec.motion, 2)
+
+
+def plan_trajectories(scene: Scene, duration: float, rng: np.random.Generator, walking_speed: float | None = None) -> Trajectories:
+    """Plan every walker of ``scene`` over [0, duration) s at ``scene.sensors.sim_rate`` (Hz).
+
+    ``rng`` drives every random choice; one child stream per walker (in scene order) keeps a
+    walker's path independent of how many draws the others needed. ``walking`` is horizontal
+    speed above ``walking_speed`` (default ``scene.sensors.still_speed``).
+    """
+    if duration <= 0:
+        raise ValueError(f"duration must be positive, got {duration}")
+    rate = float(scene.sensors.sim_rate)
+    dt = 1.0 / rate
+    n = int(np.floor(duration * rate + 1e-9))
+    t = np.arange(n) * dt
+    specs = scene.walkers
+    P = len(specs)
+    streams = rng.spawn(P) if P else []
+    free = FreeSpace(scene.floorplan)
+    rough: list = [None] * P
+    draws = [0] * P
+    gm_used: list = [None] * P
+    smooth = [0.0] * P
+    stride = max(1, int(round(0.1 * rate)))  # person-person checks every 0.1 s
+    for i in sorted(range(P), key=lambda i: (_priority(specs[i]), i)):
+        spec, r = specs[i], streams[i]
+        if spec.motion == "gauss_markov":
+            gm_used[i] = walker_gauss_markov(scene, i)
+            model = _GaussMarkov(spec, free, dt, r, gm_used[i])
+        else:
+            cls = {"standing": _Standing, "random_waypoint": _RandomWaypoint, "random_walk": _RandomWalk, "waypoints": _Waypoints}
+            model = cls[spec.motion](spec, free, dt, r)
+        smooth[i] = model.smooth
+        start = model.start()
+        if spec.start is None and spec.motion != "waypoints":  # a random start: not on top of someone
+            for _ in range(MAX_TRIES):
+                if _clear_of_others(start[None], 0, i, rough, specs, 1):
+                    break
+                start = free.random_free_point(r, model.inflate)
+        if spec.motion == "gauss_markov":
+            xy = _plan_gauss_markov(model, start, n, i, rough, specs, stride, draws)
+        else:
+            xy = _plan_legs(model, start, n, i, rough, specs, stride, draws)
+        rough[i] = xy
+        if spec.motion == "standing":
+            free = free.with_disc(xy[0, 0], xy[0, 1], spec.radius)
+    pos = np.zeros((P, n, 3))
+    vel, acc = np.zeros_like(pos), np.zeros_like(pos)
+    yaw, yaw_rate, yaw_acc = np.zeros((P, n)), np.zeros((P, n)), np.zeros((P, n))
+    for i, spec in enumerate(specs):
+        pos[i], vel[i], acc[i], yaw[i], yaw_rate[i], yaw_acc[i] = _smooth_person(
+            t, rough[i], spec, smooth[i], dt, still=spec.motion == "standing"
+        )
+        if spec.motion == "standing":
+            yaw[i] = streams[i].uniform(-np.pi, np.pi)
+    ws = scene.sensors.still_speed if walking_speed is None else walking_speed
+    walking = np.hypot(vel[..., 0], vel[..., 1]) > ws
+    return Trajectories(
+        t=t, pos=pos, vel=vel, acc=acc, yaw=yaw, yaw_rate=yaw_rate, yaw_acc=yaw_acc, walking=walking,
+        names=tuple(s.name for s in specs), rate=rate, gauss_markov=gm_used, draws=draws,
+    )
+
+
+def _clear_of_others(leg: np.ndarray, k0: int, i: int, rough: list, specs, stride: int) -> bool:
+    """True when ``leg`` (samples from step k0) keeps personal space to every planned person."""
+    for j, other in enumerate(rough):
+        if other is None or j == i:
+            continue
+        m = min(len(leg), len(other) - k0)
+        if m <= 0:
+            continue
+        d = np.linalg.norm(leg[:m:stride] - other[k0 : k0 + m : stride], axis=1)
+        if (d < specs[i].radius + specs[j].radius + PERSONAL_SPACE).any():
+            return False
+    return True
+
+
+def _plan_legs(model: _Model, start, n, i, rough, specs, stride, draws) -> np.ndarray:
+    """Leg after leg until n samples; a leg too close to someone is re-drawn (random models) or
+    preceded by a one-second wait (scripted); after MAX_TRIES it is taken anyway."""
+    pieces, k = [np.asarray(start, float)[None]], 1
+    while k < n:
+        pos = pieces[-1][-1]
+        leg, commit = None, True
+        for _ in range(MAX_TRIES):
+            cand = model.propose(pos, k * model.dt)
+            draws[i] += 1
+            if _clear_of_others(cand, k, i, rough, specs, stride):
+                leg = cand
+                break
+            if isinstance(model, _Waypoints):
+                wait = model.wait_leg(pos, 1.0)
+                if _clear_of_others(wait, k, i, rough, specs, stride):
+                    leg, commit = wait, False
+                    break
+        if leg is None:
+            leg = cand  # unavoidable (a narrow passage, or nobody can move out of the way)
+        if commit:
+            model.commit(leg)
+        pieces.append(leg)
+        k += len(leg)
+    return np.vstack(pieces)[:n]
+
+
+def _plan_gauss_markov(model: "_GaussMarkov", start, n, i, rough, specs, stride, draws) -> np.ndarray:
+    """Chunks of Rahimi eq. 1 drawn until one stays in free space (and, if possible, clear of the
+    others); a chunk with no free continuation in GM_MAX_DRAWS draws is dropped (backtracking)."""
+    pieces, vels, k = [np.asarray(start, float)[None]], [model.vel.copy()], 1
+    while k < n:
+        model.vel = vels[-1]
+        fallback, leg = None, None
+        for attempt in range(GM_MAX_DRAWS):
+            cand = model.propose(pieces[-1][-1], k * model.dt)
+            draws[i] += 1
+            if not model.hard(cand):
+                continue
+            if _clear_of_others(cand, k, i, rough, specs, stride):
+                leg = (cand, model._vel.copy())
+                break
+            fallback = fallback or (cand, model._vel.copy())
+            if attempt >= MAX_TRIES:
+                break
+        leg = leg or fallback
+        if leg is None:
+            if len(pieces) == 1:
+                raise ValueError(f"walker {specs[i].name!r}: no Gauss-Markov path stays in free space; raise process_noise")
+            k -= len(pieces.pop())
+            vels.pop()
+            continue
+        pieces.append(leg[0])
+        vels.append(leg[1])
+        k += len(leg[0])
+    return np.vstack(pieces)[:n]
