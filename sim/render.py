@@ -70,7 +70,7 @@ class SceneRenderer:
             seg = r.render()
         finally:
             r.disable_segmentation_rendering()
-        return rgb, self._person_index(seg)
+        return rgb, self.person_index(seg)
 
     def segment(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
         r = self.renderer(width, height)
@@ -80,9 +80,9 @@ class SceneRenderer:
             seg = r.render()
         finally:
             r.disable_segmentation_rendering()
-        return self._person_index(seg)
+        return self.person_index(seg)
 
-    def _person_index(self, seg: np.ndarray) -> np.ndarray:
+    def person_index(self, seg: np.ndarray) -> np.ndarray:
         objid = np.where(seg[..., 1] == GEOM, seg[..., 0], -1)
         return self._lut[objid]  # index -1 picks the trailing "not a person" slot
 

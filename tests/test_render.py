@@ -36,6 +36,7 @@ class TinyWorld:
             self.bodies.append(f"p{i}")
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
+        mujoco.mj_forward(self.model, self.data)
         self.radius, self.height = radius, height
         self.camera_ids = {c.name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, c.name) for c in cameras}
         self.person_geoms = [np.flatnonzero(self.model.geom_bodyid == self.model.body(n).id) for n in self.bodies]

@@ -1,0 +1,290 @@
+"""Perception: from rendered pixels to detections, one detector per camera kind.
+
+Shared pieces (all images are (H, W, 3) uint8 RGB, pixel centres at (i + 0.5, j + 0.5)):
+
+- Foreground by difference against the empty-scene render B (exact here: nothing but people moves
+  and rendering is deterministic): F = max_c |I_c - B_c| > ``diff_threshold``.
+- Blobs: 8-connected components of F (``cv2.connectedComponentsWithStats``) after a small
+  morphological closing; fragments are merged (horizontal cameras: overlapping column spans, since
+  a person is a vertical object and an obstacle may cut the silhouette in two; overhead cameras:
+  the closing itself).
+- Appearance: a pixel's chromaticity c = rgb / (r + g + b) is compared with the chromaticity of
+  each walker colour the deployment knows (the paper's appearance vectors); shading scales
+  r, g, b alike and leaves c unchanged. Pixels with low saturation (max - min < ``min_chroma``
+  of the brightest channel) carry no colour vote. A blob in which several colours each hold a
+  large share is split by colour: two people merged into one blob become two detections.
+
+Detectors:
+
+- ``detect_bearings`` (horizontal cameras, Rahimi): per person blob the horizontal centroid
+  u = mean(i) + 1/2 (pixels), width = u_right - u_left, label = colour name.
+- ``OverheadDetector`` (Teixeira): regular mode maps each person blob to the floor through the
+  camera model using the top of the person (see ``floor_from_blob``); privacy mode sees only
+  moving pixels (|I_k - I_{k-1}| > threshold), so a person standing still gives nothing, and
+  quantises x, y to the camera's ``quantum``. Only detections inside the camera's ``region`` are
+  reported.
+- The oblique optical-flow tracker is in ``sim/perception_flow.py``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from scenes.camera import Camera
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """The walker colours a deployment knows: names and RGB in [0, 1] (scene order)."""
+
+    names: tuple[str, ...]
+    rgb: np.ndarray  # (C, 3)
+
+    @staticmethod
+    def from_scene(scene) -> "Appearance":
+        names, cols = [], []
+        for w in scene.walkers:
+            if w.color_name not in names:
+                names.append(w.color_name)
+                cols.append(w.color)
+        return Appearance(tuple(names), np.asarray(cols, float).reshape(-1, 3))
+
+    @property
+    def chroma(self) -> np.ndarray:
+        return self.rgb / np.maximum(self.rgb.sum(axis=1, keepdims=True), 1e-9)
+
+
+@dataclass(frozen=True)
+class PerceptionParams:
+    """Detector thresholds. Areas are in pixels at 320x240 and scale with the image area."""
+
+    diff_threshold: int = 12  # grey levels, background difference
+    motion_threshold: int = 6  # grey levels, frame difference (privacy cameras)
+    min_area: float = 60.0  # smallest person blob
+    min_motion_area: float = 25.0  # smallest moving-pixel blob (privacy)
+    min_chroma: float = 0.25  # saturation below which a pixel has no colour vote
+    split_share: float = 0.2  # a second colour must hold this share of a blob to split it
+    max_chroma_dist: float = 0.15  # a pixel further than this from every walker colour has no vote
+    merge_gap_px: float = 2.0  # horizontal cameras: merge blobs whose column spans are this close
+
+    def area(self, a: float, width: int, height: int) -> float:
+        return a * (width * height) / (320 * 240)
+
+
+def foreground(rgb: np.ndarray, background: np.ndarray, threshold: int) -> np.ndarray:
+    """Boolean mask max_c |I_c - B_c| > threshold."""
+    return cv2.absdiff(rgb, background).max(axis=2) > threshold
+
+
+def components(mask: np.ndarray, close_px: int = 3):
+    """Closed 8-connected components: (labels image, stats rows [x, y, w, h, area])."""
+    m = mask.astype(np.uint8)
+    if close_px > 1:
+        k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_px, close_px))
+        m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, k)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+    return labels, stats[1:], n - 1
+
+
+def colour_votes(pixels_rgb: np.ndarray, app: Appearance, params: PerceptionParams) -> np.ndarray:
+    """Nearest walker colour index per pixel (N,), -1 where the pixel has no colour vote."""
+    p = pixels_rgb.astype(np.float32)
+    hi, lo = p.max(axis=1), p.min(axis=1)
+    c = p / np.maximum(p.sum(axis=1, keepdims=True), 1.0)
+    d = np.linalg.norm(c[:, None, :] - app.chroma[None, :, :].astype(np.float32), axis=2)
+    best = d.argmin(axis=1)
+    ok = ((hi - lo) >= params.min_chroma * np.maximum(hi, 1.0)) & (d[np.arange(len(p)), best] < params.max_chroma_dist)
+    return np.where(ok, best, -1)
+
+
+def split_by_colour(votes: np.ndarray, app: Appearance, params: PerceptionParams, min_area: float):
+    """Groups of a blob's pixels, one per colour with a large share: list of (label, index array).
+
+    With one colour (or none) the whole blob is one group labelled by its majority vote.
+    """
+    counts = np.bincount(votes[votes >= 0], minlength=len(app.names))
+    total = max(int(counts.sum()), 1)
+    strong = [c for c in np.flatnonzero(counts) if counts[c] >= max(params.split_share * total, min_area)]
+    if len(strong) <= 1:
+        label = app.names[int(counts.argmax())] if counts.sum() else ""
+        return [(label, np.arange(len(votes)))]
+    return [(app.names[c], np.flatnonzero(votes == c)) for c in strong]
+
+
+# ----------------------------------------------------------------------------- horizontal cameras
+@dataclass
+class BearingDetection:
+    u: float
+    width: float
+    label: str
+    pixels: int
+    v_top: float
+    v_bottom: float
+
+
+def detect_bearings(rgb: np.ndarray, background: np.ndarray, app: Appearance,
+                    params: PerceptionParams = PerceptionParams()) -> list[BearingDetection]:
+    """Person blobs of a horizontal camera image: u = mean column + 1/2, width, colour label."""
+    H, W = rgb.shape[:2]
+    fg = foreground(rgb, background, params.diff_threshold)
+    labels, stats, n = components(fg)
+    if n == 0:
+        return []
+    # merge fragments whose column spans overlap (or nearly): union-find on sorted spans
+    left = stats[:, 0].astype(float)
+    right = left + stats[:, 2]
+    order = np.argsort(left)
+    group = np.empty(n, int)
+    g, reach = -1, -np.inf
+    for i in order:
+        if left[i] > reach + params.merge_gap_px:
+            g += 1
+            reach = right[i]
+        else:
+            reach = max(reach, right[i])
+        group[i] = g
+    min_area = params.area(params.min_area, W, H)
+    lut = np.concatenate([[-1], group])
+    grp = lut[labels]
+    ys, xs = np.nonzero((grp >= 0) & fg)
+    gid = grp[ys, xs]
+    out: list[BearingDetection] = []
+    for k in range(g + 1):
+        sel = gid == k
+        if sel.sum() < min_area:
+            continue
+        bx, by = xs[sel], ys[sel]
+        votes = colour_votes(rgb[by, bx], app, params)
+        for label, idx in split_by_colour(votes, app, params, min_area):
+            if len(idx) < min_area:
+                continue
+            x, y = bx[idx], by[idx]
+            out.append(BearingDetection(u=float(x.mean() + 0.5), width=float(x.max() - x.min() + 1), label=label,
+                                        pixels=int(len(idx)), v_top=float(y.min()), v_bottom=float(y.max() + 1)))
+    out.sort(key=lambda d: d.u)
+    return out
+
+
+# ----------------------------------------------------------------------------- overhead cameras
+@dataclass(frozen=True)
+class PersonModel:
+    """The nominal person a deployment assumes: a vertical body whose top is a sphere of radius
+    ``top_radius`` centred at ``top_centre`` m above the floor, and whose bottom is a sphere of
+    radius ``bottom_radius`` centred ``bottom_centre`` m above the floor."""
+
+    top_centre: float = 1.55
+    top_radius: float = 0.2
+    bottom_centre: float = 0.2
+    bottom_radius: float = 0.2
+
+
+def vertical_vanishing_point(cam: Camera) -> np.ndarray | None:
+    """Image point (2,) where vertical world lines meet (the nadir for a downward camera)."""
+    d = cam.K @ (cam.R @ np.array([0.0, 0.0, -1.0]))
+    if d[2] <= 1e-9:
+        return None
+    return d[:2] / d[2]
+
+
+def floor_from_blob(cam: Camera, xs: np.ndarray, ys: np.ndarray, person: PersonModel, border_px: float = 1.0):
+    """Floor (x, y) of a person from its silhouette pixels in a downward-looking camera.
+
+    A vertical person projects to a radial streak pointing away from the vertical vanishing
+    point n (a wide lens sees the head far from the body centre). The silhouette's outermost
+    point along the radial direction e is the ray tangent to the top sphere (centre height z_t,
+    radius rho): it meets the plane z = z_t at Q, at horizontal distance rho / cos(theta) beyond
+    the sphere centre, theta the ray's angle from the vertical. So
+        C_xy = Q_xy - e_floor rho / cos(theta).
+    When the outer end is cut by the image border, the innermost point (tangent to the bottom
+    sphere, on the near side) is used the same way with the sign reversed. Returns (x, y) or None.
+    """
+    H, W = cam.height, cam.width
+    uv = np.column_stack([xs + 0.5, ys + 0.5]).astype(float)
+    n = vertical_vanishing_point(cam)
+    centroid = uv.mean(axis=0)
+    if n is None:
+        p = cam.backproject_to_plane(centroid, 0.5 * (person.top_centre + person.bottom_centre))
+        return None if not np.isfinite(p).all() else (float(p[0]), float(p[1]))
+    radial = centroid - n
+    dist = float(np.hypot(*radial))
+    if dist < 1.0:  # right under the camera: head and feet project together
+        p = cam.backproject_to_plane(centroid, person.top_centre)
+        return None if not np.isfinite(p).all() else (float(p[0]), float(p[1]))
+    e = radial / dist
+    s = (uv - n) @ e
+    tang = (uv - n) @ np.array([-e[1], e[0]])
+    at_border = (xs <= border_px) | (ys <= border_px) | (xs >= W - 1 - border_px) | (ys >= H - 1 - border_px)
+    band = max(2.0, 0.03 * (s.max() - s.min()))
+    outer = s >= s.max() - band
+    inner = s <= s.min() + band
+    if not at_border[outer].any():
+        sel, z, rho, sign = outer, person.top_centre, person.top_radius, -1.0
+        s_end = s.max()
+    elif not at_border[inner].any():
+        sel, z, rho, sign = inner, person.bottom_centre, person.bottom_radius, +1.0
+        s_end = s.min()
+    else:
+        p = cam.backproject_to_plane(centroid, 0.5 * (person.top_centre + person.bottom_centre))
+        return None if not np.isfinite(p).all() else (float(p[0]), float(p[1]))
+    px = n + e * s_end + np.array([-e[1], e[0]]) * float(tang[sel].mean())
+    q = cam.backproject_to_plane(px, z)
+    if not np.isfinite(q).all():
+        return None
+    horiz = q[:2] - np.asarray(cam.position, float)[:2]
+    hd = float(np.hypot(*horiz))
+    if hd < 1e-6:
+        return float(q[0]), float(q[1])
+    cos_theta = (cam.position[2] - z) / np.hypot(hd, cam.position[2] - z)
+    c = q[:2] + sign * (horiz / hd) * rho / max(cos_theta, 0.2)
+    return float(c[0]), float(c[1])
+
+
+def in_region(cam: Camera, xy) -> bool:
+    if cam.region is None:
+        return True
+    x0, y0, x1, y1 = cam.region
+    return x0 <= xy[0] < x1 and y0 <= xy[1] < y1
+
+
+class OverheadDetector:
+    """Floor detections of one overhead camera; keeps the previous frame (privacy mode)."""
+
+    def __init__(self, cam: Camera, background: np.ndarray, app: Appearance, person: PersonModel,
+                 params: PerceptionParams = PerceptionParams()):
+        self.cam, self.background, self.app, self.person, self.params = cam, background, app, person, params
+        self._prev: np.ndarray | None = None
+
+    def __call__(self, rgb: np.ndarray) -> list[tuple[float, float]]:
+        cam, p = self.cam, self.params
+        H, W = rgb.shape[:2]
+        if cam.privacy:
+            prev, self._prev = self._prev, rgb
+            if prev is None:
+                return []
+            mask = foreground(rgb, prev, p.motion_threshold)
+            labels, stats, n = components(mask, close_px=7)
+            min_area = p.area(p.min_motion_area, W, H)
+            groups = [(None, np.nonzero(labels == k + 1)) for k in range(n) if stats[k, 4] >= min_area]
+        else:
+            mask = foreground(rgb, self.background, p.diff_threshold)
+            labels, stats, n = components(mask)
+            min_area = p.area(p.min_area, W, H)
+            groups = []
+            for k in range(n):
+                if stats[k, 4] < min_area:
+                    continue
+                ys, xs = np.nonzero(labels == k + 1)
+                votes = colour_votes(rgb[ys, xs], self.app, p)
+                for _, idx in split_by_colour(votes, self.app, p, min_area):
+                    groups.append((None, (ys[idx], xs[idx])))
+        out = []
+        for _, (ys, xs) in groups:
+            xy = floor_from_blob(cam, xs, ys, self.person)
+            if xy is None or not in_region(cam, xy):
+                continue
+            if cam.privacy and cam.quantum > 0:
+                xy = (cam.quantum * round(xy[0] / cam.quantum), cam.quantum * round(xy[1] / cam.quantum))
+            out.append(xy)
+        return out
