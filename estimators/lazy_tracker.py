@@ -221,6 +221,9 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         # the continuity of each new segment with the ones that ended before it
         born = np.isin(seg, births)
         link_births(k, [int(s) for s in seg[born]], pos[born])
+        # a segment cut by proximity lives on in the segments born with it: its evidence is
+        # carried by them, so it is no candidate for later births
+        ended[:] = [e for e in ended if info[e]["end_reason"] != "proximity"]
         # record this frame's rows (tracks that got a detection)
         rows = np.flatnonzero(seen)
         zi = np.full((nl, 2), np.nan)
