@@ -39,7 +39,9 @@ class SolverSettings:
 
     max_iter: Gauss-Newton iterations. tol_step: stop when the largest position change of a
     step is below this (m). tol_cost: or when the relative decrease of eps is below this.
-    eps_abs, eps_rel: osqp tolerances. pos_scale, vel_scale: variable scaling S (m, m/s).
+    eps_abs, eps_rel: osqp tolerances. refine: make each osqp step exact by solving the KKT
+    system of its active set; active_set_rounds: primal active-set rounds tried from the previous
+    step's active set before osqp (whose result osqp then certifies). pos_scale, vel_scale: variable scaling S (m, m/s).
     """
 
     max_iter: int = 50
@@ -52,6 +54,7 @@ class SolverSettings:
     vel_scale: float = 0.1
     line_search: bool = True
     refine: bool = True
+    active_set_rounds: int = 20
     keep_iterates: bool = False
 
 
@@ -104,7 +107,7 @@ ConstraintFn = "Callable[[np.ndarray], tuple[sp.csc_matrix, np.ndarray]]"
 
 
 def refine_active_set(H, JTr, GS, rp, Cs, b, active, max_rounds=12):
-    """Exact solution of the step QP for osqp's active set, corrected by a few active-set rounds.
+    """Exact solution of the step QP for a guessed active set, corrected by active-set rounds.
 
     Solves the KKT system of  min 0.5 dY^T H dY + JTr^T dY + 0.5 ||z||^2  s.t.  GS dY - z = -rp,
     C_a dY = b_a  (z = lambda eliminated):
@@ -114,41 +117,51 @@ def refine_active_set(H, JTr, GS, rp, Cs, b, active, max_rounds=12):
         [ C_a  0     0     ] [nu    ]   [ b_a]
 
     with a sparse LU. The multipliers of C dY >= b are mu = -nu >= 0. Constraints with mu < 0 leave
-    the set, violated ones join it, until the KKT conditions hold. Returns (dY, rounds) or
-    (None, rounds) when no consistent active set was found.
+    the set one at a time, violated ones join it, until the KKT conditions hold. Returns (dY, y, active) with y
+    the multipliers in osqp's convention ([lambda; nu], nu = 0 off the active set), or None.
     """
     n = H.shape[0]
+    m_in = len(b)
     active = np.array(active, bool)
-    tol = 1e-9 * max(1.0, float(np.max(np.abs(b))) if len(b) else 1.0)
-    for rounds in range(1, max_rounds + 1):
-        Ca = Cs[np.nonzero(active)[0]]
-        na = Ca.shape[0]
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(b))) if m_in else 1.0)
+    for _ in range(max_rounds):
+        ia = np.nonzero(active)[0]
+        Ca = Cs[ia]
+        na = len(ia)
         K = sp.bmat(
             [[H, GS.T, Ca.T], [GS, -sp.identity(n), None], [Ca, None, sp.csc_matrix((na, na))]], format="csc"
         )
-        rhs = np.concatenate([-JTr, -rp, b[active]])
+        rhs = np.concatenate([-JTr, -rp, b[ia]])
         try:
             sol = spla.splu(K, permc_spec="COLAMD").solve(rhs)
         except RuntimeError:  # singular: dependent active rows
-            return None, rounds
+            return None
         if not np.all(np.isfinite(sol)):
-            return None, rounds
+            return None
         dY = sol[:n]
-        mu = -sol[2 * n :]
-        slack = Cs @ dY - b if len(b) else np.zeros(0)
-        neg = np.zeros(len(b), bool)
-        neg[np.nonzero(active)[0]] = mu < -1e-9 * max(1.0, float(np.max(np.abs(mu))) if na else 1.0)
+        nu = sol[2 * n :]
+        slack = Cs @ dY - b if m_in else np.zeros(0)
+        mu = np.zeros(m_in)
+        mu[ia] = -nu
+        neg = active & (mu < -1e-9 * max(1.0, float(np.max(np.abs(nu))) if na else 1.0))
         viol = (~active) & (slack < -tol)
         if not neg.any() and not viol.any():
-            return dY, rounds
-        active = (active & ~neg) | viol
-    return None, max_rounds
+            y_in = np.zeros(m_in)
+            y_in[ia] = nu
+            return dY, np.concatenate([sol[n : 2 * n], y_in]), active
+        # add every violated row, drop only the most negative multiplier (avoids cycling)
+        active = active | viol
+        if neg.any():
+            active[np.argmin(np.where(neg, mu, np.inf))] = False
+    return None
 
 
-def qp_step(P_obs, JTr, GS, rp, Cs, b, warm, s: SolverSettings):
-    """One Gauss-Newton step: the lifted QP (module docstring) solved by osqp, then made exact.
+def qp_step(P_obs, JTr, GS, rp, Cs, b, active_guess, s: SolverSettings):
+    """One Gauss-Newton step: the lifted QP (module docstring) solved by osqp, made exact.
 
-    Returns (dY, status, osqp iterations, refined, warm-start pair).
+    The exact solution for the previous step's active set (``refine_active_set``) warm-starts
+    osqp; osqp then certifies it or moves to the right active set, whose exact solution is the
+    step. Returns (dY, status, osqp iterations, refined, active set).
     """
     n = GS.shape[1]
     m_in = Cs.shape[0]
@@ -165,9 +178,14 @@ def qp_step(P_obs, JTr, GS, rp, Cs, b, warm, s: SolverSettings):
         sp.triu(P, format="csc"), q, A, lo, hi, verbose=False, eps_abs=s.eps_abs, eps_rel=s.eps_rel,
         eps_prim_inf=1e-10, eps_dual_inf=1e-10, max_iter=s.osqp_max_iter, polishing=False, warm_starting=True,
     )
-    if warm is not None and warm.shape == (A.shape[0],):
-        # the previous step has been taken: start from a zero step and the previous multipliers
-        solver.warm_start(x=np.concatenate([np.zeros(n), rp]), y=warm)
+    guess = None
+    if s.refine:
+        if active_guess is None or len(active_guess) != m_in:
+            active_guess = np.zeros(m_in, bool)
+        guess = refine_active_set(P_obs, JTr, GS, rp, Cs, b, active_guess, max_rounds=s.active_set_rounds)
+        if guess is not None:
+            dY0, y0, _ = guess
+            solver.warm_start(x=np.concatenate([dY0, GS @ dY0 + rp]), y=y0)
     out = solver.solve(raise_error=False)
     status = str(out.info.status)
     iters = int(out.info.iter)
@@ -177,15 +195,17 @@ def qp_step(P_obs, JTr, GS, rp, Cs, b, warm, s: SolverSettings):
     if not usable:
         return None, status, iters, False, None
     dY = out.x[:n]
-    refined = False
+    active = np.zeros(m_in, bool)
     if s.refine:
         y_in = out.y[n:]
         slack = Cs @ dY - b if m_in else np.zeros(0)
-        active = (y_in < 0) & (slack < 1e-3) if m_in else np.zeros(0, bool)
-        exact, _ = refine_active_set(P_obs, JTr, GS, rp, Cs, b, active)
+        active = (y_in < 0) & (slack < 1e-3) if m_in else active
+        if guess is not None and np.array_equal(active, guess[2]):
+            return guess[0], status, iters, True, active
+        exact = refine_active_set(P_obs, JTr, GS, rp, Cs, b, active)
         if exact is not None:
-            dY, refined = exact, True
-    return dY, status, iters, refined, out.y
+            return exact[0], status, iters, True, exact[2]
+    return dY, status, iters, False, active
 
 
 def solve_map(
@@ -219,7 +239,7 @@ def solve_map(
     res.cost.append(eps_now)
     if s.keep_iterates:
         res.iterates.append(X.copy())
-    warm = None
+    active = None
     for it in range(s.max_iter):
         Jo = obs.jacobian(X, n) if len(obs) else sp.csc_matrix((0, n))
         ro = obs.residual(X) if len(obs) else np.zeros(0)
@@ -230,8 +250,9 @@ def solve_map(
             if Ce.shape[0]:
                 Cx, lx = sp.vstack([C, Ce], format="csc"), np.concatenate([lower, le])
         rp = prior.residual(X)
-        dY, status, iters, refined, new_warm = qp_step(
-            (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X, warm, s
+        dY, status, iters, refined, active = qp_step(
+            (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X,
+            active if extra_constraints is None else None, s,
         )
         res.qp_status.append(status)
         res.qp_refined.append(refined)
@@ -240,7 +261,6 @@ def solve_map(
         if dY is None:
             res.reason = f"QP step {it + 1} failed: osqp status {status!r}"
             break
-        warm = new_warm if extra_constraints is None else None
         dX = scale * dY
         alpha, eps_new = 1.0, cost(prior, obs, X + dX)
         if s.line_search:
