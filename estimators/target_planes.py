@@ -1,0 +1,311 @@
+"""``target_planes``: optical-flow person tracking by multiple cameras (Tsutsui, Miura, Shirai).
+
+Input: the ``boxes`` table of the oblique cameras (each camera's own tracking windows with their
+horizontal centroid u, edges, top/bottom rows and mean image flow, px and px/s) and each camera's
+3x4 projection ``P``. The ``bearings`` table's colour labels are *not* used: telling the target
+from a look-alike mover by colour would make the paper's velocity discrimination moot, so people
+are told apart by geometry and image velocity alone.
+
+Per frame (all cameras at their capture times), for each target:
+
+1. predict X = X + V dt (V: 3-D velocity, vertical part 0);
+2. per camera, the estimated window (section 3.3: the person model - a vertical cylinder of
+   ``height`` and ``radius`` - projected at the prediction, or over the whole target area) and
+   the predicted image velocity (eq. 7);
+3. per camera, its state (``tp_tracker``): a tracking camera keeps its tracker's window unless
+   the reliability tests of section 4 fail; a lost or unreliable camera searches the estimated
+   window for a window with the predicted image velocity, separate from other movers;
+4. position from the reliable tracking cameras: the least-squares intersection of their target
+   planes (eqs. 3-6, refused for near-parallel planes), checked against each camera's own
+   target area; with one camera (or near-parallel planes) the single-camera target area
+   (section 3.2), intersected with the other tracking cameras' areas (section 5), and the point
+   of the target plane in it nearest the prediction;
+5. velocity from the tracking cameras' mean flows (eq. 7, least squares; W = 0 with one camera).
+
+The target is chosen by hand as in the paper: ``initial_xy`` (its floor position at the first
+frame, m) or ``initial_window`` (``[camera, u_left, u_right, v_top, v_bottom]`` at the first
+frame). With ``multi_person = true`` every mover is tracked at once (section 6's future work):
+targets start from unclaimed windows (``tp_initiate``) and compete for windows per camera
+(``scipy.optimize.linear_sum_assignment``); two targets on one window make it unreliable for both.
+
+``run`` returns the tracks and a per-frame, per-camera status table (tracking / lost /
+unreliable and why); ``estimate`` returns the tracks only.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+
+from sim.recording import Calibration, Observations
+
+from . import tp_geometry as geo
+from .base import Estimator, EstimatorError, check_tracks, register
+from .tp_frames import CameraBoxes, frame_times, split_boxes
+from .tp_initiate import propose
+from .tp_tracker import LOST, TRACKING, UNRELIABLE, CameraState, Target, TargetUpdater, width_ratio
+
+STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason"]
+
+
+@dataclass
+class TargetPlanesResult:
+    """``tracks``: t, track_id, x, y, vx, vy (+ ``n_cameras``: reliable tracking cameras used,
+    ``mode``: planes / area / predicted); ``status``: t, track_id, camera, status, reason."""
+
+    tracks: pd.DataFrame
+    status: pd.DataFrame
+
+
+@register
+class TargetPlanes(Estimator):
+    name = "target_planes"
+    description = "Tsutsui et al.: target-plane intersection of oblique cameras' flow windows, with occlusion and overlap handling"
+    requires = ("boxes",)
+
+    @dataclasses.dataclass
+    class Config:
+        initial_xy: list | None = None  # target's floor position at the first frame (m)
+        initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
+        multi_person: bool = False  # track every mover (beyond the paper)
+        height: float = 1.75  # person model: cylinder height (m); use the tallest person's
+        radius: float = 0.2  # cylinder radius (m)
+        min_plane_angle_deg: float = 12.0  # planes closer than this to parallel are not intersected
+        width_ratio_threshold: float = 1.0  # eq. 8
+        position_tol: float = 1.0  # section 4.3: |u - u_c| allowed, in estimated-window widths
+        search_margin: float = 0.5  # estimated window widened by this many widths when searching
+        overlap_gap: float = 0.15  # windows closer than this (widths) overlap (section 4.1)
+        neighbour_span: float = 1.0  # search areas beside the target, in widths (Fig. 8)
+        rejoin_width_ratio: float = 0.35  # an overlapped window is the target alone again below this eq. 8 value
+        flow_tol_px: float = 6.0  # image velocity similarity: |v - v_pred| <= tol + rel |v_pred| (px/s)
+        flow_tol_rel: float = 0.4
+        flow_height_fraction: float = 0.5  # height of the region's centroid, fraction of height
+        flow_window: int = 5  # frames of a camera track over which its flow is averaged
+        mover_flow_px: float = 8.0  # a window with less flow (px/s) is no mover
+        velocity_smoothing: float = 0.6  # weight of the new eq. 7 velocity against the previous one
+        max_speed: float = 3.0  # m/s
+        area_margin: float = 0.05  # window noise allowance on target areas (m)
+        consistency_margin: float = 0.15  # a plane intersection may lie this far outside a camera's area (m)
+        intersect_areas: bool = True  # section 5: intersect the target areas of all tracking cameras
+        init_radius: float = 0.5  # uncertainty (m) of the hand-given initial position
+        sigma_planes: float = 0.25  # search radius (m) after a multi-camera estimate
+        sigma_growth: float = 1.0  # growth (m/s) of the search radius while no camera tracks
+        sigma_max: float = 2.0
+        init_min_cameras: int = 2  # multi-person: windows needed to start a target
+        confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
+        max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
+
+    # ------------------------------------------------------------------------------------------
+    def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
+        tr = self.run(observations, calibration).tracks
+        return check_tracks(tr[["t", "track_id", "x", "y", "vx", "vy"]], self.name)
+
+    def run(self, observations: Observations, calibration: Calibration) -> TargetPlanesResult:
+        cfg = self.config
+        boxes = observations["boxes"]
+        cams = sorted(calibration.cameras_of_kind("oblique")) or sorted(set(boxes["camera"]))
+        unknown = sorted(set(boxes["camera"]) - set(calibration.cameras))
+        if unknown:
+            raise EstimatorError(f"{self.name}: boxes from cameras not in the calibration: {unknown}")
+        cams = [c for c in cams if c in set(boxes["camera"]) or c in calibration.cameras_of_kind("oblique")]
+        if not cams:
+            raise EstimatorError(f"{self.name}: no oblique cameras")
+        if not cfg.multi_person and cfg.initial_xy is None and cfg.initial_window is None:
+            raise EstimatorError(
+                f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] or "
+                "initial_window=[camera, u_left, u_right, v_top, v_bottom] (or multi_person=true)"
+            )
+        Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
+        frames = split_boxes(boxes, cams, cfg.flow_window)
+        times = frame_times(calibration, cams, observations.duration, boxes)
+        # flow noise (px/s) of each camera's averaged window flow, from the calibrated window noise
+        sigma_px = float(calibration.noise.get("box_sigma_px", 0.0) or 0.0)
+        flow_sigma = {c: sigma_px * calibration.cameras[c].fps / np.sqrt(cfg.flow_window) for c in cams}
+        upd = TargetUpdater(cfg, Ps, flow_sigma)
+        inside_room = calibration.floorplan.inside
+
+        targets: list[Target] = []
+        next_id = 0
+        if not cfg.multi_person:
+            targets.append(self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}))
+            targets[0].confirmed = True
+            next_id = 1
+        rows: list[tuple] = []
+        status_rows: list[tuple] = []
+        t_prev = float(times[0]) if len(times) else 0.0
+        for t in times:
+            t = float(t)
+            dt = t - t_prev
+            t_prev = t
+            frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
+            preds = {tg.tid: tg.xy + tg.vel[:2] * dt for tg in targets}
+            views = {tg.tid: upd.views(tg, preds[tg.tid]) for tg in targets}
+            used = {tg.tid: {} for tg in targets}
+            held = {tg.tid: [] for tg in targets}  # (camera, box) of overlapped windows still containing the target
+            followed = {c: set() for c in cams}
+            for c in cams:
+                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt)
+            for tg in list(targets):
+                self._update(tg, preds[tg.tid], used[tg.tid], held[tg.tid], frame, upd, dt)
+            if cfg.multi_person:
+                claimed = {c: set(followed[c]) | {j for u in used.values() for cc, j in u.items() if cc == c} for c in cams}
+                free = {c: [j for j in range(len(frame[c])) if j not in claimed[c]] for c in cams}
+                for xy, support in propose(cfg, Ps, frame, free, inside_room):
+                    tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=cfg.sigma_planes)
+                    next_id += 1
+                    for c, j in support.items():
+                        tg.cams[c] = CameraState(TRACKING, frame[c].track[j])
+                    upd.velocity(tg, xy, support, frame)
+                    tg.hits, tg.n_used, tg.mode = 1, len(support), "planes"
+                    targets.append(tg)
+                targets = [tg for tg in targets if self._alive(tg)]
+            for tg in targets:
+                if not tg.confirmed:
+                    continue
+                rows.append((t, tg.tid, tg.xy[0], tg.xy[1], tg.vel[0], tg.vel[1], tg.n_used, tg.mode))
+                for c in cams:
+                    cs = tg.cams[c]
+                    status_rows.append((t, tg.tid, c, cs.status, cs.reason))
+        tracks = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
+        status = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
+        return TargetPlanesResult(tracks, status)
+
+    # ------------------------------------------------------------------------------------------
+    def _initial_target(self, cams, Ps, frame0) -> Target:
+        cfg = self.config
+        states = {c: CameraState() for c in cams}
+        if cfg.initial_xy is not None:
+            xy = np.asarray(cfg.initial_xy, float)
+            if xy.shape != (2,) or not np.isfinite(xy).all():
+                raise EstimatorError(f"{self.name}: initial_xy must be [x, y] in metres, got {cfg.initial_xy!r}")
+            return Target(0, xy, states, sigma=cfg.init_radius)
+        w = cfg.initial_window
+        if not (isinstance(w, (list, tuple)) and len(w) == 5 and w[0] in Ps):
+            raise EstimatorError(f"{self.name}: initial_window must be [camera, u_left, u_right, v_top, v_bottom] with a camera of {cams}, got {w!r}")
+        cam, win = w[0], np.asarray(w[1:], float)
+        b = frame0.get(cam)
+        if b is None or not len(b):
+            raise EstimatorError(f"{self.name}: camera {cam!r} reports no window in the first frame")
+        inter = np.clip(np.minimum(b.win[:, 1], win[1]) - np.maximum(b.win[:, 0], win[0]), 0, None) * np.clip(
+            np.minimum(b.win[:, 3], win[3]) - np.maximum(b.win[:, 2], win[2]), 0, None
+        )
+        j = int(np.argmax(inter))
+        if inter[j] <= 0:
+            raise EstimatorError(f"{self.name}: initial_window overlaps no window of camera {cam!r} in the first frame")
+        area = geo.target_area(Ps[cam], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin)
+        xy = area.origin + 0.5 * (area.s_min + area.s_max) * area.direction
+        states[cam] = CameraState(TRACKING, b.track[j])
+        tg = Target(0, xy, states, sigma=cfg.init_radius)
+        tg.area = area.polygon
+        return tg
+
+    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt) -> None:
+        """One camera: continue tracking cameras' windows, then search for the others."""
+        cfg = self.config
+        claimed: dict[int, int] = {}  # box -> target id
+        idx = {}
+        for tg in targets:
+            cs = tg.cams[c]
+            if cs.status in (TRACKING, UNRELIABLE) and cs.track is not None:
+                hit = np.flatnonzero(boxes.track == cs.track) if len(boxes) else []
+                idx[tg.tid] = int(hit[0]) if len(hit) else None
+        shared = {}
+        for tid, j in idx.items():
+            if j is not None:
+                shared[j] = shared.get(j, 0) + 1
+        searchers = []
+        for tg in targets:
+            cs = tg.cams[c]
+            view = views[tg.tid].get(c)
+            j = idx.get(tg.tid)
+            if view is None:
+                cs.status, cs.track, cs.reason = LOST, None, "out of view"
+                continue
+            if j is None:
+                searchers.append(tg)
+                continue
+            followed[c].add(j)
+            if cs.status == TRACKING:
+                reason = "overlap" if shared[j] > 1 else upd.check_reliable(c, cs, view, boxes, j, dt)
+                if not reason:
+                    claimed[j] = tg.tid
+                    used[tg.tid][c] = j
+                    cs.reason = ""
+                    upd.remember_neighbours(cs, boxes, j)
+                    continue
+                cs.status, cs.reason = UNRELIABLE, reason
+            # unreliable: the followed window is the target alone again only when it is narrow
+            # and separate and where the target should be
+            if (
+                cs.reason in ("overlap", "width")
+                and shared[j] == 1
+                and width_ratio(boxes.width[j], view.w_c) <= cfg.rejoin_width_ratio
+                and np.isfinite(upd.search_costs(c, view, boxes, set(claimed))[j])
+            ):
+                cs.status, cs.reason = TRACKING, ""
+                claimed[j] = tg.tid
+                used[tg.tid][c] = j
+                upd.remember_neighbours(cs, boxes, j)
+                continue
+            if cs.reason in ("overlap", "width"):
+                held[tg.tid].append((c, j))
+            searchers.append(tg)
+        if searchers and len(boxes):
+            blocked = set(claimed)
+            # a window an unreliable camera follows is not the target alone (or not the target)
+            for tg in searchers:
+                j = idx.get(tg.tid)
+                if j is not None and tg.cams[c].status == UNRELIABLE:
+                    blocked.add(j)
+            cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked) for tg in searchers])
+            finite = np.isfinite(cost)
+            if finite.any():
+                r, k = linear_sum_assignment(np.where(finite, cost, 1e6))
+                for i, j in zip(r, k):
+                    if not finite[i, j]:
+                        continue
+                    tg = searchers[i]
+                    cs = tg.cams[c]
+                    cs.status, cs.track, cs.reason = TRACKING, boxes.track[j], ""
+                    used[tg.tid][c] = int(j)
+                    claimed[int(j)] = tg.tid
+                    followed[c].add(int(j))
+                    upd.remember_neighbours(cs, boxes, int(j))
+        for tg in searchers:
+            cs = tg.cams[c]
+            if c in used[tg.tid] or c not in views[tg.tid]:
+                continue
+            if cs.status == UNRELIABLE and idx.get(tg.tid) is not None:
+                continue  # keeps following its window until the target is separated again
+            cs.status, cs.track, cs.reason = LOST, None, ""
+            cs.near = {}
+
+    def _update(self, tg: Target, xy_pred, used, held, frame, upd: TargetUpdater, dt) -> None:
+        cfg = self.config
+        xy, poly, mode, dropped = upd.estimate(tg, xy_pred, dict(used), frame, held)
+        for c in dropped:
+            used.pop(c, None)
+            tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "position"
+        if mode == "predicted":
+            tg.sigma = min(tg.sigma + cfg.sigma_growth * dt, cfg.sigma_max)
+            if tg.area is not None:
+                tg.area = tg.area + (xy - tg.xy)
+            tg.misses_s += dt
+        else:
+            tg.sigma = cfg.sigma_planes
+            tg.area = poly if mode == "area" else None
+            tg.misses_s = 0.0
+            tg.hits += 1
+        tg.xy = np.asarray(xy, float)
+        upd.velocity(tg, tg.xy, used, frame)
+        tg.n_used, tg.mode = len(used), mode
+        if tg.hits >= cfg.confirm_frames:
+            tg.confirmed = True
+
+    def _alive(self, tg: Target) -> bool:
+        if not tg.confirmed:
+            return tg.misses_s == 0.0
+        return tg.misses_s <= self.config.max_lost_s

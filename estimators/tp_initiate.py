@@ -1,0 +1,69 @@
+"""Starting new targets in multi-person mode (beyond the paper: its future work, section 6).
+
+A mover not yet tracked shows as windows no target claims. For every pair of such windows in two
+cameras whose target planes cross at an angle of at least ``min_plane_angle_deg``, the crossing
+point (eq. 6) is a candidate; it is kept only if it lies inside both windows' single-camera target
+areas (section 3.2: depth from the top/bottom rows, width from the edges) and on the floor. Each
+further camera with an unclaimed window that also contains the point (centroid within the
+position tolerance of the projected person model, and the point in its target area) supports it.
+Candidates are taken greedily, most support first, each window used once.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from . import tp_geometry as geo
+from .tp_frames import CameraBoxes
+
+
+def propose(cfg, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room) -> list[tuple[np.ndarray, dict[str, int]]]:
+    """New target positions and the windows (camera -> box index) that support them.
+
+    ``free``: per camera, the indices of boxes no target claims; ``inside_room``: callable
+    telling whether floor points (k, 2) are inside the room.
+    """
+    min_angle = np.radians(cfg.min_plane_angle_deg)
+    planes, areas = {}, {}
+    for c, idx in free.items():
+        b = frame[c]
+        for j in idx:
+            if np.linalg.norm(b.flow[j]) < cfg.mover_flow_px:
+                continue
+            a_, b_ = geo.target_plane(Ps[c], b.u[j], 0.5 * (b.win[j, 2] + b.win[j, 3]))
+            planes[(c, j)] = (a_, b_)
+            areas[(c, j)] = geo.target_area(Ps[c], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin)
+    cands = []
+    keys = list(planes)
+    for k1, k2 in itertools.combinations(keys, 2):
+        if k1[0] == k2[0]:
+            continue
+        A = np.array([planes[k1][0], planes[k2][0]])
+        B = np.array([planes[k1][1], planes[k2][1]])
+        try:
+            xy, _ = geo.intersect_planes(A, B, min_angle)
+        except geo.IllConditioned:
+            continue
+        if not inside_room(xy[None])[0]:
+            continue
+        if not (areas[k1].contains(xy, cfg.consistency_margin) and areas[k2].contains(xy, cfg.consistency_margin)):
+            continue
+        support = {k1[0]: k1[1], k2[0]: k2[1]}
+        for k in keys:
+            if k[0] in support:
+                continue
+            w = geo.cylinder_window(Ps[k[0]], xy, cfg.height, cfg.radius)
+            wc = max(w[1] - w[0], 1.0)
+            if abs(frame[k[0]].u[k[1]] - 0.5 * (w[0] + w[1])) <= cfg.position_tol * wc and areas[k].contains(xy, cfg.consistency_margin):
+                support.setdefault(k[0], k[1])
+        cands.append((len(support), xy, support))
+    cands.sort(key=lambda c: (-c[0], c[1][0], c[1][1]))
+    used: set = set()
+    out = []
+    for n, xy, support in cands:
+        if n < cfg.init_min_cameras or any((c, j) in used for c, j in support.items()):
+            continue
+        used.update(support.items())
+        out.append((xy, support))
+    return out
