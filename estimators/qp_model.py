@@ -3,10 +3,11 @@
 State per time step k (grid t_k = t_0 + k dt, k = 0..T-1): s_k = [u, u', v, v'] = [x, vx, y, vy]
 (metres, m/s). The trajectory X = [s_0; ...; s_{T-1}] has n = 4T entries.
 
-Prior (eqs. 1-3): s_{k+1} = A s_k + nu_k, nu_k ~ N(0, Sigma), with A(dt), Sigma(dt) from
-``scenes.spec.GaussMarkovParams`` (per-second q_pos, q_vel, so the paper's A and
-Sigma_nu = 1e-6 diag(1e-4, 1, 1e-4, 1) at dt = 0.5 s are the defaults and another frame rate means
-the same prior). With W = Sigma^{-1/2} the whitened prior residual is
+Prior (eqs. 1-3): s_{k+1} = A s_k + nu_k, nu_k ~ N(0, Sigma), with A(dt) from
+``scenes.spec.GaussMarkovParams`` and Sigma(dt) from its per-second q_pos, q_vel
+(``process_covariance``: the paper's A and Sigma_nu = 1e-6 diag(1e-4, 1, 1e-4, 1) at dt = 0.5 s
+are the default q; the "exact" discretisation makes another frame rate mean the same prior).
+With W = Sigma^{-1/2} (inverse Cholesky factor) the whitened prior residual is
 
     r_p(X) = G X - g,   rows k = 1..T-1:  W (A s_{k-1} - s_k)            (eq. 3)
                         first state:      W_0 (s_0 - m_0)    (a weak prior, N(m_0, W_0^{-2}))
@@ -44,6 +45,30 @@ NS = 4  # state size per step
 IX, IVX, IY, IVY = 0, 1, 2, 3
 
 
+DISCRETISATIONS = ("exact", "paper")
+
+
+def process_covariance(params: GaussMarkovParams, dt: float, kind: str = "exact") -> np.ndarray:
+    """Sigma(dt) of one step of dt seconds, state [x, vx, y, vy].
+
+    "paper": diag(q_pos dt, q_vel dt) per axis (``GaussMarkovParams.Sigma``; at dt = 0.5 s and the
+    default q this is the paper's Sigma_nu = 1e-6 diag(1e-4, 1)). It does not compose: n steps of
+    dt/n give a position variance that grows like q_vel dt^3 / 3, which this ignores, so a walker
+    simulated at 100 Hz is far from this prior at 4 Hz.
+    "exact": the covariance of the continuous-time model dx = v dt + sqrt(q_pos) dW_1,
+    dv = sqrt(q_vel) dW_2 over dt, per axis [[q_pos dt + q_vel dt^3 / 3, q_vel dt^2 / 2],
+    [q_vel dt^2 / 2, q_vel dt]]. It composes exactly over sub-steps, so it is the same prior at
+    every frame rate (and the matched prior of a Gauss-Markov walker simulated at a finer rate).
+    """
+    if kind == "paper":
+        return params.Sigma(dt)
+    if kind != "exact":
+        raise ValueError(f"discretisation must be one of {DISCRETISATIONS}, got {kind!r}")
+    qp, qv = params.q_pos, params.q_vel
+    block = np.array([[qp * dt + qv * dt**3 / 3.0, qv * dt**2 / 2.0], [qv * dt**2 / 2.0, qv * dt]])
+    return np.kron(np.eye(2), block)
+
+
 def pos_index(T: int) -> tuple[np.ndarray, np.ndarray]:
     """Indices of x and y of every step in X."""
     k = np.arange(T) * NS
@@ -66,20 +91,24 @@ class Prior:
         params: GaussMarkovParams,
         first_mean=(0.0, 0.0, 0.0, 0.0),
         first_sigma=(100.0, 10.0, 100.0, 10.0),
+        discretisation: str = "exact",
     ) -> "Prior":
         """Build G (eq. 3) for T steps of dt seconds, plus the weak first-state prior.
 
         first_sigma: standard deviations (m, m/s, m, m/s) of the first state about first_mean.
+        discretisation: how Sigma(dt) follows from the per-second q (``process_covariance``).
+        W = L^{-1} with Sigma = L L^T, so that W^T W = Sigma^{-1}.
         """
         if T < 1:
             raise ValueError(f"need at least one time step, got T={T}")
         if not dt > 0:
             raise ValueError(f"time step must be positive, got dt={dt}")
         A = params.A(dt)
-        sig = np.diag(params.Sigma(dt))
-        if np.any(sig <= 0):
+        Sig = process_covariance(params, dt, discretisation)
+        if np.any(np.diag(Sig) <= 0) or params.q_vel <= 0:
             raise ValueError(f"process noise must be positive, got q_pos={params.q_pos}, q_vel={params.q_vel}")
-        W = np.diag(1.0 / np.sqrt(sig))
+        W = np.linalg.inv(np.linalg.cholesky(Sig))
+        W[np.abs(W) < 1e-300] = 0.0
         W0 = np.diag(1.0 / np.asarray(first_sigma, float))
         WA = W @ A
         nb = T - 1

@@ -27,7 +27,7 @@ from scenes.spec import GaussMarkovParams
 from sim.recording import Calibration, Observations
 
 from .base import Estimator, EstimatorError, check_tracks, register
-from .qp_model import IVX, IVY, IX, IY, NS, Bearings, Prior
+from .qp_model import DISCRETISATIONS, IVX, IVY, IX, IY, NS, Bearings, Prior
 from .qp_solver import SolveResult, SolverSettings, solve_map
 from .qp_walls import is_convex, make_box_constraints, outline_halfplanes
 
@@ -46,7 +46,9 @@ class QPSmoother(Estimator):
     @dataclasses.dataclass
     class Config:
         """q_pos, q_vel: Gauss-Markov process noise per second (m^2/s, m^2/s^3); the defaults are
-        the paper's Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s step. sigma_px: bearing noise (px;
+        the paper's Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s step. discretisation: "exact"
+        (continuous-time, the same prior at any frame rate) or "paper" (diag(q_pos dt, q_vel dt));
+        see ``qp_model.process_covariance``. sigma_px: bearing noise (px;
         None: the calibration's ``bearing_sigma_px``). constraints: field-of-view constraints
         (eq. 9) with ``margin`` (m). walls: floor-plan constraints (``qp_walls``) with
         ``wall_margin`` (m, clearance from the wall surface) and ``wall_reach`` (m).
@@ -62,6 +64,7 @@ class QPSmoother(Estimator):
 
         q_pos: float = 2e-10
         q_vel: float = 2e-6
+        discretisation: str = "exact"
         sigma_px: float | None = None
         constraints: bool = True
         margin: float = 0.2
@@ -85,6 +88,8 @@ class QPSmoother(Estimator):
         c = self.config
         if c.init not in INITS:
             raise EstimatorError(f"qp_smoother: init must be one of {INITS}, got {c.init!r}")
+        if c.discretisation not in DISCRETISATIONS:
+            raise EstimatorError(f"qp_smoother: discretisation must be one of {DISCRETISATIONS}, got {c.discretisation!r}")
         if c.span not in SPANS:
             raise EstimatorError(f"qp_smoother: span must be one of {SPANS}, got {c.span!r}")
         for key in ("q_pos", "q_vel", "first_pos_sigma", "first_vel_sigma", "init_depth", "eps"):
@@ -151,6 +156,7 @@ class QPSmoother(Estimator):
         prior = Prior.build(
             T, dt, GaussMarkovParams(c.q_pos, c.q_vel), first_mean=(centre[0], 0.0, centre[1], 0.0),
             first_sigma=(c.first_pos_sigma, c.first_vel_sigma, c.first_pos_sigma, c.first_vel_sigma),
+            discretisation=c.discretisation,
         )
         obs = Bearings.from_arrays(k, cam_names, u, cameras, sigma, z_h=c.person_height)
         n = NS * T

@@ -141,18 +141,25 @@ def trajectory_crb(
     q_vel: float,
     first_sigma=(100.0, 10.0, 100.0, 10.0),
     z_h: float = 0.9,
+    discretisation: str = "exact",
 ) -> TrajectoryCRB:
     """The bound for a true path xy_true (T, 2) on a grid of step dt (s), observed at steps k by
     cameras cam_names (one entry per observation), with the Gauss-Markov prior (q_pos, q_vel per
-    second: Q = diag(q_pos dt, q_vel dt, q_pos dt, q_vel dt)) and the weak first-state prior
-    N(m_0, diag(first_sigma)^2) the estimator uses."""
+    second; discretisation "paper": Q = diag(q_pos dt, q_vel dt) per axis, "exact": the
+    continuous-time model's [[q_pos dt + q_vel dt^3/3, q_vel dt^2/2], [q_vel dt^2/2, q_vel dt]])
+    and the weak first-state prior N(m_0, diag(first_sigma)^2) the estimator uses."""
     xy_true = np.asarray(xy_true, float)
     T = len(xy_true)
     k = np.asarray(k, int)
     if len(k) and (k.min() < 0 or k.max() >= T):
         raise ValueError(f"observation steps outside 0..{T - 1}")
     A = np.kron(np.eye(2), np.array([[1.0, dt], [0.0, 1.0]]))
-    Q = np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
+    if discretisation == "paper":
+        Q = np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
+    elif discretisation == "exact":
+        Q = np.kron(np.eye(2), [[q_pos * dt + q_vel * dt**3 / 3, q_vel * dt**2 / 2], [q_vel * dt**2 / 2, q_vel * dt]])
+    else:
+        raise ValueError(f"discretisation must be 'exact' or 'paper', got {discretisation!r}")
     P0 = np.diag(np.asarray(first_sigma, float) ** 2)
     H = bearing_jacobians(cameras, cam_names, xy_true[k], z_h) if len(k) else np.zeros((0, 4))
     cov = smoothed_covariances(A, Q, P0, T, k, H, sigma_px)
