@@ -71,7 +71,7 @@ class TargetPlanes(Estimator):
         initial_xy: list | None = None  # target's floor position at the first frame (m)
         initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
         multi_person: bool = False  # track every mover (beyond the paper)
-        height: float = 1.75  # person model: cylinder height (m); use the tallest person's
+        height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
         radius: float = 0.2  # cylinder radius (m)
         min_plane_angle_deg: float = 12.0  # planes closer than this to parallel are not intersected
         width_ratio_threshold: float = 1.0  # eq. 8
@@ -87,7 +87,8 @@ class TargetPlanes(Estimator):
         mover_flow_px: float = 8.0  # a window with less flow (px/s) is no mover
         velocity_smoothing: float = 0.6  # weight of the new eq. 7 velocity against the previous one
         max_speed: float = 3.0  # m/s
-        area_margin: float = 0.05  # window noise allowance on target areas (m)
+        area_margin: float = 0.05  # allowance on target areas (m)
+        window_margin_px: float = 1.0  # allowance on windows (px), plus 3 sigma of the calibrated window noise
         consistency_margin: float = 0.15  # a plane intersection may lie this far outside a camera's area (m)
         intersect_areas: bool = True  # section 5: intersect the target areas of all tracking cameras
         init_radius: float = 0.5  # uncertainty (m) of the hand-given initial position
@@ -124,7 +125,7 @@ class TargetPlanes(Estimator):
         # flow noise (px/s) of each camera's averaged window flow, from the calibrated window noise
         sigma_px = float(calibration.noise.get("box_sigma_px", 0.0) or 0.0)
         flow_sigma = {c: sigma_px * calibration.cameras[c].fps / np.sqrt(cfg.flow_window) for c in cams}
-        upd = TargetUpdater(cfg, Ps, flow_sigma)
+        upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px)
         inside_room = calibration.floorplan.inside
 
         targets: list[Target] = []
@@ -153,7 +154,7 @@ class TargetPlanes(Estimator):
             if cfg.multi_person:
                 claimed = {c: set(followed[c]) | {j for u in used.values() for cc, j in u.items() if cc == c} for c in cams}
                 free = {c: [j for j in range(len(frame[c])) if j not in claimed[c]] for c in cams}
-                for xy, support in propose(cfg, Ps, frame, free, inside_room):
+                for xy, support in propose(cfg, upd.margin_px, Ps, frame, free, inside_room):
                     tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=cfg.sigma_planes)
                     next_id += 1
                     for c, j in support.items():
@@ -255,10 +256,12 @@ class TargetPlanes(Estimator):
             searchers.append(tg)
         if searchers and len(boxes):
             blocked = set(claimed)
-            # a window an unreliable camera follows is not the target alone (or not the target)
+            # a window that overlapped (or outgrew, eq. 8) is not the target alone; it can only
+            # come back by the rejoin test above. A window that failed the position test may be
+            # taken again: the position test of the estimate judges it anew.
             for tg in searchers:
                 j = idx.get(tg.tid)
-                if j is not None and tg.cams[c].status == UNRELIABLE:
+                if j is not None and tg.cams[c].reason in ("overlap", "width"):
                     blocked.add(j)
             cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked) for tg in searchers])
             finite = np.isfinite(cost)

@@ -198,6 +198,7 @@ def target_area(
     radius: float,
     max_range: float = 30.0,
     margin: float = 0.0,
+    margin_px: float = 0.0,
 ) -> TargetArea:
     """Single-camera target area from one window ``box = (u, u_left, u_right, v_top, v_bottom)``.
 
@@ -216,10 +217,14 @@ def target_area(
     through the left edge. The two boundary lines are those planes moved r inwards; the area is
     between them. (The same two lines bound a window wider than the person - a merged window -
     on the far side of their crossing, so the convex hull of both is taken: a conservative area.)
-    ``margin`` (m) widens every boundary outwards (window noise).
+    ``margin`` (m) widens every boundary outwards; ``margin_px`` allows for window noise in the
+    image first (near head height a pixel of v_top is a large depth change, so the allowance
+    belongs in the image): every bound above holds for the true window, which may be up to
+    ``margin_px`` *inside* the measured one on each side, so the window is shrunk by it.
     """
     P = np.asarray(P, float)
     u, ul, ur, vt, vb = (float(v) for v in box)
+    ul, ur, vt, vb = ul + margin_px, ur - margin_px, vt + margin_px, vb - margin_px
     vm = 0.5 * (vt + vb)
     c = camera_centre(P)
     o = c[:2]

@@ -18,10 +18,10 @@ from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
 
-def propose(cfg, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room) -> list[tuple[np.ndarray, dict[str, int]]]:
+def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room) -> list[tuple[np.ndarray, dict[str, int]]]:
     """New target positions and the windows (camera -> box index) that support them.
 
-    ``free``: per camera, the indices of boxes no target claims; ``inside_room``: callable
+    ``margin_px``: the target areas' allowance for window noise (px); ``free``: per camera, the indices of boxes no target claims; ``inside_room``: callable
     telling whether floor points (k, 2) are inside the room.
     """
     min_angle = np.radians(cfg.min_plane_angle_deg)
@@ -33,7 +33,7 @@ def propose(cfg, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free:
                 continue
             a_, b_ = geo.target_plane(Ps[c], b.u[j], 0.5 * (b.win[j, 2] + b.win[j, 3]))
             planes[(c, j)] = (a_, b_)
-            areas[(c, j)] = geo.target_area(Ps[c], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin)
+            areas[(c, j)] = geo.target_area(Ps[c], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=margin_px)
     cands = []
     keys = list(planes)
     for k1, k2 in itertools.combinations(keys, 2):

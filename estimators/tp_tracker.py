@@ -88,8 +88,9 @@ class Target:
 class TargetUpdater:
     """The per-frame logic for targets, configured once from the estimator's Config."""
 
-    def __init__(self, cfg, Ps: dict[str, np.ndarray], flow_sigma: dict[str, float] | None = None):
+    def __init__(self, cfg, Ps: dict[str, np.ndarray], flow_sigma: dict[str, float] | None = None, window_sigma_px: float = 0.0):
         self.cfg = cfg
+        self.margin_px = cfg.window_margin_px + 3.0 * window_sigma_px  # target-area allowance for window noise
         self.Ps = Ps
         self.flow_sigma = flow_sigma or {}
         self.min_angle = np.radians(cfg.min_plane_angle_deg)
@@ -207,7 +208,7 @@ class TargetUpdater:
         """
         cfg = self.cfg
         dropped: list[str] = []
-        areas = {c: geo.target_area(self.Ps[c], frame[c].box(j), cfg.height, cfg.radius, margin=cfg.area_margin) for c, j in used.items()}
+        areas = {c: geo.target_area(self.Ps[c], frame[c].box(j), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=self.margin_px) for c, j in used.items()}
         while len(used) >= 2:
             try:
                 xy, out = self._solve(used, frame, areas, xy_pred)
@@ -238,7 +239,7 @@ class TargetUpdater:
         polys = [areas[c].polygon for c in used]
         best = min(used, key=lambda c: areas[c].s_max - areas[c].s_min)
         if cfg.intersect_areas:
-            polys += [geo.target_area(self.Ps[c], frame[c].box(j), cfg.height, cfg.radius, margin=cfg.area_margin).polygon for c, j in unreliable_areas]
+            polys += [geo.target_area(self.Ps[c], frame[c].box(j), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=self.margin_px).polygon for c, j in unreliable_areas]
             inter = geo.intersect_areas(polys) if len(polys) > 1 else polys[0]
             if inter is None:
                 inter = areas[best].polygon
