@@ -56,7 +56,6 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
-from scipy.special import logsumexp
 
 from sim.recording import Calibration, Observations
 
@@ -114,6 +113,10 @@ class HMMMatcher(Estimator):
         kappa_max: float = 100.0  # cap on the camera heading concentration
         heading_window_s: float = 0.25  # magnetometer averaging window, s
         newcomer_density: float = 0.01  # 1/m^2: prior weight of "a new person" at a segment birth
+        birth_sigma_m: float = 0.3  # continuity std between an ended segment and a new one at zero gap, m
+        gap_speed: float = -1.0  # growth of that std per second of gap, m/s; < 0: automatic (the
+        # privacy camera's still_speed when a privacy camera is present, as an unseen person there
+        # is standing, else a walking speed of 1 m/s)
         # assignment
         llr_min: float = 2.0  # log Omega_min: least log-likelihood ratio for an assignment
 
@@ -128,10 +131,11 @@ class HMMMatcher(Estimator):
         if not len(imu):
             raise EstimatorError("hmm_matcher: no IMU samples")
         gait = GaitModel.from_json(cfg.gait_model) if cfg.gait_model else load_default()
+        privacy = any(c.privacy for c in calibration.cameras_of_kind("overhead").values())
         segs = self.track(det, calibration, observations.duration)
         field_world = calibration.noise.get("magnetic_field", (0.0, -0.5, 0.0))
         phones = phone_features(imu, segs.frame_times, gait, field_world, cfg.heading_window_s)
-        assigned = self.match(segs, phones, gait)
+        assigned = self.match(segs, phones, gait, privacy)
         rows = segs.rows
         phone = np.array([phones.phone_ids[a] if a >= 0 else "" for a in assigned], dtype=object)
         track_id = np.where(assigned >= 0, phone, np.char.add("anon", rows["segment"].to_numpy().astype(str)))
@@ -150,8 +154,13 @@ class HMMMatcher(Estimator):
         quantum = max((c.quantum for c in cams.values() if c.privacy), default=0.0)
         # quantisation adds a uniform error of variance quantum^2 / 12 per axis
         sigma_eff = max(np.sqrt(sigma**2 + quantum**2 / 12.0), cfg.sigma_floor_m)
+        gap_speed = cfg.gap_speed
+        if gap_speed < 0:
+            privacy = any(c.privacy for c in cams.values())
+            gap_speed = float(calibration.noise.get("still_speed", 0.1)) if privacy else 1.0
         return TrackerConfig(sigma_m=sigma_eff, q=cfg.accel_q, gate_m=cfg.gate_m, max_missed_s=cfg.max_missed_s,
-                             r_enter=cfg.r_enter, r_exit=cfg.r_exit, velocity_window_s=cfg.velocity_window_s)
+                             r_enter=cfg.r_enter, r_exit=cfg.r_exit, velocity_window_s=cfg.velocity_window_s,
+                             sigma_birth=cfg.birth_sigma_m, speed_max=gap_speed, newcomer_density=cfg.newcomer_density)
 
     def track(self, det: pd.DataFrame, calibration: Calibration, duration: float) -> Segments:
         cams = calibration.cameras_of_kind("overhead")
@@ -185,66 +194,100 @@ class HMMMatcher(Estimator):
         return w * cam, w * ph, w * joint
 
     # --- 3-5. recursion, carrying, assignment -------------------------------------------------
-    def match(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel) -> np.ndarray:
-        """Phone index assigned to every tracker row (-1: none)."""
+    def match(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel, privacy: bool = False) -> np.ndarray:
+        """Phone index assigned to every tracker row (-1: none). ``privacy``: the cameras miss
+        people standing still, so a gap in a track is evidence that its person stood."""
         cfg = self.config
         rows = segs.rows
-        N, P, S = len(rows), len(phones.phone_ids), segs.n_segments
+        N, P = len(rows), len(phones.phone_ids)
         assigned = np.full(N, -1, np.int64)
         if N == 0 or P == 0:
             return assigned
-        e_cam, e_ph, e_joint = self.emissions(segs, phones, gait)
+        own = self.segment_llr(segs, phones, gait)
+        still = None
+        if privacy:
+            # unseen by a privacy camera = standing: per-frame log p(g | stopped) / p(g), cumulated
+            ll = gait.loglik(phones.g)
+            per_frame = self.config.evidence_weight * (ll[..., 0] - np.logaddexp(ll[..., 0], ll[..., 1]) + np.log(2.0))
+            still = np.concatenate([np.zeros((1, P)), np.cumsum(per_frame, axis=0)])
+        total = own + self.carried_evidence(segs, own, still)[rows["segment"].to_numpy()]
+        # eq. 21 with Omega_min, frame by frame: maximise sum(LLR - log Omega_min) over pairs,
+        # with one zero-score "no phone" column per row, so a pair below Omega_min is never taken
         frame = rows["frame"].to_numpy()
-        seg = rows["segment"].to_numpy()
-        start = segs.info["start_frame"].to_numpy()
-        dt = float(np.median(np.diff(segs.frame_times))) if len(segs.frame_times) > 1 else 0.05
-        p_sw = min(dt / cfg.switch_s, 0.5)
-        logT = np.log(np.array([[1 - p_sw, p_sw], [p_sw, 1 - p_sw]]))  # [s', s]
-        log_prior = np.log(0.5)
-
-        Vj = np.zeros((S, P, 2)); Vt = np.zeros((S, 2)); Vp = np.zeros((S, P, 2))
-        Lam = np.zeros((S, P)); llr = np.zeros((S, P))
         bounds = np.searchsorted(frame, np.arange(len(segs.frame_times) + 1))
-        zeros_dummy = None
-        for k in range(len(segs.frame_times)):
+        score_all = total - cfg.llr_min
+        useful = (score_all > 0).any(axis=1)
+        dummy = np.zeros((64, 64))
+        for k in np.unique(frame[useful]):  # frames where some pair clears Omega_min
             r0, r1 = bounds[k], bounds[k + 1]
-            if r0 == r1:
-                continue
-            sk = seg[r0:r1]
-            new = start[sk] == k
-            old = ~new
-            if new.any():
-                sn = sk[new]
-                for n in sn:
-                    Lam[n] = self.inherit(int(n), segs, llr)
-                Vj[sn] = log_prior + e_joint[r0:r1][new]
-                Vt[sn] = log_prior + e_cam[r0:r1][new]
-                Vp[sn] = log_prior + e_ph[k][None]
-            if old.any():
-                so = sk[old]
-                Vj[so] = e_joint[r0:r1][old] + (Vj[so][..., :, None] + logT).max(axis=-2)
-                Vt[so] = e_cam[r0:r1][old] + (Vt[so][..., :, None] + logT).max(axis=-2)
-                Vp[so] = e_ph[k][None] + (Vp[so][..., :, None] + logT).max(axis=-2)
-            L = Lam[sk] + Vj[sk].max(-1) - Vt[sk].max(-1)[:, None] - Vp[sk].max(-1)
-            llr[sk] = L
-            # eq. 21 with Omega_min: maximise sum(LLR - llr_min), a zero-score "no phone" per row
-            R = len(sk)
-            if zeros_dummy is None or zeros_dummy.shape[0] < R:
-                zeros_dummy = np.zeros((max(R, 16), max(R, 16)))
-            score = np.concatenate([L - cfg.llr_min, zeros_dummy[:R, :R]], axis=1)
+            R = r1 - r0
+            if R > len(dummy):
+                dummy = np.zeros((R, R))
+            score = np.concatenate([score_all[r0:r1], dummy[:R, :R]], axis=1)
             ri, ci = linear_sum_assignment(score, maximize=True)
-            ok = (ci < P) & (score[ri, np.minimum(ci, score.shape[1] - 1)] > 0)
+            ok = ci < P
             assigned[r0 + ri[ok]] = ci[ok]
         return assigned
 
-    def inherit(self, n: int, segs: Segments, llr: np.ndarray) -> np.ndarray:
-        """Lambda(n, .) = log sum_e w(n|e)/W exp(LLR(e, .)), with a newcomer option of LLR 0."""
-        preds = segs.predecessors.get(n)
-        P = llr.shape[1]
-        if not preds:
-            return np.zeros(P)
-        e = np.array([p[0] for p in preds])
-        w = np.array([p[1] for p in preds] + [self.config.newcomer_density])
-        logw = np.log(w / w.sum())
-        terms = np.concatenate([llr[e], np.zeros((1, P))], axis=0) + logw[:, None]
-        return logsumexp(terms, axis=0)
+    def segment_llr(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel) -> np.ndarray:
+        """log L_MAP(h, i) - log L_MAP(h) - log L_MAP(i) at every row of every segment (N, P).
+
+        Max-product recursion over the walking state s (eqs. 19-20), for the joint (segment,
+        phone) hypotheses, the segment alone and each phone alone, side by side as 2P + 1
+        channels; one array step per camera frame over the rows alive in it:
+            V_k(s) = e_k(s) + max_s' [V_{k-1}(s') + log p(s | s')],   V_0(s) = log 1/2 + e_0(s).
+        """
+        cfg = self.config
+        rows = segs.rows
+        N, P = len(rows), len(phones.phone_ids)
+        e_cam, e_ph, e_joint = self.emissions(segs, phones, gait)
+        frame = rows["frame"].to_numpy()
+        seg = rows["segment"].to_numpy()
+        E = np.concatenate([e_joint, e_cam[:, None, :], e_ph[frame]], axis=1)  # (N, 2P+1, 2)
+        dt = float(np.median(np.diff(segs.frame_times))) if len(segs.frame_times) > 1 else 0.05
+        p_sw = min(dt / cfg.switch_s, 0.5)
+        stay, switch = np.log1p(-p_sw), np.log(p_sw)
+        first = (segs.info["start_frame"].to_numpy()[seg] == frame)[:, None, None]
+        E = E + np.where(first, np.log(0.5), 0.0)
+        V = np.zeros((segs.n_segments,) + E.shape[1:])  # latest V of every segment
+        out = np.empty_like(E)
+        bounds = np.searchsorted(frame, np.arange(len(segs.frame_times) + 1))
+        for k in np.flatnonzero(np.diff(bounds)):
+            r0, r1 = bounds[k], bounds[k + 1]
+            sk = seg[r0:r1]
+            prev = V[sk]
+            best = np.maximum(prev + stay, prev[..., ::-1] + switch)  # max over s' for each s
+            v = E[r0:r1] + np.where(first[r0:r1], 0.0, best)
+            V[sk] = v
+            out[r0:r1] = v
+        L = out.max(axis=-1)
+        return L[:, :P] - L[:, P:P + 1] - L[:, P + 1:]
+
+    def carried_evidence(self, segs: Segments, own: np.ndarray, still: np.ndarray | None = None) -> np.ndarray:
+        """Lambda (S, P): evidence each segment inherits at its birth (module docstring, item 4).
+
+        Segment ids grow with the birth frame, and a predecessor always ended before its
+        successor was born, so one pass in id order sees every predecessor's final LLR.
+        ``still`` (F + 1, P), with privacy cameras: cumulative per-frame log-likelihood ratio that
+        the phone was standing; a person unseen between e and n was standing, so the frames of
+        that gap add  sum_k log p(g_k | stopped) / p(g_k)  to the hypothesis "n continues e".
+        """
+        start = segs.info["start_frame"].to_numpy()
+        end = segs.info["end_frame"].to_numpy()
+        S, P = segs.n_segments, own.shape[1]
+        seg = segs.rows["segment"].to_numpy()
+        last_row = np.full(S, -1)
+        last_row[seg] = np.arange(len(seg))  # rows are in time order: the last write wins
+        lam = np.zeros((S, P))
+        w0 = self.config.newcomer_density
+        for n in sorted(segs.predecessors):
+            preds = segs.predecessors[n]
+            e = np.array([p[0] for p in preds])
+            w = np.array([p[1] for p in preds] + [w0])
+            carried = lam[e] + own[last_row[e]]
+            if still is not None:
+                carried = carried + still[np.maximum(start[n], end[e] + 1)] - still[end[e] + 1]
+            terms = np.concatenate([carried, np.zeros((1, P))]) + np.log(w / w.sum())[:, None]
+            m = terms.max(axis=0)
+            lam[n] = m + np.log(np.exp(terms - m).sum(axis=0))  # log-sum-exp over predecessors
+        return lam

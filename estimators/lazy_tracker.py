@@ -21,7 +21,9 @@ segment, the segments that ended shortly before near it with a continuity weight
 
     w(n | e) = N( p_n ; p_e + v_e min(gap, coast_s),  (sigma_birth + speed_max gap)^2 I ),
 
-gap = t_n - t_e (s). The matcher uses them to carry identity evidence across breaks.
+gap = t_n - t_e (s), for ended segments within 3 standard deviations. An ended segment that takes
+more than half of a birth's weight (against the others and a ``newcomer_density``) is consumed.
+The matcher uses them to carry identity evidence across breaks.
 """
 from __future__ import annotations
 
@@ -50,6 +52,7 @@ class TrackerConfig:
     coast_s: float = 1.0  # longest constant-velocity extrapolation of an ended segment, s
     sigma_birth: float = 0.3  # continuity std at zero gap, m
     speed_max: float = 1.0  # growth of the continuity std with the gap, m/s
+    newcomer_density: float = 0.01  # 1/m^2: weight of "someone new" against the continuity densities
 
     def __post_init__(self):
         if not self.r_exit >= self.r_enter > 0:
@@ -101,166 +104,173 @@ def frames_from_detections(det: pd.DataFrame, fps: float, duration: float | None
 
 def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray, y: np.ndarray,
                    cfg: TrackerConfig = TrackerConfig()) -> Segments:
-    """Run the lazy tracker over detections grouped by frame (see module docstring)."""
+    """Run the lazy tracker over detections grouped by frame (see module docstring).
+
+    The loop over frames is the only sequential part; within a frame everything is an array
+    operation over tracks, and births, deaths and cuts (rare) are handled off the common path.
+    """
     F = len(frame_times)
     bounds = np.searchsorted(frame_idx, np.arange(F + 1))
+    Z = np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1)
     R = max(cfg.sigma_m, 0.02) ** 2  # an ideal camera still gets a small floor, for stable gains
     q = cfg.q
+    P0 = np.array([R, 0.0, cfg.init_speed_sigma**2])
 
-    # live track arrays
-    pos = np.zeros((0, 2)); vel = np.zeros((0, 2)); P = np.zeros((0, 3))  # P = [ppp, ppv, pvv]
+    # live track arrays; P = [ppp, ppv, pvv] per track (shared by the x and y axes)
+    pos = np.zeros((0, 2)); vel = np.zeros((0, 2)); P = np.zeros((0, 3))
     last_t = np.zeros(0); seg = np.zeros(0, np.int64)
     pending = np.zeros(0, bool)  # a cut decided while the track was not seen, applied when it is
     linked = np.zeros((0, 0), bool)
 
     out_frame, out_seg, out_state, out_z = [], [], [], []
-    info: list[dict] = []
+    start_frame: list[int] = []
+    end_state: list[tuple] = []  # per segment: (t, x, y, vx, vy) when it ended (or the last seen)
+    end_reason: list[str] = []
     predecessors: dict[int, list[tuple[int, float]]] = {}
     ended: list[int] = []  # ended segments still eligible as predecessors
 
     def new_segment(k: int) -> int:
-        info.append(dict(start_frame=k, end_frame=k, start_t=frame_times[k], end_t=frame_times[k],
-                         end_x=np.nan, end_y=np.nan, end_vx=0.0, end_vy=0.0, end_reason="end"))
-        return len(info) - 1
+        start_frame.append(k); end_state.append(None); end_reason.append("end")
+        return len(start_frame) - 1
 
-    def end_segment(s: int, reason: str) -> None:
-        info[s]["end_reason"] = reason
+    def end_segment(a: int, reason: str, t_end: float) -> None:
+        s = int(seg[a])
+        end_reason[s] = reason
+        end_state[s] = (t_end, pos[a, 0], pos[a, 1], vel[a, 0], vel[a, 1])
         ended.append(s)
 
-    def link_births(k: int, births: list[int], births_xy: np.ndarray) -> None:
-        t = frame_times[k]
-        keep = []
-        for e in ended:
-            if t - info[e]["end_t"] <= cfg.carry_s:
-                keep.append(e)
-        ended[:] = keep
-        if not keep or not births:
+    def link_births(t: float, births: list[int], births_xy: np.ndarray) -> None:
+        ended[:] = [e for e in ended if t - end_state[e][0] <= cfg.carry_s]
+        if not ended or not births:
             return
-        e_arr = np.array(keep)
-        ex = np.array([[info[e]["end_x"], info[e]["end_y"]] for e in keep])
-        ev = np.array([[info[e]["end_vx"], info[e]["end_vy"]] for e in keep])
-        gap = t - np.array([info[e]["end_t"] for e in keep])
-        pred = ex + ev * np.minimum(gap, cfg.coast_s)[:, None]
+        e_arr = np.array(ended)
+        st = np.array([end_state[e] for e in ended])
+        gap = t - st[:, 0]
+        pred = st[:, 1:3] + st[:, 3:5] * np.minimum(gap, cfg.coast_s)[:, None]
         sd = cfg.sigma_birth + cfg.speed_max * gap
         d2 = ((births_xy[:, None, :] - pred[None]) ** 2).sum(-1)
         dens = np.exp(-0.5 * d2 / sd**2) / (2 * np.pi * sd**2)
+        near = d2 <= (3 * sd) ** 2
+        taken = np.zeros(len(e_arr), bool)
         for b, n in enumerate(births):
-            near = dens[b] > 1e-6 * dens[b].max() if dens[b].max() > 0 else np.zeros(len(keep), bool)
-            near &= d2[b] <= (4 * sd) ** 2
-            if near.any():
-                predecessors[n] = [(int(e), float(w)) for e, w in zip(e_arr[near], dens[b][near])]
+            if near[b].any():
+                predecessors[n] = [(int(e), float(w)) for e, w in zip(e_arr[near[b]], dens[b][near[b]])]
+                # an ended segment that clearly continues as this birth is no candidate for later ones
+                taken |= near[b] & (dens[b] > 0.5 * (dens[b][near[b]].sum() + cfg.newcomer_density))
+        if taken.any():
+            ended[:] = [e for e, tk in zip(ended, taken) if not tk]
 
     for k in range(F):
         t = frame_times[k]
-        z = np.stack([x[bounds[k]:bounds[k + 1]], y[bounds[k]:bounds[k + 1]]], axis=1)
-        A = len(pos)
-        # 1. predict
-        dt = t - last_t
-        ppp, ppv, pvv = P[:, 0], P[:, 1], P[:, 2]
-        Pp = np.stack([ppp + 2 * dt * ppv + dt**2 * pvv + q * dt**3 / 3, ppv + dt * pvv + q * dt**2 / 2, pvv + q * dt], axis=1)
-        pred = pos + vel * dt[:, None]
-        # 2. associate
-        ti = np.zeros(0, np.int64); di = np.zeros(0, np.int64)
-        if A and len(z):
-            d = np.sqrt(((pred[:, None, :] - z[None]) ** 2).sum(-1))
-            cost = np.where(d <= cfg.gate_m, d, 1e6)
-            ti, di = linear_sum_assignment(cost)
-            ok = cost[ti, di] < 1e6
-            ti, di = ti[ok], di[ok]
-        # update matched tracks
-        if len(ti):
-            S = Pp[ti, 0] + R
-            Kp, Kv = Pp[ti, 0] / S, Pp[ti, 1] / S
-            r = z[di] - pred[ti]
-            pos[ti] = pred[ti] + Kp[:, None] * r
-            vel[ti] = vel[ti] + Kv[:, None] * r
-            P[ti] = np.stack([(1 - Kp) * Pp[ti, 0], (1 - Kp) * Pp[ti, 1], Pp[ti, 2] - Kv * Pp[ti, 1]], axis=1)
-            last_t[ti] = t
+        z = Z[bounds[k]:bounds[k + 1]]
+        nz, A = len(z), len(pos)
+        zi = np.full(A, -1)
+        matched = np.zeros(nz, bool)
+        if A:
+            # 1. predict
+            dt = t - last_t
+            Pp = np.stack([P[:, 0] + 2 * dt * P[:, 1] + dt**2 * P[:, 2] + q * dt**3 / 3,
+                           P[:, 1] + dt * P[:, 2] + q * dt**2 / 2, P[:, 2] + q * dt], axis=1)
+            pred = pos + vel * dt[:, None]
+            if nz:
+                # 2. associate (gated Hungarian on distance) and update
+                d = np.sqrt(((pred[:, None, :] - z[None]) ** 2).sum(-1))
+                cost = np.where(d <= cfg.gate_m, d, 1e6)
+                ti, di = linear_sum_assignment(cost)
+                ok = cost[ti, di] < 1e6
+                ti, di = ti[ok], di[ok]
+                S = Pp[ti, 0] + R
+                Kp, Kv = Pp[ti, 0] / S, Pp[ti, 1] / S
+                r = z[di] - pred[ti]
+                pos[ti] = pred[ti] + Kp[:, None] * r
+                vel[ti] = vel[ti] + Kv[:, None] * r
+                P[ti] = np.stack([(1 - Kp) * Pp[ti, 0], (1 - Kp) * Pp[ti, 1], Pp[ti, 2] - Kv * Pp[ti, 1]], axis=1)
+                last_t[ti] = t
+                zi[ti] = di
+                matched[di] = True
         # 3. end tracks missed too long
+        cut = pending
         alive = t - last_t <= cfg.max_missed_s + 1e-9
-        cut = pending.copy()
-        for a in np.flatnonzero(~alive):
-            end_segment(int(seg[a]), "missed")
-            # a track vanishing next to others leaves a static ambiguity: cut its partners
-            cut |= linked[a] & alive
+        if not alive.all():
+            cut = cut.copy()
+            for a in np.flatnonzero(~alive):
+                end_segment(a, "missed", last_t[a])
+                cut |= linked[a] & alive  # a track vanishing next to others: static ambiguity
+            keep = np.flatnonzero(alive)
+            pos, vel, P, last_t, seg, cut, zi = pos[keep], vel[keep], P[keep], last_t[keep], seg[keep], cut[keep], zi[keep]
+            linked = linked[np.ix_(keep, keep)]
         # start tracks for unmatched detections
-        new_d = np.setdiff1d(np.arange(len(z)), di)
-        keep = np.flatnonzero(alive)
-        pos = np.concatenate([pos[keep], z[new_d]])
-        vel = np.concatenate([vel[keep], np.zeros((len(new_d), 2))])
-        P = np.concatenate([P[keep], np.tile([R, 0.0, cfg.init_speed_sigma**2], (len(new_d), 1))])
-        last_t = np.concatenate([last_t[keep], np.full(len(new_d), t)])
-        cut = np.concatenate([cut[keep], np.zeros(len(new_d), bool)])
-        births = [new_segment(k) for _ in new_d]
-        seg = np.concatenate([seg[keep], np.array(births, np.int64)])
+        births: list[int] = []
+        new_d = np.flatnonzero(~matched)
+        n_new = len(new_d)
+        if n_new:
+            births = [new_segment(k) for _ in new_d]
+            pos = np.concatenate([pos, z[new_d]])
+            vel = np.concatenate([vel, np.zeros((n_new, 2))])
+            P = np.concatenate([P, np.tile(P0, (n_new, 1))])
+            last_t = np.concatenate([last_t, np.full(n_new, t)])
+            seg = np.concatenate([seg, np.array(births, np.int64)])
+            cut = np.concatenate([cut, np.zeros(n_new, bool)])
+            zi = np.concatenate([zi, new_d])
+            nl = len(pos)
+            grown = np.zeros((nl, nl), bool)
+            grown[: nl - n_new, : nl - n_new] = linked
+            linked = grown
         nl = len(pos)
-        old_linked = np.zeros((nl, nl), bool)
-        old_linked[: len(keep), : len(keep)] = linked[np.ix_(keep, keep)]
-        # 4. proximity relation with hysteresis
+        # 4. proximity relation with hysteresis: link below r_enter, unlink beyond r_exit
         if nl > 1:
             dd = np.sqrt(((pos[:, None] - pos[None]) ** 2).sum(-1))
             np.fill_diagonal(dd, np.inf)
-            new_linked = np.where(old_linked, dd <= cfg.r_exit, dd < cfg.r_enter)
-            fresh = np.zeros(nl, bool)
-            fresh[nl - len(new_d):] = True
-            # a pair involving a newborn track was never "unlinked": only its partner is cut
-            changed = (new_linked != old_linked)
-            changed[np.ix_(fresh, fresh)] = False
-            cut |= changed.any(axis=1)
-            cut[fresh] = False
+            new_linked = np.where(linked, dd <= cfg.r_exit, dd < cfg.r_enter)
+            changed = new_linked != linked
+            if changed.any():
+                if n_new:  # newborn tracks start a fresh segment anyway: only their partners are cut
+                    changed[nl - n_new:, nl - n_new:] = False
+                cut = cut | changed.any(axis=1)
+                if n_new:
+                    cut[nl - n_new:] = False
             linked = new_linked
-        else:
-            linked = np.zeros((nl, nl), bool)
         seen = last_t == t
-        pending = cut & ~seen
-        for a in np.flatnonzero(cut & seen):
-            end_segment(int(seg[a]), "proximity")
-            s = new_segment(k)
-            seg[a] = s
-            births.append(s)
-        # the continuity of each new segment with the ones that ended before it
-        born = np.isin(seg, births)
-        link_births(k, [int(s) for s in seg[born]], pos[born])
-        # a segment cut by proximity lives on in the segments born with it: its evidence is
-        # carried by them, so it is no candidate for later births
-        ended[:] = [e for e in ended if info[e]["end_reason"] != "proximity"]
-        # record this frame's rows (tracks that got a detection)
+        if cut.any():
+            pending = cut & ~seen
+            for a in np.flatnonzero(cut & seen):
+                end_segment(a, "proximity", t)
+                seg[a] = new_segment(k)
+                births.append(int(seg[a]))
+        else:
+            pending = np.zeros(nl, bool)
+        if births:
+            born = np.isin(seg, births)
+            link_births(t, [int(s) for s in seg[born]], pos[born])
+            # a segment cut by proximity lives on in the segments born with it (its evidence is
+            # carried by them), so it is no candidate for later births
+            ended[:] = [e for e in ended if end_reason[e] != "proximity"]
         rows = np.flatnonzero(seen)
-        zi = np.full((nl, 2), np.nan)
-        if len(ti):
-            mapping = {int(a): int(b) for a, b in zip(ti, di)}
-            old_index = {int(old): new for new, old in enumerate(keep)}
-            for a_old, dj in mapping.items():
-                if a_old in old_index:
-                    zi[old_index[a_old]] = z[dj]
-        zi[nl - len(new_d):] = z[new_d]
-        for a in rows:
-            s = info[int(seg[a])]
-            s["end_frame"] = k
-            s["end_t"] = t
-            s["end_x"], s["end_y"] = pos[a]
-            s["end_vx"], s["end_vy"] = vel[a]
         out_frame.append(np.full(len(rows), k))
-        out_seg.append(seg[rows].copy())
-        out_state.append(np.concatenate([pos[rows], vel[rows], P[rows, 2:3]], axis=1))
-        out_z.append(zi[rows])
+        out_seg.append(seg[rows])
+        out_state.append(np.concatenate([pos[rows], vel[rows], P[rows, 2:3], z[zi[rows]]], axis=1))
 
-    for a in range(len(pos)):
-        info[int(seg[a])]["end_reason"] = "end"
     frames = np.concatenate(out_frame) if out_frame else np.zeros(0, np.int64)
-    state = np.concatenate(out_state) if out_state else np.zeros((0, 5))
-    zs = np.concatenate(out_z) if out_z else np.zeros((0, 2))
+    state = np.concatenate(out_state) if out_state else np.zeros((0, 7))
+    segs = (np.concatenate(out_seg) if out_seg else np.zeros(0)).astype(np.int64)
     rows = pd.DataFrame({
-        "frame": frames.astype(np.int64), "t": frame_times[frames] if len(frames) else np.zeros(0),
-        "segment": (np.concatenate(out_seg) if out_seg else np.zeros(0)).astype(np.int64),
+        "frame": frames.astype(np.int64), "t": frame_times[frames] if len(frames) else np.zeros(0), "segment": segs,
         "x": state[:, 0], "y": state[:, 1], "vx": state[:, 2], "vy": state[:, 3], "pvv": state[:, 4],
-        "zx": zs[:, 0], "zy": zs[:, 1],
+        "zx": state[:, 5], "zy": state[:, 6],
     })
-    svx, svy, svv = window_velocity(rows["segment"].to_numpy(), rows["t"].to_numpy(float), rows["zx"].to_numpy(float),
-                                    rows["zy"].to_numpy(float), cfg.velocity_window_s, cfg.sigma_m, cfg.init_speed_sigma)
+    svx, svy, svv = window_velocity(segs, rows["t"].to_numpy(float), state[:, 5], state[:, 6],
+                                    cfg.velocity_window_s, cfg.sigma_m, cfg.init_speed_sigma)
     rows["svx"], rows["svy"], rows["svv"] = svx, svy, svv
-    info_df = pd.DataFrame(info, columns=["start_frame", "end_frame", "start_t", "end_t", "end_x", "end_y", "end_vx", "end_vy", "end_reason"])
-    return Segments(rows=rows, info=info_df, predecessors=predecessors, frame_times=np.asarray(frame_times, float))
+    # per-segment summary from its rows (the last row is where it was last seen)
+    n_seg = len(start_frame)
+    last = rows.groupby("segment").tail(1).set_index("segment").reindex(np.arange(n_seg))
+    info = pd.DataFrame({
+        "start_frame": np.array(start_frame, np.int64), "end_frame": last["frame"].to_numpy(),
+        "start_t": frame_times[np.array(start_frame, np.int64)] if n_seg else np.zeros(0),
+        "end_t": last["t"].to_numpy(float), "end_x": last["x"].to_numpy(float), "end_y": last["y"].to_numpy(float),
+        "end_vx": last["vx"].to_numpy(float), "end_vy": last["vy"].to_numpy(float), "end_reason": end_reason,
+    })
+    return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float))
 
 
 def window_velocity(segment: np.ndarray, t: np.ndarray, x: np.ndarray, y: np.ndarray, window_s: float,

@@ -155,7 +155,8 @@ def test_meeting_then_one_stays_still(privacy):
 
 
 def test_phoneless_person_gets_no_phone():
-    people = {"A": [(0, 2, 2), (6, 8, 2), (12, 8, 8)], "B": [(0, 2, 8), (6, 8, 8), (12, 2, 8)],
+    # A and B walk distinguishable paths (opposite directions); C, without a phone, crosses them
+    people = {"A": [(0, 2, 2), (6, 8, 2), (12, 8, 8)], "B": [(0, 8, 8), (6, 2, 8), (12, 2, 2)],
               "C": [(0, 5, 3), (4, 5, 7), (8, 2, 5), (12, 8, 5)]}
     rec = synthetic_recording(people, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.1)
     tracks = run(rec)

@@ -66,10 +66,12 @@ def run(args) -> int:
 
     if args.window <= 0 or args.rate <= 0:
         raise CommandError("--window and --rate must be positive")
-    parts = [training_samples(read_recording(d), args.window, args.rate) for d in args.recordings]
+    recs = [read_recording(d) for d in args.recordings]
+    parts = [training_samples(r, args.window, args.rate) for r in recs]
+    what = ", ".join(f"{r.scene} seed {r.seed} ({r.duration:g} s, {r.sensing})" for r in recs)
     g, w, h, s = (np.concatenate([p[i] for p in parts]) for i in range(4))
     try:
-        model = fit_gait(g, w, h, s, args.window, source="trackroom train-gait " + " ".join(args.recordings))
+        model = fit_gait(g, w, h, s, args.window, source=f"trackroom train-gait on {what}")
     except ValueError as e:
         raise CommandError(str(e)) from None
     model.to_json(args.out)
