@@ -68,6 +68,8 @@ class PerceptionParams:
     split_share: float = 0.2  # a second colour must hold this share of a blob to split it
     max_chroma_dist: float = 0.15  # a pixel further than this from every walker colour has no vote
     merge_gap_px: float = 2.0  # horizontal cameras: merge blobs whose column spans are this close
+    border_px: float = 1.0  # a silhouette end this close to the image edge is taken as clipped
+    motion_border_px: float = 8.0  # the same for moving-pixel blobs, which stop short of the edge
 
     def area(self, a: float, width: int, height: int) -> float:
         return a * (width * height) / (320 * 240)
@@ -281,7 +283,7 @@ class OverheadDetector:
                     groups.append((None, (ys[idx], xs[idx])))
         out = []
         for _, (ys, xs) in groups:
-            xy = floor_from_blob(cam, xs, ys, self.person)
+            xy = floor_from_blob(cam, xs, ys, self.person, p.motion_border_px if cam.privacy else p.border_px)
             if xy is None or not in_region(cam, xy):
                 continue
             if cam.privacy and cam.quantum > 0:
