@@ -20,7 +20,7 @@ def test_bound_equals_dense_inverse(cams, q):
     k = np.r_[np.arange(0, 10), np.arange(20, 30), 25]
     names = ["cam_south"] * 10 + ["cam_north"] * 10 + ["cam_east"]
     fs = (100.0, 10.0, 100.0, 10.0)
-    b = trajectory_crb(xy, k, names, cams, 1.5, dt, *q, first_sigma=fs)
+    b = trajectory_crb(xy, k, names, cams, 1.5, dt, *q, first_sigma=fs, discretisation="paper")
     A = np.kron(np.eye(2), [[1.0, dt], [0.0, 1.0]])
     Q = np.diag([q[0] * dt, q[1] * dt] * 2)
     J = information_matrix(A, Q, np.diag(np.square(fs)), T, k, bearing_jacobians(cams, names, xy[k]), 1.5).toarray()

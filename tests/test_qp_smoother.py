@@ -7,7 +7,7 @@ import pytest
 
 from estimators import get
 from estimators.base import EstimatorError
-from estimators.qp_model import Bearings, Prior
+from estimators.qp_model import Bearings, Prior, process_covariance
 from estimators.qp_smoother import QPSmoother
 from scenes.spec import GaussMarkovParams
 
@@ -46,7 +46,8 @@ def test_prior_factor_matches_gauss_markov_density():
     pr = Prior.build(T, dt, pm, first_mean=(1, 0, 2, 0), first_sigma=(3, 1, 3, 1))
     rng = np.random.default_rng(1)
     X = rng.normal(size=4 * T)
-    A, Q = pm.A(dt), pm.Sigma(dt)
+    A, Q = pm.A(dt), process_covariance(pm, dt, "exact")
+    assert np.allclose(process_covariance(pm, dt, "paper"), pm.Sigma(dt))
     s = X.reshape(T, 4)
     e0 = s[0] - np.array([1, 0, 2, 0])
     q = e0 @ np.diag(1 / np.array([9, 1, 9, 1.0])) @ e0
