@@ -7,6 +7,7 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+import matplotlib.patches  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -42,13 +43,27 @@ def fov_polygon(cam: Camera, fp: Floorplan, reach: float | None = None) -> np.nd
     return np.vstack([p, arc])
 
 
+def room_clip(ax, fp: Floorplan):
+    """A patch of the room outline that clips views and rays to the inside of the room."""
+    patch = matplotlib.patches.Polygon(fp.outline, closed=True, transform=ax.transData, fill=False, lw=0)
+    ax.add_patch(patch)
+    return patch
+
+
 def draw_cameras(ax, cams, fp: Floorplan) -> None:
     x0, y0, x1, y1 = fp.bounds()
+    clip = room_clip(ax, fp)
     for cam in cams:
         col = KIND_COLOURS.get(cam.kind, "k")
-        poly = fov_polygon(cam, fp)
-        if len(poly):
-            ax.fill(poly[:, 0], poly[:, 1], color=col, alpha=0.10, zorder=1, lw=0)
+        if cam.kind == "overhead" and cam.region is not None:
+            rx0, ry0, rx1, ry1 = cam.region
+            poly = np.array([[rx0, ry0], [rx1, ry0], [rx1, ry1], [rx0, ry1]])
+            ax.add_patch(matplotlib.patches.Polygon(poly, closed=True, fill=True, color=col, alpha=0.06, lw=1, ls="--", zorder=1))
+        else:
+            poly = fov_polygon(cam, fp)
+            if len(poly):
+                for patch in ax.fill(poly[:, 0], poly[:, 1], color=col, alpha=0.10, zorder=1, lw=0):
+                    patch.set_clip_path(clip)
         ax.plot(*cam.position[:2], marker="^" if cam.kind != "overhead" else "s", color=col, ms=8, zorder=5)
         ax.annotate(cam.name, cam.position[:2], xytext=(4, 4), textcoords="offset points", fontsize=7, color=col, zorder=6)
     ax.set_xlim(x0 - 0.5, x1 + 0.5)
@@ -78,6 +93,7 @@ def plot_recording(rec, out: Path, max_bearing_rays: int = 150) -> Path:
     for pid, g in rec.truth.people.groupby("person_id", sort=False):
         ax.plot(g["x"], g["y"], "-", lw=1.2, color=colours.get(pid) or None, label=str(pid), zorder=4)
         ax.plot(g["x"].iloc[0], g["y"].iloc[0], "o", ms=4, color=colours.get(pid) or "k", zorder=4)
+    clip = room_clip(ax, fp)
     obs = rec.observations
     if obs.has("floor_detections"):
         d = obs["floor_detections"]
@@ -89,11 +105,21 @@ def plot_recording(rec, out: Path, max_bearing_rays: int = 150) -> Path:
             cam = rec.calibration.cameras[r["camera"]]
             ang = _bearing_angle(cam, r["u"])
             p = cam.position[:2]
-            ax.plot([p[0], p[0] + 20 * np.cos(ang)], [p[1], p[1] + 20 * np.sin(ang)], "-", lw=0.3, color="tab:red", alpha=0.25, zorder=2)
+            (line,) = ax.plot([p[0], p[0] + 30 * np.cos(ang)], [p[1], p[1] + 30 * np.sin(ang)], "-", lw=0.4,
+                              color=colours.get(_label_owner(rec, r["label"])) or "tab:red", alpha=0.3, zorder=2)
+            line.set_clip_path(clip)
     title = f"{rec.meta.get('scene', '')}  seed {rec.meta.get('seed')}  {rec.duration:g} s  ({rec.meta.get('sensing', '')})"
     ax.legend(loc="upper right", fontsize=6, framealpha=0.7)
     _finish(ax, fig, title, out)
     return out
+
+
+def _label_owner(rec, label: str) -> str | None:
+    """The walker whose appearance class is ``label`` (for colouring rays only)."""
+    for w in rec.meta.get("walkers", []):
+        if w.get("color") == label:
+            return w["name"]
+    return None
 
 
 def _bearing_angle(cam: Camera, u: float) -> float:

@@ -57,5 +57,5 @@ def summary_line(rec, seconds: float, out) -> str:
     counts = ", ".join(f"{k} {len(v)}" for k, v in rec.observations.tables.items())
     people = rec.truth.people["person_id"].nunique()
     speed = rec.duration / seconds if seconds > 0 else float("inf")
-    return (f"{rec.scene} seed {rec.seed}: {rec.duration:g} s, {people} people, {rec.sensing} sensing -> {out}\n"
+    return (f"{rec.scene} seed {rec.seed}: {rec.duration:g} s, {people} {'person' if people == 1 else 'people'}, {rec.sensing} sensing -> {out}\n"
             f"  rows: {counts}\n  took {seconds:.1f} s ({speed:.0f}x real time)")
