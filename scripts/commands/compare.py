@@ -1,0 +1,69 @@
+"""trackroom compare: scenes x seeds x estimators -> results.csv, summary.md and plots."""
+from __future__ import annotations
+
+NAME = "compare"
+HELP = "compare estimators over scenes and seeds (from a TOML file or options): results.csv, summary.md, plots"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("config", nargs="?", help="comparison TOML file (see scripts/compare.py); options below override it")
+    p.add_argument("--scenes", help="comma-separated bundled scene names or TOML paths")
+    p.add_argument("--seeds", help="e.g. 0-4 or 0,3,5 (default 0)")
+    p.add_argument("--estimators", help="comma-separated names, with parameters as name[k=v;k=v]; 'all' (default): every registered one")
+    p.add_argument("--duration", type=float, help="simulated seconds per recording (default 20)")
+    p.add_argument("--sensing", choices=["analytic", "rendered"])
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="scene override for every scene, e.g. --set walkers.count=5 (repeatable)")
+    p.add_argument("--gate", type=float, help="match gate in metres (default 1)")
+    p.add_argument("--jobs", type=int, help="parallel processes (default 1)")
+    p.add_argument("--recordings", help="recordings cache folder (default OUT/recordings)")
+    p.add_argument("--no-cache", action="store_true", help="simulate every recording, keep none")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def build_spec(args):
+    from pathlib import Path
+
+    from scripts.compare import (CompareSpec, SceneRun, all_estimators, parse_estimator, parse_seeds, spec_from_toml,
+                                 split_top)
+    from scripts.cli import CommandError
+
+    if args.config:
+        spec = spec_from_toml(args.config)
+    else:
+        if not args.scenes:
+            raise CommandError("give a comparison TOML file or --scenes")
+        spec = CompareSpec(scenes=[], seeds=[0], estimators=all_estimators())
+    if args.scenes:
+        spec.scenes = [SceneRun(s) for s in split_top(args.scenes)]
+    if args.overrides:
+        spec.scenes = [SceneRun(s.name, s.overrides + tuple(args.overrides), s.label) for s in spec.scenes]
+    if args.seeds:
+        spec.seeds = parse_seeds(args.seeds)
+    if args.estimators:
+        spec.estimators = all_estimators() if args.estimators == "all" else [parse_estimator(e) for e in split_top(args.estimators)]
+    for key in ("duration", "sensing", "gate", "jobs"):
+        if getattr(args, key) is not None:
+            setattr(spec, key, getattr(args, key))
+    if args.no_cache:
+        spec.recordings = None
+    elif args.recordings or not spec.recordings:
+        spec.recordings = args.recordings or str(Path(args.out) / "recordings")
+    return spec
+
+
+def run(args) -> int:
+    from scripts.cli import CommandError
+    from scripts.compare import CompareError, run_comparison, write_outputs
+
+    try:
+        spec = build_spec(args).validate()
+    except CompareError as e:
+        raise CommandError(str(e)) from None
+    comp = run_comparison(spec, progress=not args.quiet)
+    paths = write_outputs(comp, args.out)
+    print(paths["summary"].read_text())
+    print(f"took {comp.seconds:.1f} s; wrote {', '.join(str(p) for p in paths.values())}")
+    errors = comp.results[comp.results["status"] == "error"]
+    return 1 if len(errors) else 0

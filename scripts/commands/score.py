@@ -1,0 +1,77 @@
+"""trackroom score: score a tracks CSV against a recording's ground truth."""
+from __future__ import annotations
+
+NAME = "score"
+HELP = "score tracks.csv against a recording's truth (CLEAR MOT, IDF1, position error, ID accuracy)"
+
+TABLE = [
+    ("MOTA", "mota", "{:.3f}"), ("MOTP (m)", "motp", "{:.3f}"), ("ID switches", "id_switches", "{:d}"),
+    ("false positives", "fp", "{:d}"), ("misses", "fn", "{:d}"), ("IDF1", "idf1", "{:.3f}"),
+    ("recall", "recall", "{:.3f}"), ("precision", "precision", "{:.3f}"),
+    ("position RMSE (m)", "rmse", "{:.3f}"), ("  median / p90 (m)", ("p50", "p90"), "{:.3f} / {:.3f}"),
+    ("  seen by 0 cameras", "rmse_cam0", "{:.3f}"), ("  seen by 1 camera", "rmse_cam1", "{:.3f}"),
+    ("  seen by >= 2", "rmse_cam2plus", "{:.3f}"),
+    ("ID accuracy (claims)", "id_accuracy", "{:.3f}"), ("ID accuracy (all people)", "id_accuracy_all", "{:.3f}"),
+]
+
+
+def add_arguments(p) -> None:
+    p.add_argument("recording", metavar="DIR", help="recording folder with truth")
+    p.add_argument("tracks", help="tracks CSV (t, track_id, x, y [, phone_id])")
+    p.add_argument("--gate", type=float, default=1.0, help="match distance gate in metres (default 1)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+
+
+def load_tracks(path):
+    import pandas as pd
+
+    from estimators.base import check_tracks
+
+    try:
+        df = pd.read_csv(path, dtype={"phone_id": str})
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        from scripts.cli import CommandError
+
+        raise CommandError(f"{path}: not a readable CSV: {e}") from None
+    if "phone_id" in df.columns:
+        df["phone_id"] = df["phone_id"].fillna("")
+    return check_tracks(df, str(path))
+
+
+def _nan(v) -> bool:
+    return isinstance(v, float) and v != v
+
+
+def run(args) -> int:
+    import json
+    import math
+
+    from metrics.identity import claims_phones
+    from metrics.score import evaluate
+    from scripts.cli import CommandError
+    from sim.dataset import read_recording
+
+    if not args.gate > 0:
+        raise CommandError(f"--gate must be a positive distance in metres, got {args.gate}")
+    rec = read_recording(args.recording)
+    tracks = load_tracks(args.tracks)
+    m = evaluate(rec, tracks, args.gate).metrics()
+    if args.json:
+        clean = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in m.items()}
+        if not claims_phones(tracks):
+            del clean["id_accuracy"], clean["id_accuracy_all"]
+        print(json.dumps({"scene": rec.scene, "seed": rec.seed, "sensing": rec.sensing, **clean}))
+        return 0
+    print(f"{rec.scene} seed {rec.seed} ({rec.sensing}), {m['frames']} frames, {m['people']} people, "
+          f"{m['tracks']} tracks, gate {args.gate:g} m")
+    for label, key, fmt in TABLE:
+        keys = key if isinstance(key, tuple) else (key,)
+        vals = [m[k] for k in keys]
+        if any(_nan(v) for v in vals):
+            if keys[0].startswith("id_accuracy"):
+                continue  # no phone claims: not applicable
+            cell = "-"
+        else:
+            cell = fmt.format(*[int(v) if "d}" in fmt else v for v in vals])
+        print(f"  {label:<26}{cell}")
+    return 0
