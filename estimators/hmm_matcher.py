@@ -167,8 +167,8 @@ class HMMMatcher(Estimator):
         fps = max((c.fps for c in cams.values()), default=0.0)
         if fps <= 0:
             raise EstimatorError("hmm_matcher: the calibration has no overhead camera (needed for its frame rate)")
-        frame_times, fidx, x, y = frames_from_detections(det, fps, duration)
-        return track_segments(frame_times, fidx, x, y, self.tracker_config(calibration))
+        frame_times, fidx, x, y, cam = frames_from_detections(det, fps, duration)
+        return track_segments(frame_times, fidx, x, y, self.tracker_config(calibration), cam)
 
     # --- 3. emissions ------------------------------------------------------------------------
     def emissions(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel):

@@ -6,7 +6,9 @@ Each camera frame k the tracker
        F = [[1, dt], [0, 1]],  Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]],  H = [1, 0],  R = sigma^2,
    vectorised over tracks (the covariance is the same for x and y, so 3 numbers per track);
 2. associates predicted positions to the frame's detections by ``linear_sum_assignment`` on the
-   Euclidean distance, with a gate ``gate_m`` (m); unmatched detections start new tracks;
+   Euclidean distance, with a gate ``gate_m`` (m); unmatched detections start new tracks, unless
+   they lie within ``duplicate_m`` of a matched detection from another camera (two cameras whose
+   tiles meet both reporting one person near the border);
 3. ends a track that has been missed for more than ``max_missed_s`` seconds (a detection drop-out,
    or a person standing still in front of a privacy camera);
 4. keeps a proximity relation between tracks with hysteresis: two tracks become *linked* when
@@ -44,6 +46,7 @@ class TrackerConfig:
     q: float = 2.0  # white-acceleration spectral density, m^2/s^3
     init_speed_sigma: float = 1.0  # prior std of a new track's velocity, m/s
     gate_m: float = 1.0  # association gate, m
+    duplicate_m: float = 0.5  # an unmatched detection this close to another camera's matched one is a duplicate, m
     max_missed_s: float = 0.3  # a track missed longer than this ends, s
     r_enter: float = 0.6  # proximity radius that starts an ambiguity, m
     r_exit: float = 0.8  # radius beyond which the ambiguity ends (hysteresis), m
@@ -87,7 +90,7 @@ class Segments:
 
 def frames_from_detections(det: pd.DataFrame, fps: float, duration: float | None = None):
     """Group detections into camera frames: frame index k = round(t fps). Returns (frame_times,
-    frame index per row, x, y) with rows sorted by frame."""
+    frame index per row, x, y, camera code per row) with rows sorted by frame."""
     if fps <= 0:
         raise ValueError(f"camera frame rate must be > 0 (got {fps})")
     t = det["t"].to_numpy(float)
@@ -99,11 +102,12 @@ def frames_from_detections(det: pd.DataFrame, fps: float, duration: float | None
         k[order],
         det["x"].to_numpy(float)[order],
         det["y"].to_numpy(float)[order],
+        pd.factorize(det["camera"].astype(str))[0][order],
     )
 
 
 def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray, y: np.ndarray,
-                   cfg: TrackerConfig = TrackerConfig()) -> Segments:
+                   cfg: TrackerConfig = TrackerConfig(), camera: np.ndarray | None = None) -> Segments:
     """Run the lazy tracker over detections grouped by frame (see module docstring).
 
     The loop over frames is the only sequential part; within a frame everything is an array
@@ -112,6 +116,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     F = len(frame_times)
     bounds = np.searchsorted(frame_idx, np.arange(F + 1))
     Z = np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1)
+    cams = np.zeros(len(Z), np.int64) if camera is None else np.asarray(camera)
     R = max(cfg.sigma_m, 0.02) ** 2  # an ideal camera still gets a small floor, for stable gains
     q = cfg.q
     P0 = np.array([R, 0.0, cfg.init_speed_sigma**2])
@@ -202,6 +207,14 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         # start tracks for unmatched detections
         births: list[int] = []
         new_d = np.flatnonzero(~matched)
+        if len(new_d) and matched.any():
+            # cameras tile the floor and each reports where it measured a person: near a tile
+            # border one person can be reported by two cameras; such a duplicate starts no track
+            c = cams[bounds[k]:bounds[k + 1]]
+            m_idx = np.flatnonzero(matched)
+            dd = np.sqrt(((z[new_d][:, None] - z[m_idx][None]) ** 2).sum(-1))
+            dup = ((dd < cfg.duplicate_m) & (c[new_d][:, None] != c[m_idx][None])).any(axis=1)
+            new_d = new_d[~dup]
         n_new = len(new_d)
         if n_new:
             births = [new_segment(k) for _ in new_d]
