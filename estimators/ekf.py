@@ -69,9 +69,12 @@ H_FLOOR = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
 
 def cv_model(dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     """F and Q of the constant-velocity, white-acceleration model over dt seconds."""
-    I = np.eye(2)
-    F = np.block([[I, dt * I], [0 * I, I]])
-    Q = q * np.block([[dt**3 / 3 * I, dt**2 / 2 * I], [dt**2 / 2 * I, dt * I]])
+    F = np.eye(4)
+    F[0, 2] = F[1, 3] = dt
+    Q = np.zeros((4, 4))
+    Q[0, 0] = Q[1, 1] = q * dt**3 / 3
+    Q[0, 2] = Q[2, 0] = Q[1, 3] = Q[3, 1] = q * dt**2 / 2
+    Q[2, 2] = Q[3, 3] = q * dt
     return F, Q
 
 
@@ -278,16 +281,23 @@ class _Run:
         unknown = sorted(set(bear["camera"]) - set(self.bearing_models)) + sorted(set(floor["camera"]) - set(cal.cameras))
         if unknown:
             raise EstimatorError(f"ekf: observations from cameras not in the calibration: {unknown}")
-        self.floor = floor.assign(te=np.round(floor["t"].to_numpy(float), 6))
-        self.bear = bear.assign(te=np.round(bear["t"].to_numpy(float), 6))
+        self.floor = floor.assign(te=np.round(floor["t"].to_numpy(float), 6)).reset_index(drop=True)
+        self.bear = bear.assign(te=np.round(bear["t"].to_numpy(float), 6)).reset_index(drop=True)
+        self.floor_xy = self.floor[["x", "y"]].to_numpy(float)
+        self.floor_r = np.array([self.floor_var[c] for c in self.floor["camera"]], float)
+        self.bear_cam = self.bear["camera"].astype(str).to_numpy()
+        self.bear_u = self.bear["u"].to_numpy(float)
+        lab = self.bear["label"] if "label" in self.bear else pd.Series("", index=self.bear.index)
+        self.bear_label = lab.fillna("").astype(str).to_numpy()
         grid = np.concatenate([c.frame_times(obs.duration) for c in cal.cameras.values()]) if cal.cameras else np.zeros(0)
         self.grid = set(np.round(grid, 6).tolist())
         self.epochs = np.unique(np.concatenate([np.round(grid, 6), self.floor["te"], self.bear["te"]]))
 
     # --- main loop ----------------------------------------------------------------------
     def run(self) -> pd.DataFrame:
-        floor_at = {t: g for t, g in self.floor.groupby("te", sort=True)}
-        bear_at = {t: g for t, g in self.bear.groupby("te", sort=True)}
+        # Per-epoch row indices, computed once (pandas access per scan would dominate the run time).
+        floor_at = {t: idx for t, idx in self.floor.groupby("te", sort=True).indices.items()}
+        bear_at = {t: idx for t, idx in self.bear.groupby("te", sort=True).indices.items()}
         rows = []
         t_prev = None
         for t in self.epochs:
@@ -295,10 +305,13 @@ class _Run:
             for tr in self.tracks:
                 trans[tr.id] = tr.filt.predict(t - t_prev if t_prev is not None else 0.0)
             if t in floor_at:
-                self._floor_scan(t, floor_at[t])
+                idx = floor_at[t]
+                self._floor_scan(t, self.floor_xy[idx], self.floor_r[idx])
             if t in bear_at:
-                for cam, g in bear_at[t].groupby("camera", sort=True):
-                    self._bearing_scan(t, cam, g)
+                idx = bear_at[t]
+                for cam in sorted(set(self.bear_cam[idx])):
+                    sel = idx[self.bear_cam[idx] == cam]
+                    self._bearing_scan(t, cam, self.bear_u[sel], self.bear_label[sel])
             self._prune(t)
             for tr in self.tracks:
                 F, Q = trans.get(tr.id, (np.eye(4), np.zeros((4, 4))))
@@ -313,17 +326,18 @@ class _Run:
         return df.sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)
 
     # --- scans --------------------------------------------------------------------------
-    def _floor_scan(self, t: float, g: pd.DataFrame) -> None:
-        Z = g[["x", "y"]].to_numpy(float)
-        Rs = [self.floor_var[c] * np.eye(2) for c in g["camera"]]
+    def _floor_scan(self, t: float, Z: np.ndarray, r: np.ndarray) -> None:
+        """Z (n, 2) floor detections at time t, r (n,) their noise variances (m^2)."""
+        Rs = [ri * np.eye(2) for ri in r]
         h = lambda x: np.ravel(x)[:2]  # noqa: E731
         H = lambda x: H_FLOOR  # noqa: E731
         d2 = np.full((len(self.tracks), len(Z)), np.inf)
         for i, tr in enumerate(self.tracks):
             x, P = tr.filt.x, tr.filt.P
             y = Z - x[:2]
-            for j in range(len(Z)):
-                d2[i, j] = float(y[j] @ np.linalg.solve(P[:2, :2] + Rs[j], y[j]))
+            # S_j = P_pos + r_j I, inverted in closed form for all detections j at once
+            a, b, c = P[0, 0] + r, P[0, 1], P[1, 1] + r
+            d2[i] = (c * y[:, 0] ** 2 - 2 * b * y[:, 0] * y[:, 1] + a * y[:, 1] ** 2) / (a * c - b * b)
         cost = np.where(d2 <= self.gate2[2], d2, np.nan)
         used = self._assign(t, cost, lambda tr, j: tr.filt.update(Z[j], h, H, Rs[j]),
                             covered=lambda tr: floor_covered(self.overhead, tr.filt.x[:2]))
@@ -332,11 +346,10 @@ class _Run:
             P0 = np.diag([Rs[j][0, 0], Rs[j][1, 1], self.cfg.init_speed_sigma**2, self.cfg.init_speed_sigma**2])
             self._new_track(t, np.array([Z[j, 0], Z[j, 1], 0.0, 0.0]), P0)
 
-    def _bearing_scan(self, t: float, cam: str, g: pd.DataFrame) -> None:
+    def _bearing_scan(self, t: float, cam: str, u: np.ndarray, labels: np.ndarray) -> None:
+        """Bearings u (pixels) of one camera at time t with their appearance labels ("" none)."""
         model = self.bearing_models[cam]
         R = np.array([[self.sigma_u**2]])
-        u = g["u"].to_numpy(float)
-        labels = g["label"].fillna("").astype(str).to_numpy() if "label" in g else np.full(len(g), "")
         labelled = (labels != "") & self.cfg.use_labels
         done = np.zeros(len(u), bool)
         for j in np.flatnonzero(labelled):
