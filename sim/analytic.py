@@ -120,41 +120,42 @@ class Occlusion:
         self.heights = np.array([w.height for w in scene.walkers])
         self.visible = {name: np.zeros_like(g.in_fov) for name, g in geometry.items()}
         self.cams = [scene.camera(name) for name in geometry]
-        self.frame_of = {name: {int(k): f for f, k in enumerate(g.steps)} for name, g in geometry.items()}
+        # step -> [(camera index, frame index)], so a step without frames costs one dict lookup
+        self.due: dict[int, list[tuple[int, int]]] = {}
+        for ci, cam in enumerate(self.cams):
+            for f, k in enumerate(geometry[cam.name].steps):
+                self.due.setdefault(int(k), []).append((ci, f))
         self.done: set[int] = set()
-        self._geomid = np.zeros(len(VIS_FRACTIONS) * max(1, world.n_people), np.int32)
-        self._dist = np.zeros(len(VIS_FRACTIONS) * max(1, world.n_people))
+        V = len(VIS_FRACTIONS)
+        self._geomid = np.zeros(V * max(1, world.n_people), np.int32)
+        self._dist = np.zeros(V * max(1, world.n_people))
+        self._own = np.repeat(world.person_geom, V).reshape(-1, V) if world.n_people else np.zeros((0, V), int)
+        # target points on every person's axis, (P, N, V, 3)
+        pos = traj.pos
+        z = (pos[..., 2] - 0.5 * self.heights[:, None])[..., None] + self.heights[:, None, None] * np.asarray(VIS_FRACTIONS)
+        self._points = np.concatenate([np.broadcast_to(pos[:, :, None, :2], z.shape + (2,)), z[..., None]], -1)
 
     def on_step(self, k: int) -> None:
-        hit = False
-        for cam in self.cams:
-            f = self.frame_of[cam.name].get(k)
-            if f is None:
-                continue
-            hit = True
-            g = self.geometry[cam.name]
-            people = np.flatnonzero(g.in_fov[f])
+        due = self.due.get(k)
+        if due is None:
+            return
+        for ci, f in due:
+            cam = self.cams[ci]
+            people = np.flatnonzero(self.geometry[cam.name].in_fov[f])
             if people.size:
                 self.visible[cam.name][f, people] = self.cast(cam, k, people)
-        if hit:
-            self.done.add(k)
+        self.done.add(k)
 
     def cast(self, cam: Camera, k: int, people: np.ndarray) -> np.ndarray:
         """Visible flags of ``people`` from ``cam`` with the world posed at step k."""
-        m, d = self.world.model, self.world.data
-        centre = self.traj.pos[people, k]  # (n, 3)
-        floor_z = centre[:, 2] - 0.5 * self.heights[people]
-        z = floor_z[:, None] + np.outer(self.heights[people], VIS_FRACTIONS)  # (n, V)
-        pts = np.concatenate([np.broadcast_to(centre[:, None, :2], z.shape + (2,)), z[..., None]], -1).reshape(-1, 3)
         origin = np.asarray(cam.position, float)
-        vec = pts - origin
-        length = np.linalg.norm(vec, axis=1)
+        vec = self._points[people, k].reshape(-1, 3) - origin
+        length = np.sqrt((vec * vec).sum(1))
         vec /= length[:, None]
-        nray = len(pts)
+        nray = len(vec)
         geomid, dist = self._geomid[:nray], self._dist[:nray]
-        mujoco.mj_multiRay(m, d, origin, vec.ravel(), None, 1, -1, geomid, dist, None, nray, float(length.max() + 1.0))
-        own = np.repeat(self.world.person_geom[people], len(VIS_FRACTIONS))
-        seen = (geomid == own) | (geomid < 0) | (dist >= length - 1e-6)
+        mujoco.mj_multiRay(self.world.model, self.world.data, origin, vec.ravel(), None, 1, -1, geomid, dist, None, nray, float(length.max() + 1.0))
+        seen = (geomid == self._own[people].ravel()) | (geomid < 0) | (dist >= length - 1e-6)
         return seen.reshape(len(people), -1).any(axis=1)
 
     def finish(self) -> None:

@@ -64,9 +64,10 @@ GRID = 0.1  # planning grid, m
 MARGIN = 0.15  # extra clearance beyond the body radius when planning, m
 MAX_ACCEL = 0.8  # m/s^2, speed-profile acceleration limit
 PERSONAL_SPACE = 0.1  # m, kept between two bodies
+LOOKAHEAD = 3.0  # s a leg's end point must also stay clear (room to start the next leg)
 MAX_TRIES = 30
 KNOT_SPACING = 0.2  # s, smoothing spline knots
-YAW_SMOOTH = 0.15  # s, Gaussian smoothing of the heading before its spline
+YAW_SMOOTH = 0.25  # s, Gaussian smoothing of the heading before its spline
 RANDOM_WALK_SMOOTH = 0.4  # s, Gaussian smoothing of the reflected random walk (Rahimi: "smoothed")
 SIGMA_HEADING = 0.6  # rad / sqrt(s), random-walk heading diffusion
 SIGMA_SPEED = 0.15  # m/s / sqrt(s), random-walk speed diffusion
@@ -90,7 +91,8 @@ class Trajectories:
     yaw, yaw_rate, yaw_acc (P, N) in rad, rad/s, rad/s^2 (unwrapped: continuous, not in (-pi, pi]);
     walking (P, N): horizontal speed above ``walking_speed``. ``names`` the walkers' names.
     ``gauss_markov``: per walker the (q_pos, q_vel) actually used by a gauss_markov walker (else None).
-    ``draws``: per walker, proposals drawn (rejections included) -- a planning diagnostic.
+    ``draws``: per walker, proposals drawn (rejections included); ``conflicts``: legs taken
+    although they come too close to someone (no clear proposal in MAX_TRIES) -- diagnostics.
     """
 
     t: np.ndarray
@@ -105,6 +107,7 @@ class Trajectories:
     rate: float = 100.0
     gauss_markov: list = field(default_factory=list)
     draws: list = field(default_factory=list)
+    conflicts: list = field(default_factory=list)
 
     @property
     def n_people(self) -> int:
@@ -441,42 +444,42 @@ def _derivs(spl, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return spl(t), spl(t, 1), spl(t, 2)
 
 
-def _smooth_person(t: np.ndarray, rough: np.ndarray, spec: WalkerSpec, smooth_s: float, dt: float, still: bool):
-    """Spline the rough path; add the gait bob and the heading. Returns pos, vel, acc, yaw, yaw', yaw''."""
-    n = len(t)
-    if still:
-        pos = np.zeros((n, 3))
-        pos[:, :2] = rough[0]
-        pos[:, 2] = 0.5 * spec.height
-        z = np.zeros((n, 3))
-        return pos, z.copy(), z.copy(), np.zeros(n), np.zeros(n), np.zeros(n)
-    xy_in = gaussian_filter1d(rough, smooth_s / dt, axis=0, mode="nearest") if smooth_s > 0 else rough
-    spl = _lsq_quintic(t, xy_in, KNOT_SPACING)
-    p, v, a = _derivs(spl, t)
-    speed = np.hypot(v[:, 0], v[:, 1])
+def _smooth_all(t: np.ndarray, rough: list, specs, smooth_s: list, dt: float):
+    """Spline every rough path (one joint fit: the walkers share times and knots), add the gait
+    bob and the heading. Returns pos, vel, acc (P, N, 3) and yaw, yaw', yaw'' (P, N)."""
+    P, n = len(specs), len(t)
+    xy = np.stack(
+        [gaussian_filter1d(r, s / dt, axis=0, mode="nearest") if s > 0 else r for r, s in zip(rough, smooth_s)], axis=1
+    ).reshape(n, 2 * P)
+    p, v, a = (x.reshape(n, P, 2).transpose(1, 0, 2) for x in _derivs(_lsq_quintic(t, xy, KNOT_SPACING), t))
+    speed = np.hypot(v[..., 0], v[..., 1])  # (P, N)
     # gait bob: z = h/2 + A a(s) (sin^2(pi phi) - 1/2), phi = cumulative step count
     f = STEP_RATE_0 + STEP_RATE_SLOPE * speed
-    phi = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * dt)])
-    amp = spec.bob_amplitude * np.clip(speed / WALKING_SPEED_BOB, 0.0, 1.0)
-    z = 0.5 * spec.height + amp * (np.sin(np.pi * phi) ** 2 - 0.5)
-    zs = make_interp_spline(t, z, k=5)
-    pz, vz, az = _derivs(zs, t)
+    phi = np.concatenate([np.zeros((P, 1)), np.cumsum(0.5 * (f[:, 1:] + f[:, :-1]) * dt, axis=1)], axis=1)
+    height = np.array([w.height for w in specs])[:, None]
+    bob = np.array([w.bob_amplitude for w in specs])[:, None]
+    amp = bob * np.clip(speed / WALKING_SPEED_BOB, 0.0, 1.0)
+    z = 0.5 * height + amp * (np.sin(np.pi * phi) ** 2 - 0.5)
+    pz, vz, az = (x.T for x in _derivs(make_interp_spline(t, z.T, k=5), t))
     # heading: direction of travel while moving, held while standing
-    heading = np.arctan2(v[:, 1], v[:, 0])
-    moving = speed > 0.2
-    if moving.any():
-        idx = np.where(moving, np.arange(n), -1)
-        idx = np.maximum.accumulate(idx)
-        idx[idx < 0] = np.flatnonzero(moving)[0]
-        heading = np.unwrap(heading[idx])
-    else:
-        heading = np.zeros(n)
-    heading = gaussian_filter1d(heading, YAW_SMOOTH / dt, mode="nearest")
-    ys = _lsq_quintic(t, heading, KNOT_SPACING)
-    yaw, yaw_rate, yaw_acc = _derivs(ys, t)
-    pos = np.column_stack([p, pz])
-    vel = np.column_stack([v, vz])
-    acc = np.column_stack([a, az])
+    heading = np.zeros((P, n))
+    for i in range(P):
+        moving = speed[i] > 0.2
+        if moving.any():
+            idx = np.maximum.accumulate(np.where(moving, np.arange(n), -1))
+            idx[idx < 0] = np.flatnonzero(moving)[0]
+            heading[i] = np.unwrap(np.arctan2(v[i, :, 1], v[i, :, 0])[idx])
+    heading = gaussian_filter1d(heading, YAW_SMOOTH / dt, axis=1, mode="nearest")
+    yaw, yaw_rate, yaw_acc = (x.T for x in _derivs(_lsq_quintic(t, heading.T, KNOT_SPACING), t))
+    pos = np.concatenate([p, pz[..., None]], axis=-1)
+    vel = np.concatenate([v, vz[..., None]], axis=-1)
+    acc = np.concatenate([a, az[..., None]], axis=-1)
+    for i, w in enumerate(specs):
+        if w.motion == "standing":  # exactly still
+            pos[i, :, :2] = rough[i][0]
+            pos[i, :, 2] = 0.5 * w.height
+            vel[i] = acc[i] = 0.0
+            yaw_rate[i] = yaw_acc[i] = 0.0
     return pos, vel, acc, yaw, yaw_rate, yaw_acc
 
 
@@ -504,6 +507,7 @@ def plan_trajectories(scene: Scene, duration: float, rng: np.random.Generator, w
     free = FreeSpace(scene.floorplan)
     rough: list = [None] * P
     draws = [0] * P
+    conflicts = [0] * P
     gm_used: list = [None] * P
     smooth = [0.0] * P
     stride = max(1, int(round(0.1 * rate)))  # person-person checks every 0.1 s
@@ -519,35 +523,33 @@ def plan_trajectories(scene: Scene, duration: float, rng: np.random.Generator, w
         start = model.start()
         if spec.start is None and spec.motion != "waypoints":  # a random start: not on top of someone
             for _ in range(MAX_TRIES):
-                if _clear_of_others(start[None], 0, i, rough, specs, 1):
+                if _clear_of_others(start[None], 0, i, rough, specs, 1, int(round(LOOKAHEAD * rate))):
                     break
                 start = free.random_free_point(r, model.inflate)
         if spec.motion == "gauss_markov":
             xy = _plan_gauss_markov(model, start, n, i, rough, specs, stride, draws)
         else:
-            xy = _plan_legs(model, start, n, i, rough, specs, stride, draws)
+            xy = _plan_legs(model, start, n, i, rough, specs, stride, draws, conflicts)
         rough[i] = xy
         if spec.motion == "standing":
             free = free.with_disc(xy[0, 0], xy[0, 1], spec.radius)
-    pos = np.zeros((P, n, 3))
-    vel, acc = np.zeros_like(pos), np.zeros_like(pos)
-    yaw, yaw_rate, yaw_acc = np.zeros((P, n)), np.zeros((P, n)), np.zeros((P, n))
+    pos, vel, acc, yaw, yaw_rate, yaw_acc = _smooth_all(t, rough, specs, smooth, dt)
     for i, spec in enumerate(specs):
-        pos[i], vel[i], acc[i], yaw[i], yaw_rate[i], yaw_acc[i] = _smooth_person(
-            t, rough[i], spec, smooth[i], dt, still=spec.motion == "standing"
-        )
         if spec.motion == "standing":
             yaw[i] = streams[i].uniform(-np.pi, np.pi)
     ws = scene.sensors.still_speed if walking_speed is None else walking_speed
     walking = np.hypot(vel[..., 0], vel[..., 1]) > ws
     return Trajectories(
         t=t, pos=pos, vel=vel, acc=acc, yaw=yaw, yaw_rate=yaw_rate, yaw_acc=yaw_acc, walking=walking,
-        names=tuple(s.name for s in specs), rate=rate, gauss_markov=gm_used, draws=draws,
+        names=tuple(s.name for s in specs), rate=rate, gauss_markov=gm_used, draws=draws, conflicts=conflicts,
     )
 
 
-def _clear_of_others(leg: np.ndarray, k0: int, i: int, rough: list, specs, stride: int) -> bool:
-    """True when ``leg`` (samples from step k0) keeps personal space to every planned person."""
+def _clear_of_others(leg: np.ndarray, k0: int, i: int, rough: list, specs, stride: int, lookahead: int = 0) -> bool:
+    """True when ``leg`` (samples from step k0), and its end point for ``lookahead`` more steps,
+    keeps personal space to every planned person."""
+    if lookahead:
+        leg = np.vstack([leg, np.repeat(leg[-1:], lookahead, axis=0)])
     for j, other in enumerate(rough):
         if other is None or j == i:
             continue
@@ -560,26 +562,28 @@ def _clear_of_others(leg: np.ndarray, k0: int, i: int, rough: list, specs, strid
     return True
 
 
-def _plan_legs(model: _Model, start, n, i, rough, specs, stride, draws) -> np.ndarray:
+def _plan_legs(model: _Model, start, n, i, rough, specs, stride, draws, conflicts) -> np.ndarray:
     """Leg after leg until n samples; a leg too close to someone is re-drawn (random models) or
     preceded by a one-second wait (scripted); after MAX_TRIES it is taken anyway."""
     pieces, k = [np.asarray(start, float)[None]], 1
+    look = int(round(LOOKAHEAD / model.dt))
     while k < n:
         pos = pieces[-1][-1]
         leg, commit = None, True
         for _ in range(MAX_TRIES):
             cand = model.propose(pos, k * model.dt)
             draws[i] += 1
-            if _clear_of_others(cand, k, i, rough, specs, stride):
+            if _clear_of_others(cand, k, i, rough, specs, stride, look):
                 leg = cand
                 break
             if isinstance(model, _Waypoints):
                 wait = model.wait_leg(pos, 1.0)
-                if _clear_of_others(wait, k, i, rough, specs, stride):
+                if _clear_of_others(wait, k, i, rough, specs, stride, look):
                     leg, commit = wait, False
                     break
         if leg is None:
             leg = cand  # unavoidable (a narrow passage, or nobody can move out of the way)
+            conflicts[i] += 1
         if commit:
             model.commit(leg)
         pieces.append(leg)

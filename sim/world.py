@@ -58,20 +58,35 @@ class World:
     def n_people(self) -> int:
         return len(self.person_body)
 
-    def _index(self):
-        if not hasattr(self, "_qi"):
-            self._qi = (self.qpos_adr[:, None] + np.arange(4)).ravel()
-            self._vi = (self.qvel_adr[:, None] + np.arange(4)).ravel()
-        return self._qi, self._vi
+    def packed(self, traj) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """qpos, qvel, qacc of every trajectory step, (N, nq), (N, nv), (N, nv), built once per
+        trajectory (a per-step write is then one array copy)."""
+        cache = getattr(self, "_packed", None)
+        if cache is None or cache[0] is not traj:
+            m = self.model
+            N = traj.n_steps
+            Q = np.tile(m.qpos0, (N, 1))
+            V = np.zeros((N, m.nv))
+            A = np.zeros((N, m.nv))
+            for i in range(self.n_people):
+                q, v = self.qpos_adr[i], self.qvel_adr[i]
+                Q[:, q : q + 3] = traj.pos[i]
+                Q[:, q + 3] = traj.yaw[i]
+                V[:, v : v + 3] = traj.vel[i]
+                V[:, v + 3] = traj.yaw_rate[i]
+                A[:, v : v + 3] = traj.acc[i]
+                A[:, v + 3] = traj.yaw_acc[i]
+            self._packed = cache = (traj, Q, V, A)
+        return cache[1], cache[2], cache[3]
 
     def write_state(self, traj, k: int, with_derivatives: bool = True) -> None:
         """Write every walker's qpos (and qvel, qacc) at trajectory step k."""
-        qi, vi = self._index()
+        Q, V, A = self.packed(traj)
         d = self.data
-        d.qpos[qi] = np.column_stack([traj.pos[:, k], traj.yaw[:, k]]).ravel()
+        d.qpos[:] = Q[k]
         if with_derivatives:
-            d.qvel[vi] = np.column_stack([traj.vel[:, k], traj.yaw_rate[:, k]]).ravel()
-            d.qacc[vi] = np.column_stack([traj.acc[:, k], traj.yaw_acc[:, k]]).ravel()
+            d.qvel[:] = V[k]
+            d.qacc[:] = A[k]
 
     def set_step(self, traj, k: int) -> None:
         """Put the world at trajectory step k: qpos, qvel, qacc, then ``mj_inverse`` (positions,
@@ -145,8 +160,10 @@ def build_world(scene: Scene) -> World:
         c = world.add_camera()
         c.name = cam.name
         c.pos = list(map(float, cam.position))
+        c.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
         c.alt.xyaxes = list(map(float, cam.mujoco_xyaxes()))
         c.fovy = float(np.degrees(cam.fovy))
+        c.resolution = [cam.width, cam.height]  # used by the camprojection sensor
     if scene.cameras:
         spec.visual.global_.offwidth = max(640, max(c.width for c in scene.cameras))
         spec.visual.global_.offheight = max(480, max(c.height for c in scene.cameras))
