@@ -1,0 +1,62 @@
+"""Accuracy thresholds: every bound in metrics/thresholds.csv holds on the small CI versions of the
+bundled scenes; an impossible bound makes the check fail; the file format is validated."""
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from metrics.thresholds import ThresholdError, check_thresholds, ci_spec, failure_table, load_thresholds
+from scripts.compare import run_comparison
+
+THRESHOLDS = load_thresholds()
+GROUPS = sorted(set(zip(THRESHOLDS["scene"], THRESHOLDS["sensing"])))
+_results: dict = {}
+
+
+def ci_results(scene: str, sensing: str) -> pd.DataFrame:
+    """The CI comparison for one scene, run once per test session."""
+    if (scene, sensing) not in _results:
+        _results[scene, sensing] = run_comparison(ci_spec(THRESHOLDS, scene, sensing), progress=False).results
+    return _results[scene, sensing]
+
+
+@pytest.mark.parametrize("scene,sensing", GROUPS)
+def test_thresholds_hold(scene, sensing):
+    rows = THRESHOLDS[(THRESHOLDS["scene"] == scene) & (THRESHOLDS["sensing"] == sensing)]
+    checked = check_thresholds(ci_results(scene, sensing), rows)
+    assert checked["passed"].all(), "\n" + failure_table(checked)
+
+
+def test_an_impossible_bound_fails_with_a_table():
+    scene, sensing = "overhead_lab", "analytic"
+    impossible = pd.DataFrame([
+        {"scene": scene, "sensing": sensing, "estimator": "ekf", "metric": "rmse", "op": "<=", "bound": 1e-4},
+        {"scene": scene, "sensing": sensing, "estimator": "ekf", "metric": "mota", "op": ">=", "bound": 0.5},
+        {"scene": scene, "sensing": sensing, "estimator": "nobody", "metric": "mota", "op": ">=", "bound": 0.5},
+    ])
+    checked = check_thresholds(ci_results(scene, sensing), impossible)
+    assert checked["passed"].tolist() == [False, True, False]
+    table = failure_table(checked)
+    assert "2 accuracy threshold(s) not met" in table and "rmse" in table and "not run" in table
+
+
+def test_skipped_estimator_fails_its_bound():
+    results = pd.DataFrame([{"scene": "s", "sensing": "analytic", "estimator": "e", "status": "skipped",
+                             "reason": "needs imu observations", "mota": float("nan")}])
+    th = pd.DataFrame([{"scene": "s", "sensing": "analytic", "estimator": "e", "metric": "mota", "op": ">=", "bound": 0.1}])
+    checked = check_thresholds(results, th)
+    assert not checked["passed"].any() and "needs imu" in checked["note"].iloc[0]
+
+
+@pytest.mark.parametrize("text,problem", [
+    ("scene,sensing,estimator,metric,op\n", "missing columns"),
+    ("scene,sensing,estimator,metric,op,bound\na,analytic,e,mota,>,0.5\n", "op must be"),
+    ("scene,sensing,estimator,metric,op,bound\na,analytic,e,mota,>=,high\n", "not a number"),
+    ("scene,sensing,estimator,metric,op,bound\na,painted,e,mota,>=,0.5\n", "sensing"),
+    ("scene,sensing,estimator,metric,op,bound\na,analytic,e,mota,>=,0.5\na,analytic,e,mota,>=,0.6\n", "twice"),
+])
+def test_bad_threshold_files(tmp_path, text, problem):
+    p = tmp_path / "t.csv"
+    p.write_text("# a comment line\n" + text)
+    with pytest.raises(ThresholdError, match=problem):
+        load_thresholds(p)
