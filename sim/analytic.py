@@ -22,8 +22,10 @@ Observations of visible people (noise from ``sim.noise``):
 - oblique cameras -> ``boxes``: the window of the projected cylinder (its top and bottom circles,
   clipped to the image), u of the body centre, and the image velocity of the body centre
   d(u, v)/dt = f / Z (Xdot - X Zdot / Z, Ydot - Y Zdot / Z) (px/s; X, Y, Z camera coordinates,
-  dots their rates R v). ``track`` is the camera's tracker id: kept while the person stays
-  visible from frame to frame, a new one after a gap;
+  dots their rates R v). Only where that image speed is at least ``sensors.flow_min_px_s``:
+  an optical-flow tracker finds no moving region for a person standing still (the rendered
+  Farneback windows of ``sim.perception_flow`` do not either). ``track`` is the camera's tracker
+  id: kept while the person stays visible and moving from frame to frame, a new one after a gap;
 - overhead cameras -> ``floor_detections``: (x, y) plus noise; with a ``region``, only where the
   *measured* position lies in [xmin, xmax) x [ymin, ymax); a privacy camera quantises and misses
   people whose true horizontal speed is below ``sensors.still_speed``.
@@ -188,13 +190,16 @@ def observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, Cam
         if cam.kind in ("horizontal", "oblique") and len(f_idx):
             u = noise.bearing(rng, g.uv[f_idx, p_idx, 0], s)
             out["bearings"].append(pd.DataFrame({"t": t, "camera": cam.name, "u": u, "label": labels[p_idx]}))
-        if cam.kind == "oblique" and len(f_idx):
-            edges, u, flow = noise.box(rng, g.edges[f_idx, p_idx], g.uv[f_idx, p_idx, 0], g.flow[f_idx, p_idx], cam.fps, s)
-            track = _track_ids(vis, g.uv[..., 0])[f_idx, p_idx]
+        if cam.kind == "oblique":
+            moving = flow_detectable(g, s.flow_min_px_s) & vis
+            fb, pb = np.nonzero(moving)
+        if cam.kind == "oblique" and len(fb):
+            edges, u, flow = noise.box(rng, g.edges[fb, pb], g.uv[fb, pb, 0], g.flow[fb, pb], cam.fps, s)
+            track = _track_ids(moving, g.uv[..., 0])[fb, pb]
             out["boxes"].append(
                 pd.DataFrame(
                     {
-                        "t": t, "camera": cam.name, "track": track, "u": u,
+                        "t": traj.t[g.steps[fb]], "camera": cam.name, "track": track, "u": u,
                         "u_left": edges[:, 0], "u_right": edges[:, 1], "v_top": edges[:, 2], "v_bottom": edges[:, 3],
                         "flow_u": flow[:, 0], "flow_v": flow[:, 1],
                     }
@@ -219,6 +224,12 @@ def observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, Cam
                 df["track"] = df["track"].astype(np.int64)
             tables[kind] = _sorted(df, key)
     return tables
+
+
+def flow_detectable(g: CameraGeometry, min_px_s: float) -> np.ndarray:
+    """(F, P) bool: the image speed |d(u, v)/dt| of the body centre is at least ``min_px_s``
+    (px/s), so an optical-flow tracker sees the person move."""
+    return np.hypot(g.flow[..., 0], g.flow[..., 1]) >= min_px_s
 
 
 def _track_ids(vis: np.ndarray, u: np.ndarray) -> np.ndarray:

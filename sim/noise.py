@@ -9,7 +9,8 @@ and noise-free values, and returns the measured values. Models:
 - Bearing: u = u_true + N(0, bearing_sigma_px^2) (pixels).
 - Boxes (oblique cameras): each window edge u_left, u_right, v_top, v_bottom gets independent
   N(0, box_sigma_px^2); the centroid u gets N(0, bearing_sigma_px^2); the flow gets
-  N(0, (box_sigma_px * fps)^2) per axis (a one-pixel edge error per frame, in px/s).
+  N(0, flow_sigma_px_s^2) per axis (px/s: the mean flow over the object region, whose error is
+  far below an edge error differenced between frames, box_sigma_px * fps).
 - Floor positions (overhead cameras): (x, y) + N(0, floor_sigma_m^2 I) (m). A privacy camera
   then quantises to its grid: x_q = quantum * round(x / quantum) (Teixeira: 15 cm cells).
 """
@@ -40,7 +41,7 @@ def box(rng: np.random.Generator, edges: np.ndarray, u: np.ndarray, flow: np.nda
     # keep the window well formed after the noise
     e[:, [0, 1]] = np.sort(e[:, [0, 1]], axis=1)
     e[:, [2, 3]] = np.sort(e[:, [2, 3]], axis=1)
-    return e, u + rng.normal(0.0, s.bearing_sigma_px, u.shape), flow + rng.normal(0.0, s.box_sigma_px * fps, flow.shape)
+    return e, u + rng.normal(0.0, s.bearing_sigma_px, u.shape), flow + rng.normal(0.0, s.flow_sigma_px_s, flow.shape)
 
 
 def floor_position(rng: np.random.Generator, xy: np.ndarray, s: SensorSpec, quantum: float = 0.0) -> np.ndarray:
