@@ -5,10 +5,10 @@ Each camera frame k the tracker
 1. predicts every live track with a constant-velocity Kalman filter (per axis, state [p, v]):
        F = [[1, dt], [0, 1]],  Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]],  H = [1, 0],  R = sigma^2,
    vectorised over tracks (the covariance is the same for x and y, so 3 numbers per track);
-2. associates predicted positions to the frame's detections by ``linear_sum_assignment`` on the
-   Euclidean distance, with a gate ``gate_m`` (m); unmatched detections start new tracks, unless
-   they lie within ``duplicate_m`` of a matched detection from another camera (two cameras whose
-   tiles meet both reporting one person near the border);
+2. fuses detections of one frame from different cameras closer than ``duplicate_m`` (two cameras
+   whose floor tiles meet both reporting one person near the border) into their mean, then
+   associates predicted positions to the frame's detections by ``linear_sum_assignment`` on the
+   Euclidean distance, with a gate ``gate_m`` (m); unmatched detections start new tracks;
 3. ends a track that has been missed for more than ``max_missed_s`` seconds (a detection drop-out,
    or a person standing still in front of a privacy camera);
 4. keeps a proximity relation between tracks with hysteresis: two tracks become *linked* when
@@ -46,7 +46,7 @@ class TrackerConfig:
     q: float = 2.0  # white-acceleration spectral density, m^2/s^3
     init_speed_sigma: float = 1.0  # prior std of a new track's velocity, m/s
     gate_m: float = 1.0  # association gate, m
-    duplicate_m: float = 0.5  # an unmatched detection this close to another camera's matched one is a duplicate, m
+    duplicate_m: float = 0.5  # detections of one frame from different cameras this close are one person, m
     max_missed_s: float = 0.3  # a track missed longer than this ends, s
     r_enter: float = 0.6  # proximity radius that starts an ambiguity, m
     r_exit: float = 0.8  # radius beyond which the ambiguity ends (hysteresis), m
@@ -168,6 +168,9 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     for k in range(F):
         t = frame_times[k]
         z = Z[bounds[k]:bounds[k + 1]]
+        c = cams[bounds[k]:bounds[k + 1]]
+        if len(z) > 1 and (c != c[0]).any():
+            z = fuse_duplicates(z, c, cfg.duplicate_m)
         nz, A = len(z), len(pos)
         zi = np.full(A, -1)
         matched = np.zeros(nz, bool)
@@ -207,14 +210,6 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         # start tracks for unmatched detections
         births: list[int] = []
         new_d = np.flatnonzero(~matched)
-        if len(new_d) and matched.any():
-            # cameras tile the floor and each reports where it measured a person: near a tile
-            # border one person can be reported by two cameras; such a duplicate starts no track
-            c = cams[bounds[k]:bounds[k + 1]]
-            m_idx = np.flatnonzero(matched)
-            dd = np.sqrt(((z[new_d][:, None] - z[m_idx][None]) ** 2).sum(-1))
-            dup = ((dd < cfg.duplicate_m) & (c[new_d][:, None] != c[m_idx][None])).any(axis=1)
-            new_d = new_d[~dup]
         n_new = len(new_d)
         if n_new:
             births = [new_segment(k) for _ in new_d]
@@ -284,6 +279,27 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         "end_vx": last["vx"].to_numpy(float), "end_vy": last["vy"].to_numpy(float), "end_reason": end_reason,
     })
     return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float))
+
+
+def fuse_duplicates(z: np.ndarray, cam: np.ndarray, radius: float) -> np.ndarray:
+    """Merge pairs of detections (n, 2) from different cameras closer than ``radius`` (m) into
+    their mean, closest pairs first, each detection in at most one pair."""
+    d = np.sqrt(((z[:, None] - z[None]) ** 2).sum(-1))
+    cand = (cam[:, None] != cam[None]) & (d < radius)
+    cand = np.triu(cand, 1)
+    if not cand.any():
+        return z
+    i, j = np.nonzero(cand)
+    order = np.argsort(d[i, j], kind="stable")
+    used = np.zeros(len(z), bool)
+    keep = np.ones(len(z), bool)
+    z = z.copy()
+    for a, b in zip(i[order], j[order]):
+        if not (used[a] or used[b]):
+            used[a] = used[b] = True
+            z[a] = 0.5 * (z[a] + z[b])
+            keep[b] = False
+    return z[keep]
 
 
 def window_velocity(segment: np.ndarray, t: np.ndarray, x: np.ndarray, y: np.ndarray, window_s: float,

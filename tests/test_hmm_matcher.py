@@ -126,25 +126,28 @@ MEETING = {"A": [(0, 2, 5), (3, 4.75, 5), (6, 4.75, 5), (9, 4.75, 8), (12, 4.75,
 def test_crossing_people_are_identified_after_the_crossing():
     rec = synthetic_recording(CROSSING, {"A": "phA", "B": "phB"}, 10.0, floor_sigma=0.1)
     tracks = run(rec)
-    acc = per_person_accuracy(rec, tracks, t_from=1.0)
-    assert min(acc.values()) > 0.9, acc
+    # the crossing cuts both tracks (ambiguity 3.6-4.75 s); evidence gathered before it is carried
+    # over, so both are claimed right from shortly after it to the end
+    acc = per_person_accuracy(rec, tracks, t_from=5.5)
+    assert min(acc.values()) > 0.95, acc
     ev = evaluate(rec, tracks)
-    assert ev.identification.id_accuracy > 0.9
+    assert ev.identification.id_accuracy > 0.98  # eq. 22: (almost) no wrong claim at any time
+    assert ev.identification.identifications > 0.5 * len(tracks)
 
 
 def test_crossing_with_swapped_phones_follows_the_phones():
     # the same paths with the phones exchanged: the claims must follow the phones, not the paths
     rec = synthetic_recording(CROSSING, {"A": "phB", "B": "phA"}, 10.0, floor_sigma=0.1)
-    acc = per_person_accuracy(rec, run(rec), t_from=1.0)
-    assert min(acc.values()) > 0.9, acc
+    acc = per_person_accuracy(rec, run(rec), t_from=5.5)
+    assert min(acc.values()) > 0.95, acc
 
 
 @pytest.mark.parametrize("privacy", [False, True])
 def test_meeting_then_one_stays_still(privacy):
     rec = synthetic_recording(MEETING, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.05, privacy=privacy)
     tracks = run(rec)
-    # after A leaves (t > 7 s) the walker must carry A's phone: the still phone says "stopped"
-    late = per_person_accuracy(rec, tracks, t_from=7.5)
+    # after A leaves (t > 6 s) the walker must carry A's phone: the still phone says "stopped"
+    late = per_person_accuracy(rec, tracks, t_from=8.0)
     assert late["A"] > 0.9, late
     if not privacy:
         assert late["B"] > 0.9, late
@@ -167,7 +170,7 @@ def test_phoneless_person_gets_no_phone():
         d = np.hypot(row["x"] - tr["x"], row["y"] - tr["y"]).to_numpy()
         bad += bool(d.min() < 0.5 and row["phone_id"].iloc[int(np.argmin(d))] != "")
     assert bad / len(tracks["t"].unique()) < 0.05
-    acc = per_person_accuracy(rec, tracks, t_from=1.0)
+    acc = per_person_accuracy(rec, tracks, t_from=4.0)
     assert acc["A"] > 0.9 and acc["B"] > 0.9, acc
 
 
