@@ -77,7 +77,7 @@ class TargetPlanes(Estimator):
         width_ratio_threshold: float = 1.0  # eq. 8
         position_tol: float = 1.0  # section 4.3: |u - u_c| allowed, in estimated-window widths
         search_margin: float = 0.5  # estimated window widened by this many widths when searching
-        overlap_gap: float = 0.15  # windows closer than this (widths) overlap (section 4.1)
+        overlap_gap: float = 0.0  # windows closer than this (widths) overlap (section 4.1)
         neighbour_span: float = 1.0  # search areas beside the target, in widths (Fig. 8)
         rejoin_width_ratio: float = 0.35  # an overlapped window is the target alone again below this eq. 8 value
         flow_tol_px: float = 6.0  # image velocity similarity: |v - v_pred| <= tol + rel |v_pred| (px/s)
@@ -93,8 +93,13 @@ class TargetPlanes(Estimator):
         intersect_areas: bool = True  # section 5: intersect the target areas of all tracking cameras
         init_radius: float = 0.5  # uncertainty (m) of the hand-given initial position
         sigma_planes: float = 0.25  # search radius (m) after a multi-camera estimate
-        sigma_growth: float = 1.0  # growth (m/s) of the search radius while no camera tracks
-        sigma_max: float = 2.0
+        sigma_growth: float = 0.5  # growth (m/s) of the search radius while no camera tracks
+        sigma_max: float = 1.5
+        lost_velocity_tau: float = 1.0  # s: while no camera tracks, V decays as exp(-t / tau) (a target that vanishes from every view at once has most likely stopped)
+        sigma_v_tracked: float = 0.1  # m/s: velocity uncertainty while a camera tracks (eq. 7 from mean flows)
+        accel_max: float = 1.0  # m/s^2: growth of the velocity uncertainty while no camera tracks (a walker stopping, starting or turning)
+        area_gate_max: float = 0.5  # m: at most this much of a single-camera area's extent widens the re-acquisition gate
+        confirm_single_frames: int = 3  # a re-acquisition no second camera can confirm must persist this many frames
         init_min_cameras: int = 2  # multi-person: windows needed to start a target
         confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
         max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
@@ -122,9 +127,13 @@ class TargetPlanes(Estimator):
         Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
         frames = split_boxes(boxes, cams, cfg.flow_window)
         times = frame_times(calibration, cams, observations.duration, boxes)
-        # flow noise (px/s) of each camera's averaged window flow, from the calibrated window noise
+        # flow noise (px/s) of each camera's averaged window flow: the calibrated region-mean flow
+        # noise (``flow_sigma_px_s``) or, for recordings without it, window-edge noise x fps
         sigma_px = float(calibration.noise.get("box_sigma_px", 0.0) or 0.0)
-        flow_sigma = {c: sigma_px * calibration.cameras[c].fps / np.sqrt(cfg.flow_window) for c in cams}
+        fs = calibration.noise.get("flow_sigma_px_s")
+        flow_sigma = {
+            c: (float(fs) if fs is not None else sigma_px * calibration.cameras[c].fps) / np.sqrt(cfg.flow_window) for c in cams
+        }
         upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px)
         inside_room = calibration.floorplan.inside
 
@@ -142,14 +151,19 @@ class TargetPlanes(Estimator):
             dt = t - t_prev
             t_prev = t
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
+            for tg in targets:
+                if tg.mode == "predicted":  # no camera tracked it last frame: it has most likely stopped
+                    tg.vel = tg.vel * np.exp(-dt / cfg.lost_velocity_tau)
             preds = {tg.tid: tg.xy + tg.vel[:2] * dt for tg in targets}
             views = {tg.tid: upd.views(tg, preds[tg.tid]) for tg in targets}
             used = {tg.tid: {} for tg in targets}
             held = {tg.tid: [] for tg in targets}  # (camera, box) of overlapped windows still containing the target
+            acquired = {tg.tid: set() for tg in targets}  # cameras that (re)acquired the target this frame
             followed = {c: set() for c in cams}
             for c in cams:
-                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt)
+                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt, acquired)
             for tg in list(targets):
+                self._confirm(tg, preds[tg.tid], used[tg.tid], acquired[tg.tid], frame, upd)
                 self._update(tg, preds[tg.tid], used[tg.tid], held[tg.tid], frame, upd, dt)
             if cfg.multi_person:
                 claimed = {c: set(followed[c]) | {j for u in used.values() for cc, j in u.items() if cc == c} for c in cams}
@@ -203,7 +217,7 @@ class TargetPlanes(Estimator):
         tg.area = area.polygon
         return tg
 
-    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt) -> None:
+    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt, acquired) -> None:
         """One camera: continue tracking cameras' windows, then search for the others."""
         cfg = self.config
         claimed: dict[int, int] = {}  # box -> target id
@@ -249,6 +263,7 @@ class TargetPlanes(Estimator):
                 cs.status, cs.reason = TRACKING, ""
                 claimed[j] = tg.tid
                 used[tg.tid][c] = j
+                acquired[tg.tid].add(c)
                 upd.remember_neighbours(cs, boxes, j)
                 continue
             if cs.reason in ("overlap", "width"):
@@ -274,6 +289,7 @@ class TargetPlanes(Estimator):
                     cs = tg.cams[c]
                     cs.status, cs.track, cs.reason = TRACKING, boxes.track[j], ""
                     used[tg.tid][c] = int(j)
+                    acquired[tg.tid].add(c)
                     claimed[int(j)] = tg.tid
                     followed[c].add(int(j))
                     upd.remember_neighbours(cs, boxes, int(j))
@@ -286,6 +302,55 @@ class TargetPlanes(Estimator):
             cs.status, cs.track, cs.reason = LOST, None, ""
             cs.near = {}
 
+    def _confirm(self, tg: Target, xy_pred, used: dict, acquired: set, frame, upd: TargetUpdater) -> None:
+        """Re-acquisition test (beyond the paper, whose lost cameras trust the velocity gate alone).
+
+        With two or more cameras that kept the target from the last frame, a camera that
+        (re)acquires it is judged by the estimate's position test against their planes. With
+        fewer, a newcomer must be confirmed: the planes of the kept and new cameras (eq. 6) must
+        cross inside every one's target area and within the search radius of the prediction
+        (newcomers straying farthest are left out one by one); a single newcomer with nothing to
+        cross-check must hold the same window, with its target area covering the prediction,
+        for ``confirm_single_frames`` frames. Unconfirmed cameras stay lost this frame.
+        """
+        cfg = self.config
+        new = [c for c in acquired if c in used]
+        kept = [c for c in used if c not in acquired]
+        for c in kept:
+            tg.cams[c].pending, tg.cams[c].pending_n = None, 0
+        if not new or len(kept) >= 2:
+            for c in new:
+                tg.cams[c].pending, tg.cams[c].pending_n = None, 0
+            return
+        gate = upd.search_radius(tg)
+        cand = sorted(new, key=lambda c: upd.stray(c, frame[c], used[c], xy_pred))
+        while cand:
+            if len(kept) + len(cand) >= 2:
+                if upd.agree({c: used[c] for c in kept + cand}, frame, xy_pred, gate):
+                    for c in cand:
+                        tg.cams[c].pending, tg.cams[c].pending_n = None, 0
+                    return
+                self._reject(tg, cand.pop(), used)
+                continue
+            c = cand[0]  # a single newcomer: confirmed over frames
+            cs = tg.cams[c]
+            track = frame[c].track[used[c]]
+            cs.pending_n = cs.pending_n + 1 if cs.pending == track else 1
+            cs.pending = track
+            area_ok = upd.area_of(c, frame[c], used[c]).contains(xy_pred, tg.sigma)
+            if not (cs.pending_n >= cfg.confirm_single_frames and area_ok):
+                self._reject(tg, c, used, keep_pending=area_ok)
+            return
+
+    @staticmethod
+    def _reject(tg: Target, c: str, used: dict, keep_pending: bool = False) -> None:
+        cs = tg.cams[c]
+        cs.status, cs.track, cs.reason = LOST, None, "unconfirmed"
+        cs.near = {}
+        if not keep_pending:
+            cs.pending, cs.pending_n = None, 0
+        used.pop(c, None)
+
     def _update(self, tg: Target, xy_pred, used, held, frame, upd: TargetUpdater, dt) -> None:
         cfg = self.config
         xy, poly, mode, dropped = upd.estimate(tg, xy_pred, dict(used), frame, held)
@@ -294,11 +359,13 @@ class TargetPlanes(Estimator):
             tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "position"
         if mode == "predicted":
             tg.sigma = min(tg.sigma + cfg.sigma_growth * dt, cfg.sigma_max)
+            tg.sigma_v = min(tg.sigma_v + cfg.accel_max * dt, cfg.max_speed)
             if tg.area is not None:
                 tg.area = tg.area + (xy - tg.xy)
             tg.misses_s += dt
         else:
             tg.sigma = cfg.sigma_planes
+            tg.sigma_v = cfg.sigma_v_tracked
             tg.area = poly if mode == "area" else None
             tg.misses_s = 0.0
             tg.hits += 1

@@ -34,6 +34,8 @@ class CameraState:
     track: object = None  # the camera tracker's id being followed
     reason: str = ""
     near: dict = field(default_factory=dict)  # other movers beside the target last frame: id -> (u_l, u_r, flow_u)
+    pending: object = None  # window (track id) found but not yet confirmed as the target
+    pending_n: int = 0  # consecutive frames it was found
 
 
 @dataclass
@@ -43,6 +45,7 @@ class CameraView:
     win_point: np.ndarray  # (4,) estimated window at the predicted position
     win_area: np.ndarray  # (4,) estimated window over the target area (search window)
     v_pred: np.ndarray | None  # (2,) predicted image velocity, px/s (None until a velocity is known)
+    v_slack: float = 0.0  # px/s: the target's velocity uncertainty sigma_v seen in this camera, |J| sigma_v
 
     @property
     def u_c(self) -> float:
@@ -68,6 +71,7 @@ class Target:
     vel: np.ndarray = field(default_factory=lambda: np.zeros(3))
     vel_known: bool = False
     sigma: float = 0.3  # radius (m) of the position uncertainty used for the search window
+    sigma_v: float = 0.0  # m/s: uncertainty of the velocity (grows while no camera tracks: stops, turns)
     area: np.ndarray | None = None  # single-camera target area (polygon) when that was the estimate
     hits: int = 0
     misses_s: float = 0.0
@@ -106,8 +110,9 @@ class TargetUpdater:
             wa = geo.cylinder_window(P, pts, cfg.height, cfg.radius)
             if not np.isfinite(wp).all() or not np.isfinite(wa).all():
                 continue  # behind the camera
-            vp = geo.flow_jacobian(P, X) @ tgt.vel if tgt.vel_known else None
-            out[name] = CameraView(wp, geo.union_window(wa), vp)
+            J = geo.flow_jacobian(P, X)
+            vp = J @ tgt.vel if tgt.vel_known else None
+            out[name] = CameraView(wp, geo.union_window(wa), vp, float(np.linalg.norm(J[:, :2], 2)) * tgt.sigma_v)
         return out
 
     def flow_tol(self, c: str, v: np.ndarray) -> float:
@@ -119,7 +124,7 @@ class TargetUpdater:
         """Section 3.4.2: flows (k, 2) similar to the predicted image velocity."""
         if view.v_pred is None:
             return np.ones(len(flow), bool)
-        return np.linalg.norm(flow - view.v_pred, axis=1) <= self.flow_tol(c, view.v_pred)
+        return np.linalg.norm(flow - view.v_pred, axis=1) <= self.flow_tol(c, view.v_pred) + view.v_slack
 
     def similar_flow(self, c: str, f0: np.ndarray, flows: np.ndarray) -> np.ndarray:
         return np.linalg.norm(flows - f0, axis=1) <= self.flow_tol(c, f0)
@@ -138,9 +143,13 @@ class TargetUpdater:
         hit &= (boxes.win[:, 3] >= boxes.win[j, 2]) & (boxes.win[:, 2] <= boxes.win[j, 3])
         return bool((hit & self.similar_flow(c, boxes.flow[j], boxes.flow)).any())
 
-    def merged(self, cam: CameraState, boxes: CameraBoxes, j: int, dt: float) -> bool:
+    def merged(self, cam: CameraState, boxes: CameraBoxes, j: int, dt: float, w_c: float) -> bool:
         """Beginning of an overlap by merging: a mover that was beside the target last frame has
-        vanished, and its predicted window now falls on the target's window."""
+        vanished, its predicted window now falls on the target's window, and that window is wider
+        than one person (eq. 8 above ``rejoin_width_ratio``; a neighbour that merely went out of
+        sight or stopped leaves the target's window as it was)."""
+        if width_ratio(boxes.width[j], w_c) <= self.cfg.rejoin_width_ratio:
+            return False
         for tr, (ul, ur, fu) in cam.near.items():
             if (boxes.track == tr).any():
                 continue
@@ -162,7 +171,7 @@ class TargetUpdater:
     def check_reliable(self, c: str, cam: CameraState, view: CameraView, boxes: CameraBoxes, j: int, dt: float) -> str:
         """Reason the window j a camera is tracking is unreliable, or "" (section 4)."""
         cfg = self.cfg
-        if self.overlapping(c, boxes, j) or self.merged(cam, boxes, j, dt):
+        if self.overlapping(c, boxes, j) or self.merged(cam, boxes, j, dt, view.w_c):
             return "overlap"  # 4.1
         if width_ratio(boxes.width[j], view.w_c) > cfg.width_ratio_threshold:
             return "width"  # eq. 8
@@ -262,6 +271,32 @@ class TargetUpdater:
         column u depends (slightly) on the row (eq. 4)."""
         X = np.array([xy_pred[0], xy_pred[1], self.cfg.flow_height_fraction * self.cfg.height])
         return float(geo.project(self.Ps[c], X)[0][1])
+
+    def area_of(self, c: str, boxes: CameraBoxes, j: int) -> geo.TargetArea:
+        """Single-camera target area (section 3.2) of window j of camera c."""
+        return geo.target_area(self.Ps[c], boxes.box(j), self.cfg.height, self.cfg.radius, margin=self.cfg.area_margin, margin_px=self.margin_px)
+
+    def search_radius(self, tgt: Target) -> float:
+        """How far (m) from the prediction the target may be: the search radius, plus (at most
+        ``area_gate_max``) the extent of the target area when the last estimate was a
+        single-camera area."""
+        r = tgt.sigma
+        if tgt.area is not None:
+            r += min(float(np.max(np.linalg.norm(tgt.area - tgt.xy, axis=1))), self.cfg.area_gate_max)
+        return r
+
+    def agree(self, used: dict[str, int], frame: dict[str, CameraBoxes], xy_pred: np.ndarray, gate: float) -> bool:
+        """The cameras' target planes cross (eq. 6, well conditioned) inside every camera's target
+        area and within ``gate`` metres of the prediction."""
+        areas = {c: self.area_of(c, frame[c], j) for c, j in used.items()}
+        try:
+            xy, out = self._solve(used, frame, areas, xy_pred)
+        except geo.IllConditioned:
+            return False
+        return not out and float(np.linalg.norm(xy - xy_pred)) <= gate
+
+    def stray(self, c: str, boxes: CameraBoxes, j: int, xy_pred: np.ndarray) -> float:
+        return self._stray(c, boxes, j, xy_pred)
 
     def _stray(self, c: str, boxes: CameraBoxes, j: int, xy_pred: np.ndarray) -> float:
         w = geo.cylinder_window(self.Ps[c], xy_pred, self.cfg.height, self.cfg.radius)
