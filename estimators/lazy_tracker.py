@@ -8,7 +8,8 @@ Each camera frame k the tracker
 2. fuses detections of one frame from different cameras closer than ``duplicate_m`` (two cameras
    whose floor tiles meet both reporting one person near the border) into their mean, then
    associates predicted positions to the frame's detections by ``linear_sum_assignment`` on the
-   Euclidean distance, with a gate ``gate_m`` (m); unmatched detections start new tracks;
+   squared distance (the Gaussian log-likelihood up to a constant), with a gate ``gate_m`` (m);
+   unmatched detections start new tracks;
 3. ends a track that has been missed for more than ``max_missed_s`` seconds (a detection drop-out,
    or a person standing still in front of a privacy camera);
 4. keeps a proximity relation between tracks with hysteresis: two tracks become *linked* when
@@ -119,17 +120,22 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     cams = np.zeros(len(Z), np.int64) if camera is None else np.asarray(camera)
     R = max(cfg.sigma_m, 0.02) ** 2  # an ideal camera still gets a small floor, for stable gains
     q = cfg.q
-    P0 = np.array([R, 0.0, cfg.init_speed_sigma**2])
 
-    # live track arrays; P = [ppp, ppv, pvv] per track (shared by the x and y axes)
-    pos = np.zeros((0, 2)); vel = np.zeros((0, 2)); P = np.zeros((0, 3))
-    last_t = np.zeros(0); seg = np.zeros(0, np.int64)
+    # live tracks: one row each, X = [px, py, vx, vy, ppp, ppv, pvv, t_last, zx, zy]: the state
+    # and covariance at the last update (time t_last) and the detection used there; a track is
+    # predicted from its last update only when a detection is offered to it
+    X = np.zeros((0, 10))
+    seg = np.zeros(0, np.int64)
     pending = np.zeros(0, bool)  # a cut decided while the track was not seen, applied when it is
     linked = np.zeros((0, 0), bool)
+    gate2, enter2, exit2, dup2 = cfg.gate_m**2, cfg.r_enter**2, cfg.r_exit**2, cfg.duplicate_m**2
 
-    out_frame, out_seg, out_state, out_z = [], [], [], []
+    n_out = 0
+    out = np.zeros((len(Z), 7))  # px, py, vx, vy, pvv, zx, zy
+    out_frame = np.zeros(len(Z), np.int64)
+    out_seg = np.zeros(len(Z), np.int64)
     start_frame: list[int] = []
-    end_state: list[tuple] = []  # per segment: (t, x, y, vx, vy) when it ended (or the last seen)
+    end_state: list[tuple] = []  # per segment: (t, x, y, vx, vy) when it ended
     end_reason: list[str] = []
     predecessors: dict[int, list[tuple[int, float]]] = {}
     ended: list[int] = []  # ended segments still eligible as predecessors
@@ -141,7 +147,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     def end_segment(a: int, reason: str, t_end: float) -> None:
         s = int(seg[a])
         end_reason[s] = reason
-        end_state[s] = (t_end, pos[a, 0], pos[a, 1], vel[a, 0], vel[a, 1])
+        end_state[s] = (t_end, X[a, 0], X[a, 1], X[a, 2], X[a, 3])
         ended.append(s)
 
     def link_births(t: float, births: list[int], births_xy: np.ndarray) -> None:
@@ -167,69 +173,84 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
 
     for k in range(F):
         t = frame_times[k]
-        z = Z[bounds[k]:bounds[k + 1]]
-        c = cams[bounds[k]:bounds[k + 1]]
-        if len(z) > 1 and (c != c[0]).any():
-            z = fuse_duplicates(z, c, cfg.duplicate_m)
-        nz, A = len(z), len(pos)
-        zi = np.full(A, -1)
+        b0, b1 = bounds[k], bounds[k + 1]
+        z = Z[b0:b1]
+        if len(z) > 1:
+            # cameras tile the floor and each reports where it measured a person: near a tile
+            # border two cameras may report one person; such pairs are fused into their mean
+            c = cams[b0:b1]
+            diff = z[:, None] - z[None]
+            close = ((diff * diff).sum(-1) < dup2) & (c[:, None] != c[None])
+            if close.any():
+                z = fuse_pairs(z, close)
+        nz, A = len(z), len(X)
         matched = np.zeros(nz, bool)
-        if A:
-            # 1. predict
-            dt = t - last_t
-            Pp = np.stack([P[:, 0] + 2 * dt * P[:, 1] + dt**2 * P[:, 2] + q * dt**3 / 3,
-                           P[:, 1] + dt * P[:, 2] + q * dt**2 / 2, P[:, 2] + q * dt], axis=1)
-            pred = pos + vel * dt[:, None]
-            if nz:
-                # 2. associate (gated Hungarian on distance) and update
-                d = np.sqrt(((pred[:, None, :] - z[None]) ** 2).sum(-1))
-                cost = np.where(d <= cfg.gate_m, d, 1e6)
-                ti, di = linear_sum_assignment(cost)
-                ok = cost[ti, di] < 1e6
-                ti, di = ti[ok], di[ok]
-                S = Pp[ti, 0] + R
-                Kp, Kv = Pp[ti, 0] / S, Pp[ti, 1] / S
-                r = z[di] - pred[ti]
-                pos[ti] = pred[ti] + Kp[:, None] * r
-                vel[ti] = vel[ti] + Kv[:, None] * r
-                P[ti] = np.stack([(1 - Kp) * Pp[ti, 0], (1 - Kp) * Pp[ti, 1], Pp[ti, 2] - Kv * Pp[ti, 1]], axis=1)
-                last_t[ti] = t
-                zi[ti] = di
-                matched[di] = True
+        if A and nz:
+            # 1-2. predict from the last update, associate (gated Hungarian on squared distance:
+            # the Gaussian log-likelihood up to a constant), Kalman-update the matched tracks
+            dt = t - X[:, 7]
+            pred = X[:, 0:2] + X[:, 2:4] * dt[:, None]
+            diff = pred[:, None, :] - z[None]
+            d2 = (diff * diff).sum(-1)
+            cost = np.where(d2 <= gate2, d2, 1e12)
+            ti, di = linear_sum_assignment(cost)
+            ok = cost[ti, di] < 1e12
+            ti, di = ti[ok], di[ok]
+            Xm = X[ti]
+            h = dt[ti]
+            Pp0 = Xm[:, 4] + h * (2 * Xm[:, 5] + h * Xm[:, 6]) + q * h**3 / 3
+            Pp1 = Xm[:, 5] + h * Xm[:, 6] + q * h**2 / 2
+            Pp2 = Xm[:, 6] + q * h
+            Kp = Pp0 / (Pp0 + R)
+            Kv = Pp1 / (Pp0 + R)
+            r = z[di] - pred[ti]
+            Xm[:, 0:2] = pred[ti] + Kp[:, None] * r
+            Xm[:, 2:4] += Kv[:, None] * r
+            Xm[:, 4] = (1 - Kp) * Pp0
+            Xm[:, 5] = (1 - Kp) * Pp1
+            Xm[:, 6] = Pp2 - Kv * Pp1
+            Xm[:, 7] = t
+            Xm[:, 8:10] = z[di]
+            X[ti] = Xm
+            matched[di] = True
         # 3. end tracks missed too long
         cut = pending
-        alive = t - last_t <= cfg.max_missed_s + 1e-9
+        alive = X[:, 7] >= t - cfg.max_missed_s - 1e-9
         if not alive.all():
             cut = cut.copy()
             for a in np.flatnonzero(~alive):
-                end_segment(a, "missed", last_t[a])
+                end_segment(a, "missed", X[a, 7])
                 cut |= linked[a] & alive  # a track vanishing next to others: static ambiguity
             keep = np.flatnonzero(alive)
-            pos, vel, P, last_t, seg, cut, zi = pos[keep], vel[keep], P[keep], last_t[keep], seg[keep], cut[keep], zi[keep]
+            X, seg, cut = X[keep], seg[keep], cut[keep]
             linked = linked[np.ix_(keep, keep)]
         # start tracks for unmatched detections
         births: list[int] = []
-        new_d = np.flatnonzero(~matched)
-        n_new = len(new_d)
-        if n_new:
-            births = [new_segment(k) for _ in new_d]
-            pos = np.concatenate([pos, z[new_d]])
-            vel = np.concatenate([vel, np.zeros((n_new, 2))])
-            P = np.concatenate([P, np.tile(P0, (n_new, 1))])
-            last_t = np.concatenate([last_t, np.full(n_new, t)])
-            seg = np.concatenate([seg, np.array(births, np.int64)])
-            cut = np.concatenate([cut, np.zeros(n_new, bool)])
-            zi = np.concatenate([zi, new_d])
-            nl = len(pos)
-            grown = np.zeros((nl, nl), bool)
-            grown[: nl - n_new, : nl - n_new] = linked
-            linked = grown
-        nl = len(pos)
+        n_new = 0
+        if not matched.all():
+            new_d = np.flatnonzero(~matched)
+            n_new = len(new_d)
+            if n_new:
+                births = [new_segment(k) for _ in new_d]
+                Xn = np.zeros((n_new, 10))
+                Xn[:, 0:2] = z[new_d]
+                Xn[:, 4], Xn[:, 6], Xn[:, 7] = R, cfg.init_speed_sigma**2, t
+                Xn[:, 8:10] = z[new_d]
+                X = np.concatenate([X, Xn])
+                seg = np.concatenate([seg, np.array(births, np.int64)])
+                cut = np.concatenate([cut, np.zeros(n_new, bool)])
+                nl = len(X)
+                grown = np.zeros((nl, nl), bool)
+                grown[: nl - n_new, : nl - n_new] = linked
+                linked = grown
+        nl = len(X)
         # 4. proximity relation with hysteresis: link below r_enter, unlink beyond r_exit
         if nl > 1:
-            dd = np.sqrt(((pos[:, None] - pos[None]) ** 2).sum(-1))
-            np.fill_diagonal(dd, np.inf)
-            new_linked = np.where(linked, dd <= cfg.r_exit, dd < cfg.r_enter)
+            p = X[:, 0:2]
+            diff = p[:, None] - p[None]
+            d2 = (diff * diff).sum(-1)
+            new_linked = np.where(linked, d2 <= exit2, d2 < enter2)
+            np.fill_diagonal(new_linked, False)
             changed = new_linked != linked
             if changed.any():
                 if n_new:  # newborn tracks start a fresh segment anyway: only their partners are cut
@@ -238,7 +259,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 if n_new:
                     cut[nl - n_new:] = False
             linked = new_linked
-        seen = last_t == t
+        seen = X[:, 7] == t
         if cut.any():
             pending = cut & ~seen
             for a in np.flatnonzero(cut & seen):
@@ -249,20 +270,20 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
             pending = np.zeros(nl, bool)
         if births:
             born = np.isin(seg, births)
-            link_births(t, [int(s) for s in seg[born]], pos[born])
+            link_births(t, [int(s) for s in seg[born]], X[born, 0:2])
             # a segment cut by proximity lives on in the segments born with it (its evidence is
             # carried by them), so it is no candidate for later births
             ended[:] = [e for e in ended if end_reason[e] != "proximity"]
         rows = np.flatnonzero(seen)
-        out_frame.append(np.full(len(rows), k))
-        out_seg.append(seg[rows])
-        out_state.append(np.concatenate([pos[rows], vel[rows], P[rows, 2:3], z[zi[rows]]], axis=1))
+        n = len(rows)
+        out[n_out:n_out + n] = X[rows][:, [0, 1, 2, 3, 6, 8, 9]]
+        out_frame[n_out:n_out + n] = k
+        out_seg[n_out:n_out + n] = seg[rows]
+        n_out += n
 
-    frames = np.concatenate(out_frame) if out_frame else np.zeros(0, np.int64)
-    state = np.concatenate(out_state) if out_state else np.zeros((0, 7))
-    segs = (np.concatenate(out_seg) if out_seg else np.zeros(0)).astype(np.int64)
+    frames, state, segs = out_frame[:n_out], out[:n_out], out_seg[:n_out]
     rows = pd.DataFrame({
-        "frame": frames.astype(np.int64), "t": frame_times[frames] if len(frames) else np.zeros(0), "segment": segs,
+        "frame": frames, "t": frame_times[frames] if len(frames) else np.zeros(0), "segment": segs,
         "x": state[:, 0], "y": state[:, 1], "vx": state[:, 2], "vy": state[:, 3], "pvv": state[:, 4],
         "zx": state[:, 5], "zy": state[:, 6],
     })
@@ -281,20 +302,15 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float))
 
 
-def fuse_duplicates(z: np.ndarray, cam: np.ndarray, radius: float) -> np.ndarray:
-    """Merge pairs of detections (n, 2) from different cameras closer than ``radius`` (m) into
-    their mean, closest pairs first, each detection in at most one pair."""
-    d = np.sqrt(((z[:, None] - z[None]) ** 2).sum(-1))
-    cand = (cam[:, None] != cam[None]) & (d < radius)
-    cand = np.triu(cand, 1)
-    if not cand.any():
-        return z
-    i, j = np.nonzero(cand)
-    order = np.argsort(d[i, j], kind="stable")
+def fuse_pairs(z: np.ndarray, close: np.ndarray) -> np.ndarray:
+    """Replace each pair (i, j) flagged in the symmetric boolean matrix ``close`` by its mean,
+    closest pairs first, each detection in at most one pair; returns the fused detections."""
+    i, j = np.nonzero(np.triu(close, 1))
+    d2 = ((z[i] - z[j]) ** 2).sum(-1)
     used = np.zeros(len(z), bool)
     keep = np.ones(len(z), bool)
     z = z.copy()
-    for a, b in zip(i[order], j[order]):
+    for a, b in zip(i[np.argsort(d2, kind="stable")], j[np.argsort(d2, kind="stable")]):
         if not (used[a] or used[b]):
             used[a] = used[b] = True
             z[a] = 0.5 * (z[a] + z[b])
