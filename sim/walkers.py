@@ -13,8 +13,11 @@ random process):
   clearance field: v <- v - 2 (v.n) n). The result is smoothed (Gaussian, RANDOM_WALK_SMOOTH s).
 - ``gauss_markov`` (Rahimi eq. 1): per axis [x, v]_{k+1} = [[1, dt], [0, 1]] [x, v]_k + nu,
   nu ~ N(0, diag(q_pos dt, q_vel dt)). Chunks of GM_CHUNK seconds are drawn whole, from the
-  current state, until one stays in free space (a whole trajectory of minutes almost never would;
-  chunk-wise rejection keeps the process Gauss-Markov inside each chunk and the walker in the room).
+  current state, until one stays in free space and its end state, coasting on at constant
+  velocity for GM_COAST s, would too (a whole trajectory of minutes almost never stays in a room;
+  chunk-wise rejection keeps the process Gauss-Markov inside each chunk and the walker in the
+  room; the coasting test avoids dead ends that run into a wall). A chunk with no acceptable
+  continuation is dropped (backtracking).
   When the scene gives no ``process_noise`` the walker uses ``DEFAULT_WALKER_GM`` (the scene's
   default is the paper's stiff *prior*, for estimators; with it a walker goes straight through a
   wall within seconds). The parameters used are reported in ``Trajectories.gauss_markov``.
@@ -43,7 +46,8 @@ derivative. The vertical body centre is
     z(t) = h / 2 + A a(s) (sin^2(pi phi(t)) - 1/2),   phi(t) = integral of f(s) dt,
 
 with A = ``bob_amplitude`` (peak to peak), step rate f(s) = STEP_RATE_0 + STEP_RATE_SLOPE s (Hz,
-rising with speed s), a(s) = min(1, s / 0.5 m/s) fading the bob in and out at stops; z is
+rising with speed s), a(s) = 1 - exp(-(s / s_b)^2) (s_b = WALKING_SPEED_BOB) fading the bob in
+and out at stops, smooth in the velocity so that z'' has no kinks; z is
 interpolated by a quintic spline through its samples, so again z, z', z'' are consistent. The yaw
 follows the walking direction atan2(vy, vx) (held while standing), unwrapped, smoothed and fitted
 by a quintic spline (yaw, yaw rate, yaw acceleration).
@@ -72,14 +76,17 @@ RANDOM_WALK_SMOOTH = 0.4  # s, Gaussian smoothing of the reflected random walk (
 SIGMA_HEADING = 0.6  # rad / sqrt(s), random-walk heading diffusion
 SIGMA_SPEED = 0.15  # m/s / sqrt(s), random-walk speed diffusion
 RANDOM_WALK_CHUNK = 5.0  # s
-GM_CHUNK = 5.0  # s
-GM_MAX_DRAWS = 2000
+GM_CHUNK = 2.0  # s
+GM_COAST = 2.0  # s
+GM_MAX_DRAWS = 2000  # per chunk, before dropping the previous chunk
+GM_MAX_TOTAL = 200_000  # per walker, then give up with an error
 STEP_RATE_0 = 1.0  # Hz
 STEP_RATE_SLOPE = 0.6  # Hz per m/s
-WALKING_SPEED_BOB = 0.5  # m/s at which the gait bob reaches full amplitude
+WALKING_SPEED_BOB = 0.35  # m/s: the gait bob has 63 % of its amplitude at this speed, 87 % at 0.5
 # Walker default for gauss_markov when the scene sets no process_noise: a velocity random walk
 # strong enough to turn within a 10 m room (std of a velocity change over 5 s: sqrt(0.05*5) =
-# 0.5 m/s), with 1 cm/sqrt(s) position jitter. Measured in tests/test_walkers.py: few draws.
+# 0.5 m/s), with 1 cm/sqrt(s) position jitter. Measured in bearing_hall: ~6 draws per 2 s chunk,
+# mean speed 0.6 m/s, 95th percentile acceleration 1.4 m/s^2 (tests/test_walkers.py bounds the draws).
 DEFAULT_WALKER_GM = GaussMarkovParams(q_pos=1e-4, q_vel=0.05)
 
 
@@ -260,7 +267,7 @@ def follow_path(poly: np.ndarray, speed: float, dt: float) -> np.ndarray:
     total = float(seglen.sum())
     if total < 1e-6:
         return poly[:1].copy()
-    ds = min(0.01, total / 20)
+    ds = min(0.002, total / 20)
     s = np.linspace(0.0, total, int(np.ceil(total / ds)) + 1)
     cum = np.concatenate([[0.0], np.cumsum(seglen)])
     cap2 = np.full(s.shape, speed**2)
@@ -413,7 +420,12 @@ class _GaussMarkov(_Model):
         return x
 
     def hard(self, leg):
-        return bool((self.free.clearance(leg[:: max(1, int(0.05 / self.dt))]) >= self.inflate).all())
+        """The chunk keeps the body's clearance, and so does its end state coasting on for
+        GM_COAST s (x_end + v_end s): a chunk that ends running into a wall is a dead end that
+        would cost many rejected continuations."""
+        coast = leg[-1] + np.outer(np.linspace(0.0, GM_COAST, 9), self._vel)
+        pts = np.vstack([leg[:: max(1, int(0.05 / self.dt))], coast])
+        return bool((self.free.clearance(pts) >= self.inflate).all())
 
     def commit(self, leg):
         self.vel = self._vel
@@ -458,7 +470,7 @@ def _smooth_all(t: np.ndarray, rough: list, specs, smooth_s: list, dt: float):
     phi = np.concatenate([np.zeros((P, 1)), np.cumsum(0.5 * (f[:, 1:] + f[:, :-1]) * dt, axis=1)], axis=1)
     height = np.array([w.height for w in specs])[:, None]
     bob = np.array([w.bob_amplitude for w in specs])[:, None]
-    amp = bob * np.clip(speed / WALKING_SPEED_BOB, 0.0, 1.0)
+    amp = bob * (1.0 - np.exp(-((speed / WALKING_SPEED_BOB) ** 2)))  # smooth in v: no kinks in z''
     z = 0.5 * height + amp * (np.sin(np.pi * phi) ** 2 - 0.5)
     pz, vz, az = (x.T for x in _derivs(make_interp_spline(t, z.T, k=5), t))
     # heading: direction of travel while moving, held while standing
@@ -611,8 +623,11 @@ def _plan_gauss_markov(model: "_GaussMarkov", start, n, i, rough, specs, stride,
                 break
         leg = leg or fallback
         if leg is None:
-            if len(pieces) == 1:
-                raise ValueError(f"walker {specs[i].name!r}: no Gauss-Markov path stays in free space; raise process_noise")
+            if len(pieces) == 1 or draws[i] > GM_MAX_TOTAL:
+                raise ValueError(
+                    f"walker {specs[i].name!r}: no Gauss-Markov path stays in free space after {draws[i]} draws; "
+                    f"change process_noise (q_pos, q_vel) = ({model.params.q_pos}, {model.params.q_vel})"
+                )
             k -= len(pieces.pop())
             vels.pop()
             continue

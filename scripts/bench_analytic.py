@@ -1,0 +1,65 @@
+"""Benchmark: analytic ``overhead_lab`` with 10 walkers, speed as a multiple of real time and
+memory per simulated minute.
+
+    python scripts/bench_analytic.py [--duration 60] [--repeats 3] [--walkers 10]
+
+Speed = simulated seconds / CPU seconds of this process (``time.process_time``; the process is
+single-threaded, so this is "on one core" and is not inflated by other jobs on a shared
+machine); wall-clock speed is printed too. Memory: the peak of Python allocations
+(``tracemalloc``) during one run, divided by the simulated minutes, plus the size of the
+returned recording's tables.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import tracemalloc
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")  # one core
+
+import numpy as np
+
+from scenes.loader import load_scene
+from sim.simulate import simulate
+from sim.walkers import plan_trajectories
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration", type=float, default=60.0, help="simulated seconds per run")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--walkers", type=int, default=10)
+    args = ap.parse_args(argv)
+    scene = load_scene("overhead_lab", [f"walkers.count={args.walkers}"])
+    simulate(scene, 0, 2.0)  # warm up imports and caches
+    cpu, wall, plan = [], [], []
+    for r in range(args.repeats):
+        t0, w0 = time.process_time(), time.perf_counter()
+        rec = simulate(scene, r, args.duration)
+        cpu.append(time.process_time() - t0)
+        wall.append(time.perf_counter() - w0)
+        t1 = time.process_time()
+        plan_trajectories(scene, args.duration, np.random.default_rng(r).spawn(4)[0])
+        plan.append(time.process_time() - t1)
+    tracemalloc.start()
+    rec = simulate(scene, 99, args.duration)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    table_bytes = sum(int(df.memory_usage(deep=True).sum()) for df in [*rec.observations.tables.values(), *rec.truth.tables.values()])
+    minutes = args.duration / 60.0
+    best = min(cpu)
+    print(f"overhead_lab analytic, {args.walkers} walkers, {args.duration:.0f} s simulated, {args.repeats} runs")
+    print(f"  CPU time per run: {', '.join(f'{c:.3f}' for c in cpu)} s  (trajectory planning alone: {min(plan):.3f} s)")
+    print(f"  speed: {args.duration / best:.0f}x real time on one core (best run; median {args.duration / float(np.median(cpu)):.0f}x); "
+          f"wall clock {args.duration / min(wall):.0f}x")
+    print(f"  memory: peak Python allocations {peak / 2**20 / minutes:.1f} MiB per simulated minute; "
+          f"recording tables {table_bytes / 2**20 / minutes:.1f} MiB per simulated minute")
+    print(f"  rows: " + ", ".join(f"{k} {len(v)}" for k, v in rec.observations.tables.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

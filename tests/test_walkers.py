@@ -1,0 +1,104 @@
+"""Walker motion models: free space, separation, smoothness, Gauss-Markov draws, determinism."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scenes.loader import bundled_scenes, load_scene
+from sim import walkers
+from sim.walkers import DEFAULT_WALKER_GM, follow_path, plan_trajectories
+
+
+@pytest.mark.parametrize("name", bundled_scenes())
+def test_no_walker_inside_walls_or_obstacles_over_ten_minutes(name):
+    """Over a 10-minute simulation no body (radius r) ever overlaps a wall or obstacle, and
+    people keep apart (bundled scenes: every meeting is avoidable)."""
+    overrides = ["walkers.count=10"] if name == "overhead_lab" else []
+    scene = load_scene(name, overrides)
+    traj = plan_trajectories(scene, 600.0, np.random.default_rng(0))
+    assert traj.pos.shape == (len(scene.walkers), 60000, 3)
+    for i, w in enumerate(scene.walkers):
+        clearance = scene.floorplan.clearance(traj.pos[i, :, :2])
+        assert clearance.min() >= w.radius, f"{w.name} comes within {clearance.min():.3f} m of a wall"
+    for a in range(traj.n_people):
+        for b in range(a + 1, traj.n_people):
+            d = np.linalg.norm(traj.pos[a, :, :2] - traj.pos[b, :, :2], axis=1)
+            assert d.min() > scene.walkers[a].radius + scene.walkers[b].radius
+    assert np.isfinite(traj.acc).all()
+    # walking speeds as specified (the smoothing may overshoot a little) and plausible accelerations
+    top = max(w.speed[1] for w in scene.walkers)
+    assert traj.speed().max() <= 1.1 * top + 0.05
+    assert np.percentile(np.linalg.norm(traj.acc[..., :2], axis=-1), 99) < 3.0
+
+
+def test_scripted_loop_visits_waypoints_and_returns():
+    scene = load_scene("office_floor")
+    traj = plan_trajectories(scene, 200.0, np.random.default_rng(0))
+    xy = traj.pos[0, :, :2]
+    for wp in scene.walkers[0].waypoints:
+        assert np.linalg.norm(xy - wp, axis=1).min() < 0.3, f"waypoint {wp} missed"
+    assert np.linalg.norm(xy[0] - scene.walkers[0].waypoints[0]) < 0.05
+    # it returns to the start (loop) some time after leaving it
+    away = np.flatnonzero(np.linalg.norm(xy - xy[0], axis=1) > 3)[0]
+    assert np.linalg.norm(xy[away:] - xy[0], axis=1).min() < 0.3
+
+
+def test_random_waypoint_stops_and_yaw_follows_direction():
+    scene = load_scene("overhead_lab", ["walkers.count=1", "walkers.pause=[2.0, 3.0]", "walkers.pause_probability=1.0"])
+    traj = plan_trajectories(scene, 120.0, np.random.default_rng(4))
+    walking = traj.walking[0]
+    assert 0.2 < walking.mean() < 0.95  # walks and stops
+    fast = traj.speed()[0] > 0.5
+    heading = np.arctan2(traj.vel[0, fast, 1], traj.vel[0, fast, 0])
+    err = np.angle(np.exp(1j * (traj.yaw[0, fast] - heading)))
+    assert np.percentile(np.abs(err), 90) < 0.3
+    # yaw rate is the derivative of yaw
+    dt = 1 / traj.rate
+    np.testing.assert_allclose(np.gradient(traj.yaw[0], dt)[2:-2], traj.yaw_rate[0, 2:-2], atol=2e-2)
+
+
+def test_gauss_markov_walker_stays_inside_with_few_draws():
+    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"'])
+    traj = plan_trajectories(scene, 120.0, np.random.default_rng(2))
+    assert traj.gauss_markov[0] == DEFAULT_WALKER_GM  # the walker default, not the stiff prior
+    chunks = 120.0 / walkers.GM_CHUNK
+    assert traj.draws[0] / chunks < 30
+    assert scene.floorplan.clearance(traj.pos[0, :, :2]).min() >= scene.walkers[0].radius
+    # it moves around the room rather than sitting still
+    assert np.ptp(traj.pos[0, :, 0]) > 3 and np.ptp(traj.pos[0, :, 1]) > 3
+    # an explicit process_noise is used as given
+    scene2 = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', "walkers.process_noise=[1e-4, 0.1]"])
+    assert plan_trajectories(scene2, 10.0, np.random.default_rng(2)).gauss_markov[0].q_vel == 0.1
+
+
+def test_plans_around_a_wall():
+    """A scripted walker whose waypoints lie on both sides of a wall walks round its end."""
+    scene = load_scene("office_floor")
+    free = walkers.FreeSpace(scene.floorplan)
+    poly = free.plan((3.0, 2.0), (3.0, 8.0), 0.35)  # room A to room C, across two corridor walls
+    assert len(poly) > 2
+    dense = np.vstack([np.linspace(a, b, 50) for a, b in zip(poly[:-1], poly[1:])])
+    assert scene.floorplan.clearance(dense).min() >= 0.35 - walkers.GRID
+
+
+def test_follow_path_speed_profile():
+    poly = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]])
+    xy = follow_path(poly, 1.2, 0.01)
+    v = np.linalg.norm(np.diff(xy, axis=0), axis=1) / 0.01
+    assert v.max() <= 1.2 + 1e-6
+    assert v[0] < 0.2 and v[-1] < 0.2  # from rest to rest
+    np.testing.assert_allclose(xy[-1], poly[-1], atol=1e-6)
+    # acceleration limit (away from the corner, where a chord cuts the vertex; the last step is partial)
+    # (over 0.2 s: the 2 mm arc-length grid leaves small steps that the spline smooths anyway)
+    far = np.linalg.norm(xy[:-21] - poly[1], axis=1) > 0.2
+    acc = (v[20:-1] - v[:-21]) / 0.2
+    assert np.abs(acc[far[: len(acc)]]).max() < walkers.MAX_ACCEL * 1.2
+
+
+def test_same_seed_same_trajectories():
+    scene = load_scene("occlusion_lab")
+    a = plan_trajectories(scene, 30.0, np.random.default_rng(9))
+    b = plan_trajectories(scene, 30.0, np.random.default_rng(9))
+    assert np.array_equal(a.pos, b.pos) and np.array_equal(a.yaw, b.yaw)
+    c = plan_trajectories(scene, 30.0, np.random.default_rng(10))
+    assert not np.array_equal(a.pos, c.pos) or scene.walkers[0].motion == "waypoints"
