@@ -132,33 +132,48 @@ class Occlusion:
         self._geomid = np.zeros(V * max(1, world.n_people), np.int32)
         self._dist = np.zeros(V * max(1, world.n_people))
         self._own = np.repeat(world.person_geom, V).reshape(-1, V) if world.n_people else np.zeros((0, V), int)
-        # target points on every person's axis, (P, N, V, 3)
-        pos = traj.pos
-        z = (pos[..., 2] - 0.5 * self.heights[:, None])[..., None] + self.heights[:, None, None] * np.asarray(VIS_FRACTIONS)
-        self._points = np.concatenate([np.broadcast_to(pos[:, :, None, :2], z.shape + (2,)), z[..., None]], -1)
+        # per camera, vectorised once: unit ray directions (F, P, V, 3) from the optical centre to
+        # the target points on each person's axis, their lengths (F, P, V) and the ray cutoff
+        self._rays = []
+        for cam in self.cams:
+            g = geometry[cam.name]
+            pos = traj.pos[:, g.steps].transpose(1, 0, 2)  # (F, P, 3)
+            z = (pos[..., 2] - 0.5 * self.heights)[..., None] + self.heights[:, None] * np.asarray(VIS_FRACTIONS)
+            pts = np.concatenate([np.broadcast_to(pos[..., None, :2], z.shape + (2,)), z[..., None]], -1)
+            vec = pts - np.asarray(cam.position, float)
+            length = np.sqrt((vec * vec).sum(-1))
+            vec /= length[..., None]
+            cutoff = float(length.max() + 1.0) if length.size else 1.0
+            self._rays.append((np.asarray(cam.position, float), vec, length, cutoff, g.in_fov, self.visible[cam.name]))
 
     def on_step(self, k: int) -> None:
         due = self.due.get(k)
         if due is None:
             return
         for ci, f in due:
-            cam = self.cams[ci]
-            people = np.flatnonzero(self.geometry[cam.name].in_fov[f])
+            origin, vec, length, cutoff, in_fov, visible = self._rays[ci]
+            people = np.flatnonzero(in_fov[f])
             if people.size:
-                self.visible[cam.name][f, people] = self.cast(cam, k, people)
+                visible[f, people] = self._cast(origin, vec[f, people].ravel(), length[f, people].ravel(), cutoff, people)
         self.done.add(k)
 
-    def cast(self, cam: Camera, k: int, people: np.ndarray) -> np.ndarray:
-        """Visible flags of ``people`` from ``cam`` with the world posed at step k."""
-        origin = np.asarray(cam.position, float)
-        vec = self._points[people, k].reshape(-1, 3) - origin
-        length = np.sqrt((vec * vec).sum(1))
-        vec /= length[:, None]
-        nray = len(vec)
+    def _cast(self, origin, vec, length, cutoff, people) -> np.ndarray:
+        nray = len(length)
         geomid, dist = self._geomid[:nray], self._dist[:nray]
-        mujoco.mj_multiRay(self.world.model, self.world.data, origin, vec.ravel(), None, 1, -1, geomid, dist, None, nray, float(length.max() + 1.0))
+        mujoco.mj_multiRay(self.world.model, self.world.data, origin, vec, None, 1, -1, geomid, dist, None, nray, cutoff)
         seen = (geomid == self._own[people].ravel()) | (geomid < 0) | (dist >= length - 1e-6)
         return seen.reshape(len(people), -1).any(axis=1)
+
+    def cast(self, cam: Camera, k: int, people: np.ndarray) -> np.ndarray:
+        """Visible flags of ``people`` from ``cam`` with the world posed at step k (any step)."""
+        origin = np.asarray(cam.position, float)
+        centre = self.traj.pos[people, k]
+        z = (centre[:, 2] - 0.5 * self.heights[people])[:, None] + np.outer(self.heights[people], VIS_FRACTIONS)
+        pts = np.concatenate([np.broadcast_to(centre[:, None, :2], z.shape + (2,)), z[..., None]], -1).reshape(-1, 3)
+        vec = pts - origin
+        length = np.sqrt((vec * vec).sum(1))
+        vec /= length[:, None]
+        return self._cast(origin, vec.ravel(), length, float(length.max() + 1.0), people)
 
     def finish(self) -> None:
         todo = sorted({int(k) for g in self.geometry.values() for k in g.steps} - self.done)
