@@ -57,23 +57,18 @@ def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=Non
 
 def imu_table(readings: np.ndarray, t: np.ndarray, phone_ids: list[str], scene, rng: np.random.Generator) -> pd.DataFrame:
     """The ``imu`` observation table from noise-free readings (P, n, 9), sorted by t then phone."""
-    frames = []
-    for i, pid in enumerate(phone_ids):
-        if not pid:
-            continue
-        r = readings[i]
-        acc, gyro, mag = noise.imu(rng, r[:, 0:3], r[:, 3:6], r[:, 6:9], scene.sensors)
-        frames.append(
-            pd.DataFrame(
-                {
-                    "t": t, "phone_id": pid,
-                    "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2],
-                    "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2],
-                    "mx": mag[:, 0], "my": mag[:, 1], "mz": mag[:, 2],
-                }
-            )
-        )
-    if not frames:
+    phones = sorted((pid, i) for i, pid in enumerate(phone_ids) if pid)  # table order: t, then phone_id
+    if not phones:
         return pd.DataFrame({c: pd.Series(dtype=object if c == "phone_id" else float) for c in IMU_COLUMNS})
-    df = pd.concat(frames, ignore_index=True)
-    return df.sort_values(["t", "phone_id"], kind="mergesort", ignore_index=True)
+    # noise drawn per phone in scene order (the draws do not depend on the sort)
+    noisy = {}
+    for i, pid in enumerate(phone_ids):
+        if pid:
+            r = readings[i]
+            noisy[pid] = np.concatenate(noise.imu(rng, r[:, 0:3], r[:, 3:6], r[:, 6:9], scene.sensors), axis=1)
+    stacked = np.stack([noisy[pid] for pid, _ in phones], axis=1)  # (n, phones, 9), rows sorted
+    n, m = stacked.shape[:2]
+    flat = stacked.reshape(n * m, 9)
+    data = {"t": np.repeat(t, m), "phone_id": np.tile(np.array([p for p, _ in phones], dtype=object), n)}
+    data.update({c: flat[:, j] for j, c in enumerate(IMU_COLUMNS[2:])})
+    return pd.DataFrame(data)
