@@ -123,7 +123,8 @@ class HMMMatcher(Estimator):
         # assignment
         llr_min: float = 8.0  # log Omega_min: least log-likelihood ratio for an assignment (chosen on
         # development seeds 100-101, not the evaluation seeds)
-        margin_min: float = 0.0  # least lead (nats) of a claimed pair over its track's and phone's alternatives
+        margin_min: float = 2.0  # least lead (nats) of a claimed pair over its phone's other tracks (and "no claim")
+        margin_rows: bool = False  # also over its track's other phones
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         cfg = self.config
@@ -242,7 +243,9 @@ class HMMMatcher(Estimator):
                 S = score_all[r0:r1]
                 Sr = S[ri].copy(); Sr[np.arange(len(ri)), ci] = -np.inf
                 Sc = S[:, ci].copy(); Sc[ri, np.arange(len(ri))] = -np.inf
-                alt = np.maximum(np.maximum(Sr.max(axis=1, initial=0.0), Sc.max(axis=0, initial=-np.inf)), 0.0)
+                alt = Sc.max(axis=0, initial=0.0)
+                if cfg.margin_rows:
+                    alt = np.maximum(alt, Sr.max(axis=1, initial=0.0))
                 keep = S[ri, ci] - alt >= cfg.margin_min
                 ri, ci = ri[keep], ci[keep]
             assigned[r0 + ri] = ci

@@ -132,7 +132,7 @@ def test_crossing_people_are_identified_after_the_crossing():
     assert min(acc.values()) > 0.95, acc
     ev = evaluate(rec, tracks)
     assert ev.identification.id_accuracy > 0.98  # eq. 22: (almost) no wrong claim at any time
-    assert ev.identification.identifications > 0.5 * len(tracks)
+    assert ev.identification.identifications > 0.4 * len(tracks)  # both stand still for the first second
 
 
 def test_crossing_with_swapped_phones_follows_the_phones():
