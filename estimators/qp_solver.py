@@ -40,12 +40,15 @@ class SolverSettings:
     max_iter: Gauss-Newton iterations. tol_step: stop when the largest position change of a
     step is below this (m). tol_cost: or when the relative decrease of eps is below this.
     eps_abs, eps_rel: osqp tolerances. refine: make each osqp step exact by solving the KKT
-    system of its active set; active_set_rounds: primal active-set rounds tried from the previous
-    step's active set before osqp (whose result osqp then certifies). pos_scale, vel_scale: variable scaling S (m, m/s).
+    system of its active set; guess_rounds: active-set rounds tried from the previous step's
+    active set before osqp (a poor guess is left to osqp, which then certifies or corrects it);
+    active_set_rounds: rounds from osqp's active set. eps_find: osqp's tolerance when it only has to
+    find the active set (the step is then the exact KKT solution, certified at eps_abs/eps_rel). pos_scale, vel_scale: variable scaling S
+    (m, m/s).
     """
 
     max_iter: int = 50
-    tol_step: float = 1e-5
+    tol_step: float = 1e-4
     tol_cost: float = 1e-10
     eps_abs: float = 1e-6
     eps_rel: float = 1e-6
@@ -54,7 +57,9 @@ class SolverSettings:
     vel_scale: float = 0.1
     line_search: bool = True
     refine: bool = True
-    active_set_rounds: int = 20
+    guess_rounds: int = 10
+    eps_find: float = 1e-3
+    active_set_rounds: int = 100
     keep_iterates: bool = False
 
 
@@ -79,6 +84,7 @@ class SolveResult:
     violation: float = 0.0
     seconds: float = 0.0
     iterates: list[np.ndarray] = field(default_factory=list)
+    osqp_setups: int = 0
 
     def summary(self) -> dict:
         statuses = sorted(set(self.qp_status))
@@ -92,6 +98,7 @@ class SolveResult:
             "qp_iterations": int(sum(self.qp_iterations)),
             "qp_refined": int(sum(self.qp_refined)),
             "violation_m": float(self.violation),
+            "osqp_setups": int(self.osqp_setups),
             "seconds": float(self.seconds),
         }
 
@@ -106,106 +113,246 @@ def cost(prior: Prior, obs: Bearings, X: np.ndarray) -> float:
 ConstraintFn = "Callable[[np.ndarray], tuple[sp.csc_matrix, np.ndarray]]"
 
 
-def refine_active_set(H, JTr, GS, rp, Cs, b, active, max_rounds=12):
+class StepKKT:
+    """The equality-constrained part of the step QP, factorised once per Gauss-Newton step.
+
+    Without inequality rows the step solves the KKT system of
+    min 0.5 dY^T H dY + JTr^T dY + 0.5 ||z||^2  s.t.  GS dY - z = -rp  (z = lambda eliminated):
+
+        K0 w = h,   K0 = [[H, GS^T], [GS, -I]],   w = [dY; lambda],   h = [-JTr; -rp].
+
+    K0 (2n x 2n, symmetric quasi-definite) gets one sparse LU per step. With an active set C_a
+    (rows E = [C_a, 0] on w) the KKT system [[K0, E^T], [E, 0]] [w; nu] = [h; b_a] is solved by
+    the Schur complement on the few active rows:
+
+        S nu = E w0 - b_a,   S = E K0^{-1} E^T = C_a (H + GS^T GS)^{-1} C_a^T  (positive definite),
+        w = w0 - K0^{-1} E^T nu,   w0 = K0^{-1} h,
+
+    so an active-set round costs |a| triangular solves (cached per row), not a new factorisation.
+    """
+
+    #: above this many active rows one sparse LU of the whole KKT system beats the dense Schur
+    #: complement (and avoids multi-threaded dense LAPACK on a busy machine)
+    SCHUR_MAX = 24
+
+    def __init__(self, H, JTr, GS, rp, Cs, b):
+        self.n = H.shape[0]
+        self.H, self.GS, self.JTr, self.rp = H, GS, JTr, rp
+        self.Cs, self.b = Cs.tocsr(), np.asarray(b, float)
+        K0 = sp.bmat([[H, GS.T], [GS, -sp.identity(self.n)]], format="csc")
+        self.lu = spla.splu(K0, permc_spec="COLAMD")
+        self.w0 = self.lu.solve(np.concatenate([-JTr, -rp]))
+        self.m_in = len(self.b)
+        self.slack0 = self.Cs @ self.w0[: self.n] - self.b if self.m_in else np.zeros(0)
+        self._V: dict[int, np.ndarray] = {}  # row index -> K0^{-1} E_row^T (first n entries)
+        self.factorisations = 1
+
+    def _columns(self, rows: np.ndarray) -> np.ndarray:
+        """(n, |rows|) top blocks of K0^{-1} E^T for the given inequality rows (cached)."""
+        todo = [int(r) for r in rows if int(r) not in self._V]
+        if todo:
+            rhs = np.zeros((2 * self.n, len(todo)))
+            rhs[: self.n] = self.Cs[todo].toarray().T
+            sol = self.lu.solve(rhs)
+            for j, r in enumerate(todo):
+                self._V[r] = sol[: self.n, j]
+        return np.stack([self._V[int(r)] for r in rows], axis=1)
+
+    def _full(self, ia: np.ndarray):
+        """The whole KKT system [[H, GS^T, C_a^T], [GS, -I, 0], [C_a, 0, 0]] by one sparse LU."""
+        n, na = self.n, len(ia)
+        Ca = self.Cs[ia].tocsc()
+        K = sp.bmat([[self.H, self.GS.T, Ca.T], [self.GS, -sp.identity(n), None], [Ca, None, sp.csc_matrix((na, na))]],
+                    format="csc")
+        self.factorisations += 1
+        sol = spla.splu(K, permc_spec="COLAMD").solve(np.concatenate([-self.JTr, -self.rp, self.b[ia]]))
+        return sol[:n], sol[2 * n:]
+
+    def solve(self, active: np.ndarray):
+        """Exact step for active set ``active``: (dY, nu on the active rows, slack of every row)."""
+        ia = np.nonzero(active)[0]
+        dY0 = self.w0[: self.n]
+        if not len(ia):
+            return dY0, np.zeros(0), self.slack0
+        if len(ia) > self.SCHUR_MAX:
+            try:
+                dY, nu = self._full(ia)
+            except RuntimeError:  # singular: dependent active rows
+                return np.full(self.n, np.nan), np.zeros(len(ia)), self.slack0
+            return dY, nu, self.Cs @ dY - self.b
+        V = self._columns(ia)
+        S = np.asarray(self.Cs[ia] @ V)
+        r = self.slack0[ia]  # E w0 - b_a
+        try:
+            nu = np.linalg.solve(S, r)
+        except np.linalg.LinAlgError:
+            nu = np.linalg.lstsq(S, r, rcond=None)[0]
+        dY = dY0 - V @ nu
+        return dY, nu, self.Cs @ dY - self.b
+
+
+def refine_active_set(kkt: StepKKT, active, max_rounds=100, bulk_rounds=8):
     """Exact solution of the step QP for a guessed active set, corrected by active-set rounds.
 
-    Solves the KKT system of  min 0.5 dY^T H dY + JTr^T dY + 0.5 ||z||^2  s.t.  GS dY - z = -rp,
-    C_a dY = b_a  (z = lambda eliminated):
-
-        [ H    GS^T  C_a^T ] [dY    ]   [-JTr]
-        [ GS   -I    0     ] [lambda] = [-rp ]
-        [ C_a  0     0     ] [nu    ]   [ b_a]
-
-    with a sparse LU. The multipliers of C dY >= b are mu = -nu >= 0. Constraints with mu < 0 leave
-    the set one at a time, violated ones join it, until the KKT conditions hold. Returns (dY, y, active) with y
-    the multipliers in osqp's convention ([lambda; nu], nu = 0 off the active set), or None.
+    For the active set a, ``kkt.solve`` gives the exact KKT solution; the multipliers of
+    C dY >= b are mu = -nu >= 0. The first ``bulk_rounds`` rounds are primal-dual active-set
+    updates (every violated row joins, every row with mu < 0 leaves: few rounds from a poor
+    guess); after that violated rows join and only the most negative multiplier leaves per round
+    (no cycling). It stops when the KKT conditions hold: then the step is the QP's unique
+    solution (the QP is strictly convex in dY). Returns (dY, y, active) with y the multipliers in
+    osqp's convention (nu on the inequality rows, 0 off the active set), or None when the rounds
+    run out.
     """
-    n = H.shape[0]
-    m_in = len(b)
+    m_in, b = kkt.m_in, kkt.b
     active = np.array(active, bool)
     tol = 1e-9 * max(1.0, float(np.max(np.abs(b))) if m_in else 1.0)
-    for _ in range(max_rounds):
+    for rnd in range(max_rounds):
         ia = np.nonzero(active)[0]
-        Ca = Cs[ia]
-        na = len(ia)
-        K = sp.bmat(
-            [[H, GS.T, Ca.T], [GS, -sp.identity(n), None], [Ca, None, sp.csc_matrix((na, na))]], format="csc"
-        )
-        rhs = np.concatenate([-JTr, -rp, b[ia]])
-        try:
-            sol = spla.splu(K, permc_spec="COLAMD").solve(rhs)
-        except RuntimeError:  # singular: dependent active rows
+        dY, nu, slack = kkt.solve(active)
+        if not (np.all(np.isfinite(dY)) and np.all(np.isfinite(nu))):
             return None
-        if not np.all(np.isfinite(sol)):
-            return None
-        dY = sol[:n]
-        nu = sol[2 * n :]
-        slack = Cs @ dY - b if m_in else np.zeros(0)
         mu = np.zeros(m_in)
         mu[ia] = -nu
-        neg = active & (mu < -1e-9 * max(1.0, float(np.max(np.abs(nu))) if na else 1.0))
+        neg = active & (mu < -1e-9 * max(1.0, float(np.max(np.abs(nu))) if len(ia) else 1.0))
         viol = (~active) & (slack < -tol)
         if not neg.any() and not viol.any():
             y_in = np.zeros(m_in)
             y_in[ia] = nu
-            return dY, np.concatenate([sol[n : 2 * n], y_in]), active
-        # add every violated row, drop only the most negative multiplier (avoids cycling)
+            return dY, y_in, active
         active = active | viol
-        if neg.any():
+        if rnd < bulk_rounds:
+            active &= ~neg
+        elif neg.any():
             active[np.argmin(np.where(neg, mu, np.inf))] = False
     return None
 
 
-def qp_step(P_obs, JTr, GS, rp, Cs, b, active_guess, s: SolverSettings):
+def _osqp_P(P_obs, n: int) -> sp.csc_matrix:
+    """Upper triangle of P = blockdiag(P_obs, I) in canonical CSC form."""
+    P = sp.triu(sp.block_diag([P_obs, sp.identity(n, format="csc")], format="csc"), format="csc")
+    P.sort_indices()
+    return P
+
+
+def _osqp_A(GS, Cs) -> sp.csc_matrix:
+    """A = [[GS, -I], [C S, 0]]: prior equalities, then the inequality rows."""
+    n, m_in = GS.shape[1], Cs.shape[0]
+    I_n = sp.identity(n, format="csc")
+    A = sp.vstack([sp.hstack([GS, -I_n]), sp.hstack([Cs, sp.csc_matrix((m_in, n))])], format="csc")
+    A.sort_indices()
+    return A
+
+
+class StepQP:
+    """osqp for the lifted step QP (module docstring), set up once and updated while the sparsity
+    pattern of P and A is unchanged (the Jacobian and constraint patterns are fixed across
+    Gauss-Newton steps unless the wall rows change)."""
+
+    def __init__(self, s: "SolverSettings"):
+        self.s = s
+        self.solver = None
+        self.pattern = None
+        self.setups = 0
+        self._A_key, self._A = None, None  # A only changes with the inequality rows
+
+    def solve(self, P_obs, JTr, GS, rp, Cs, b, warm, eps: float | None = None):
+        """osqp on the step QP; eps (optional) replaces the tolerances for this solve only."""
+        n, m_in = GS.shape[1], Cs.shape[0]
+        Cs = Cs.tocsc()
+        key = (Cs.shape, Cs.indptr.tobytes(), Cs.indices.tobytes(), Cs.data.tobytes())
+        same_A = key == self._A_key
+        if not same_A:
+            self._A_key, self._A = key, _osqp_A(GS, Cs)
+        P, A = _osqp_P(P_obs, n), self._A
+        q = np.concatenate([JTr, np.zeros(n)])
+        lo = np.concatenate([-rp, b])
+        hi = np.concatenate([-rp, np.full(m_in, np.inf)])
+        pattern = (P.shape, P.indptr.tobytes(), P.indices.tobytes(), A.shape, A.indptr.tobytes(), A.indices.tobytes())
+        s = self.s
+        if self.solver is not None and pattern == self.pattern:
+            if same_A:
+                self.solver.update(q=q, l=lo, u=hi, Px=P.data)
+            else:
+                self.solver.update(q=q, l=lo, u=hi, Px=P.data, Ax=A.data)
+        else:
+            self.solver = osqp.OSQP()
+            self.solver.setup(
+                P, q, A, lo, hi, verbose=False, eps_abs=s.eps_abs, eps_rel=s.eps_rel, eps_prim_inf=1e-10,
+                eps_dual_inf=1e-10, max_iter=s.osqp_max_iter, polishing=False, warm_starting=True,
+            )
+            self.pattern = pattern
+            self.setups += 1
+        if warm is not None:
+            self.solver.warm_start(x=warm[0], y=warm[1])
+        if eps is None:
+            return self.solver.solve(raise_error=False)
+        self.solver.update_settings(eps_abs=eps, eps_rel=eps)
+        try:
+            return self.solver.solve(raise_error=False)
+        finally:
+            self.solver.update_settings(eps_abs=s.eps_abs, eps_rel=s.eps_rel)
+
+
+def qp_step(P_obs, JTr, GS, rp, Cs, b, active_guess, s: SolverSettings, qp: StepQP | None = None):
     """One Gauss-Newton step: the lifted QP (module docstring) solved by osqp, made exact.
 
-    The exact solution for the previous step's active set (``refine_active_set``) warm-starts
-    osqp; osqp then certifies it or moves to the right active set, whose exact solution is the
-    step. Returns (dY, status, osqp iterations, refined, active set).
+    1. The exact solution for the previous step's active set, corrected by a few active-set
+       rounds (``refine_active_set``). 2. When that fails (first step, or the set changed a lot):
+       osqp at the loose tolerance ``s.eps_find`` finds the active set, and its exact solution
+       is computed. 3. osqp at the tight tolerance, warm-started from that exact solution,
+       certifies it (25 ADMM iterations when it is right) or moves to the right active set,
+       whose exact solution is the step. Returns (dY, status, osqp iterations, refined, active).
     """
     n = GS.shape[1]
     m_in = Cs.shape[0]
-    I_n = sp.identity(n, format="csc")
-    P = sp.block_diag([P_obs, I_n], format="csc")
-    q = np.concatenate([JTr, np.zeros(n)])
-    A = sp.vstack(
-        [sp.hstack([GS, -I_n]), sp.hstack([Cs, sp.csc_matrix((m_in, n))])], format="csc"
-    )
-    lo = np.concatenate([-rp, b])
-    hi = np.concatenate([-rp, np.full(m_in, np.inf)])
-    solver = osqp.OSQP()
-    solver.setup(
-        sp.triu(P, format="csc"), q, A, lo, hi, verbose=False, eps_abs=s.eps_abs, eps_rel=s.eps_rel,
-        eps_prim_inf=1e-10, eps_dual_inf=1e-10, max_iter=s.osqp_max_iter, polishing=False, warm_starting=True,
-    )
-    guess = None
+    qp = qp or StepQP(s)
+    guess, kkt, warm, iters = None, None, None, 0
     if s.refine:
+        try:
+            kkt = StepKKT(P_obs, JTr, GS, rp, Cs, b)
+        except RuntimeError:  # singular K0 (cannot happen with the weak first-state prior)
+            kkt = None
+    if kkt is not None:
+        rounds = s.guess_rounds
         if active_guess is None or len(active_guess) != m_in:
-            active_guess = np.zeros(m_in, bool)
-        guess = refine_active_set(P_obs, JTr, GS, rp, Cs, b, active_guess, max_rounds=s.active_set_rounds)
+            # no previous set: try only whether the unconstrained step is feasible
+            active_guess, rounds = np.zeros(m_in, bool), 1
+        guess = refine_active_set(kkt, active_guess, max_rounds=rounds)
+        if guess is None and m_in:
+            rough = qp.solve(P_obs, JTr, GS, rp, Cs, b, None, eps=s.eps_find)
+            iters += int(rough.info.iter)
+            if rough.x is not None and np.all(np.isfinite(rough.x)):
+                guess = refine_active_set(kkt, _active_of(rough, Cs, b, n), max_rounds=s.active_set_rounds)
         if guess is not None:
-            dY0, y0, _ = guess
-            solver.warm_start(x=np.concatenate([dY0, GS @ dY0 + rp]), y=y0)
-    out = solver.solve(raise_error=False)
+            dY0, y_in, _ = guess
+            z0 = GS @ dY0 + rp
+            # lambda = z at the optimum (stationarity in z)
+            warm = (np.concatenate([dY0, z0]), np.concatenate([z0, y_in]))
+    out = qp.solve(P_obs, JTr, GS, rp, Cs, b, warm)
     status = str(out.info.status)
-    iters = int(out.info.iter)
+    iters += int(out.info.iter)
     usable = out.x is not None and np.all(np.isfinite(out.x)) and status in (
         SOLVED, "solved inaccurate", "maximum iterations reached",
     )
     if not usable:
         return None, status, iters, False, None
     dY = out.x[:n]
-    active = np.zeros(m_in, bool)
-    if s.refine:
-        y_in = out.y[n:]
-        slack = Cs @ dY - b if m_in else np.zeros(0)
-        active = (y_in < 0) & (slack < 1e-3) if m_in else active
+    active = _active_of(out, Cs, b, n)
+    if kkt is not None:
         if guess is not None and np.array_equal(active, guess[2]):
             return guess[0], status, iters, True, active
-        exact = refine_active_set(P_obs, JTr, GS, rp, Cs, b, active)
+        exact = refine_active_set(kkt, active, max_rounds=s.active_set_rounds)
         if exact is not None:
             return exact[0], status, iters, True, exact[2]
     return dY, status, iters, False, active
+
+
+def _active_of(out, Cs, b, n: int) -> np.ndarray:
+    """osqp's active inequality rows: a negative multiplier and (almost) no slack."""
+    if not Cs.shape[0]:
+        return np.zeros(0, bool)
+    slack = Cs @ out.x[:n] - b
+    return (out.y[n:] < 0) & (slack < 1e-3)
 
 
 def solve_map(
@@ -240,6 +387,7 @@ def solve_map(
     if s.keep_iterates:
         res.iterates.append(X.copy())
     active = None
+    qp = StepQP(s)
     for it in range(s.max_iter):
         Jo = obs.jacobian(X, n) if len(obs) else sp.csc_matrix((0, n))
         ro = obs.residual(X) if len(obs) else np.zeros(0)
@@ -252,7 +400,7 @@ def solve_map(
         rp = prior.residual(X)
         dY, status, iters, refined, active = qp_step(
             (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X,
-            active if extra_constraints is None else None, s,
+            active if extra_constraints is None else None, s, qp,
         )
         res.qp_status.append(status)
         res.qp_refined.append(refined)
@@ -297,5 +445,6 @@ def solve_map(
         if Ce.shape[0]:
             viol = max(viol, float(np.max(np.maximum(le - Ce @ X, 0.0))))
     res.violation = viol
+    res.osqp_setups = qp.setups
     res.seconds = time.perf_counter() - t_start
     return res
