@@ -71,6 +71,7 @@ class TargetPlanes(Estimator):
         initial_xy: list | None = None  # target's floor position at the first frame (m)
         initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
         multi_person: bool = False  # track every mover (beyond the paper)
+        track_others: bool = True  # single target: also track the other movers (4.1 taken to 3-D), so they hold their own windows
         height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
         radius: float = 0.2  # cylinder radius (m)
         min_plane_angle_deg: float = 12.0  # planes closer than this to parallel are not intersected
@@ -86,6 +87,8 @@ class TargetPlanes(Estimator):
         flow_window: int = 5  # frames of a camera track over which its flow is averaged
         mover_flow_px: float = 8.0  # a window with less flow (px/s) is no mover
         velocity_smoothing: float = 0.6  # weight of the new eq. 7 velocity against the previous one
+        velocity_prior_sigma: float = 0.3  # m/s: the previous velocity as a prior of the eq. 7 least squares (per frame)
+        flow_model_sigma: float = 3.0  # px/s: flow error beyond the calibrated noise (a region's mean flow vs its centre's motion)
         max_speed: float = 3.0  # m/s
         area_margin: float = 0.05  # allowance on target areas (m)
         window_margin_px: float = 1.0  # allowance on windows (px), plus 3 sigma of the calibrated window noise
@@ -165,10 +168,12 @@ class TargetPlanes(Estimator):
             for tg in list(targets):
                 self._confirm(tg, preds[tg.tid], used[tg.tid], acquired[tg.tid], frame, upd)
                 self._update(tg, preds[tg.tid], used[tg.tid], held[tg.tid], frame, upd, dt)
-            if cfg.multi_person:
+            if cfg.multi_person or cfg.track_others:
                 claimed = {c: set(followed[c]) | {j for u in used.values() for cc, j in u.items() if cc == c} for c in cams}
                 free = {c: [j for j in range(len(frame[c])) if j not in claimed[c]] for c in cams}
                 for xy, support in propose(cfg, upd.margin_px, Ps, frame, free, inside_room):
+                    if self._reacquire(targets, preds, xy, support, frame, upd):
+                        continue
                     tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=cfg.sigma_planes)
                     next_id += 1
                     for c, j in support.items():
@@ -176,9 +181,9 @@ class TargetPlanes(Estimator):
                     upd.velocity(tg, xy, support, frame)
                     tg.hits, tg.n_used, tg.mode = 1, len(support), "planes"
                     targets.append(tg)
-                targets = [tg for tg in targets if self._alive(tg)]
+                targets = [tg for tg in targets if self._alive(tg) or (not cfg.multi_person and tg.tid == 0)]
             for tg in targets:
-                if not tg.confirmed:
+                if not tg.confirmed or (not cfg.multi_person and tg.tid != 0):
                     continue
                 rows.append((t, tg.tid, tg.xy[0], tg.xy[1], tg.vel[0], tg.vel[1], tg.n_used, tg.mode))
                 for c in cams:
@@ -258,7 +263,7 @@ class TargetPlanes(Estimator):
                 cs.reason in ("overlap", "width")
                 and shared[j] == 1
                 and width_ratio(boxes.width[j], view.w_c) <= cfg.rejoin_width_ratio
-                and np.isfinite(upd.search_costs(c, view, boxes, set(claimed))[j])
+                and np.isfinite(upd.search_costs(c, view, boxes, set(claimed), cs.others)[j])
             ):
                 cs.status, cs.reason = TRACKING, ""
                 claimed[j] = tg.tid
@@ -278,7 +283,7 @@ class TargetPlanes(Estimator):
                 j = idx.get(tg.tid)
                 if j is not None and tg.cams[c].reason in ("overlap", "width"):
                     blocked.add(j)
-            cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked) for tg in searchers])
+            cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked, tg.cams[c].others) for tg in searchers])
             finite = np.isfinite(cost)
             if finite.any():
                 r, k = linear_sum_assignment(np.where(finite, cost, 1e6))
@@ -342,6 +347,25 @@ class TargetPlanes(Estimator):
                 self._reject(tg, c, used, keep_pending=area_ok)
             return
 
+    def _reacquire(self, targets, preds, xy, support, frame, upd: TargetUpdater) -> bool:
+        """A mover found by two or more cameras' crossing planes (``tp_initiate``) within the
+        search radius of an existing target is that target seen by more cameras (the agreement
+        ``_confirm`` asks of a re-acquisition), not a new person: its windows join the target
+        in the cameras that do not track it."""
+        pred = {tg.tid: preds.get(tg.tid, tg.xy) for tg in targets}  # targets started this frame: their position
+        near = [tg for tg in targets if np.linalg.norm(xy - pred[tg.tid]) <= upd.search_radius(tg)]
+        if not near:
+            return False
+        tg = min(near, key=lambda tg: float(np.linalg.norm(xy - pred[tg.tid])))
+        joined = {c: j for c, j in support.items() if tg.cams[c].status != TRACKING}
+        for c, j in joined.items():
+            tg.cams[c] = CameraState(TRACKING, frame[c].track[j], others=tg.cams[c].others)
+        if tg.n_used < 2:  # the crossing is a better estimate than the target's own
+            tg.xy, tg.sigma, tg.sigma_v, tg.area = xy.copy(), self.config.sigma_planes, self.config.sigma_v_tracked, None
+            tg.n_used, tg.mode, tg.misses_s = len(support), "planes", 0.0
+            upd.velocity(tg, xy, support, frame)
+        return True
+
     @staticmethod
     def _reject(tg: Target, c: str, used: dict, keep_pending: bool = False) -> None:
         cs = tg.cams[c]
@@ -356,7 +380,7 @@ class TargetPlanes(Estimator):
         xy, poly, mode, dropped = upd.estimate(tg, xy_pred, dict(used), frame, held)
         for c in dropped:
             used.pop(c, None)
-            tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "position"
+            tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "inconsistent"
         if mode == "predicted":
             tg.sigma = min(tg.sigma + cfg.sigma_growth * dt, cfg.sigma_max)
             tg.sigma_v = min(tg.sigma_v + cfg.accel_max * dt, cfg.max_speed)

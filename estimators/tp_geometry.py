@@ -284,14 +284,30 @@ def flow_jacobian(P: np.ndarray, X) -> np.ndarray:
     return np.stack([P[0, :3] - x * P[2, :3], P[1, :3] - y * P[2, :3]]) / h
 
 
-def velocity_from_flows(Ps: list[np.ndarray], Xs: list[np.ndarray], flows: list[np.ndarray]) -> np.ndarray:
+def velocity_from_flows(
+    Ps: list[np.ndarray],
+    Xs: list[np.ndarray],
+    flows: list[np.ndarray],
+    sigmas: list[float] | None = None,
+    prior: np.ndarray | None = None,
+    prior_sigma: float = np.inf,
+) -> np.ndarray:
     """3-D velocity V (3,) from mean image flows (px/s) by least squares over J_i V = v_i (eq. 7).
 
     With one camera (two equations) the vertical velocity is taken as zero: V = [U, V, 0].
+    ``sigmas`` (px/s, one per camera) weight the cameras' equations. With a ``prior`` velocity
+    (m/s) and finite ``prior_sigma`` (m/s) the solution minimises
+    sum_i |J_i V - v_i|^2 / sigma_i^2 + |V - V_prior|^2 / prior_sigma^2: a single camera sees
+    motion along its line of sight only as a small vertical image motion, and the prior keeps
+    that poorly observed component from swinging with the flow noise.
     """
     J = np.vstack([flow_jacobian(P, X) for P, X in zip(Ps, Xs)])
     f = np.concatenate([np.asarray(v, float) for v in flows])
-    if len(Ps) >= 2:
-        return np.linalg.lstsq(J, f, rcond=None)[0]
-    uv = np.linalg.lstsq(J[:, :2], f, rcond=None)[0]
-    return np.array([uv[0], uv[1], 0.0])
+    w = np.repeat(1.0 / np.asarray(sigmas, float), 2) if sigmas is not None else np.ones(len(f))
+    k = 3 if len(Ps) >= 2 else 2  # one camera: W = 0
+    A, b = J[:, :k] * w[:, None], f * w
+    if prior is not None and np.isfinite(prior_sigma):
+        A = np.vstack([A, np.eye(k) / prior_sigma])
+        b = np.concatenate([b, np.asarray(prior, float)[:k] / prior_sigma])
+    sol = np.linalg.lstsq(A, b, rcond=None)[0]
+    return sol if k == 3 else np.array([sol[0], sol[1], 0.0])

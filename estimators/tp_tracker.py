@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from . import tp_geometry as geo
@@ -34,6 +35,7 @@ class CameraState:
     track: object = None  # the camera tracker's id being followed
     reason: str = ""
     near: dict = field(default_factory=dict)  # other movers beside the target last frame: id -> (u_l, u_r, flow_u)
+    others: set = field(default_factory=set)  # track ids seen beside the target's own window: other people (4.1)
     pending: object = None  # window (track id) found but not yet confirmed as the target
     pending_n: int = 0  # consecutive frames it was found
 
@@ -167,6 +169,7 @@ class TargetUpdater:
             if k != j and boxes.win[k, 1] >= lo and boxes.win[k, 0] <= hi and np.linalg.norm(boxes.flow[k]) > self.cfg.mover_flow_px:
                 near[boxes.track[k]] = (boxes.win[k, 0], boxes.win[k, 1], boxes.flow[k, 0])
         cam.near = near
+        cam.others.update(near)
 
     def check_reliable(self, c: str, cam: CameraState, view: CameraView, boxes: CameraBoxes, j: int, dt: float) -> str:
         """Reason the window j a camera is tracking is unreliable, or "" (section 4)."""
@@ -185,13 +188,14 @@ class TargetUpdater:
         """Extra horizontal tolerance (px) when the prediction is an area, not a point."""
         return 0.5 * max((view.win_area[1] - view.win_area[0]) - (view.win_point[1] - view.win_point[0]), 0.0)
 
-    def search_costs(self, c: str, view: CameraView, boxes: CameraBoxes, claimed: set[int]) -> np.ndarray:
+    def search_costs(self, c: str, view: CameraView, boxes: CameraBoxes, claimed: set[int], others: set = frozenset()) -> np.ndarray:
         """Cost of each box as the target in a lost/unreliable camera; inf where gated out.
 
         Gates: centroid inside the estimated (area) window widened by ``search_margin`` widths,
         vertical overlap with it, flow similar to v_pred (3.4.2), width ratio (eq. 8) under the
         threshold, and separate from every other mover with a similar flow (4.2/4.3).
-        Cost: |u - u_c| / w_c.
+        Windows whose track ids ``others`` were seen beside the target (another person tracked
+        for section 4.1) are never the target. Cost: |u - u_c| / w_c.
         """
         cfg = self.cfg
         cost = np.full(len(boxes), np.inf)
@@ -204,7 +208,7 @@ class TargetUpdater:
         ok = inside & self.flow_ok(c, view, boxes.flow)
         ok &= width_ratio(boxes.width, view.w_c) <= cfg.width_ratio_threshold
         for j in np.flatnonzero(ok):
-            if j in claimed or self.overlapping(c, boxes, j):
+            if j in claimed or boxes.track[j] in others or self.overlapping(c, boxes, j):
                 continue
             cost[j] = abs(boxes.u[j] - view.u_c) / view.w_c
         return cost
@@ -254,7 +258,7 @@ class TargetUpdater:
                 inter = areas[best].polygon
         else:
             inter = areas[best].polygon
-        xy = self._point_in_area(areas[best], inter, xy_pred)
+        xy = self._point_in_area(areas[best], inter, xy_pred, cfg.consistency_margin)
         return xy, inter, "area", dropped
 
     def _solve(self, used, frame, areas, xy_pred):
@@ -287,12 +291,19 @@ class TargetUpdater:
 
     def agree(self, used: dict[str, int], frame: dict[str, CameraBoxes], xy_pred: np.ndarray, gate: float) -> bool:
         """The cameras' target planes cross (eq. 6, well conditioned) inside every camera's target
-        area and within ``gate`` metres of the prediction."""
+        area and within ``gate`` metres of the prediction; for near-parallel planes, their
+        target areas overlap within ``gate`` of the prediction."""
         areas = {c: self.area_of(c, frame[c], j) for c, j in used.items()}
         try:
             xy, out = self._solve(used, frame, areas, xy_pred)
         except geo.IllConditioned:
-            return False
+            # near-parallel planes (cameras in line with the target): their target areas must
+            # overlap (section 5), and the overlap come within the gate of the prediction
+            inter = geo.intersect_areas([a.polygon for a in areas.values()])
+            if inter is None:
+                return False
+            d = cv2.pointPolygonTest(inter.astype(np.float32).reshape(-1, 1, 2), (float(xy_pred[0]), float(xy_pred[1])), True)
+            return d >= -gate
         return not out and float(np.linalg.norm(xy - xy_pred)) <= gate
 
     def stray(self, c: str, boxes: CameraBoxes, j: int, xy_pred: np.ndarray) -> float:
@@ -303,14 +314,14 @@ class TargetUpdater:
         return abs(boxes.u[j] - 0.5 * (w[0] + w[1])) / max(w[1] - w[0], 1.0)
 
     @staticmethod
-    def _point_in_area(area: geo.TargetArea, poly: np.ndarray, xy_pred: np.ndarray) -> np.ndarray:
-        """The point of the target plane inside ``poly`` nearest the prediction (depth clamped)."""
+    def _point_in_area(area: geo.TargetArea, poly: np.ndarray, xy_pred: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """The point of the target plane inside ``poly`` (or within ``tol`` metres of it: a narrow
+        window's area is a sliver the centroid ray can graze) nearest the prediction in depth."""
         s = np.linspace(area.s_min, area.s_max, 64)
         pts = area.origin + s[:, None] * area.direction
-        import cv2
-
         p32 = poly.astype(np.float32).reshape(-1, 1, 2)
-        inside = np.array([cv2.pointPolygonTest(p32, (float(x), float(y)), False) >= 0 for x, y in pts])
+        dist = np.array([cv2.pointPolygonTest(p32, (float(x), float(y)), True) for x, y in pts])
+        inside = dist >= -tol
         if inside.any():
             pts = pts[inside]
         s_pred = (xy_pred - area.origin) @ area.direction
@@ -323,7 +334,9 @@ class TargetUpdater:
             return
         X = np.array([xy[0], xy[1], self.cfg.flow_height_fraction * self.cfg.height])
         names = list(used)
-        V = geo.velocity_from_flows([self.Ps[c] for c in names], [X] * len(names), [frame[c].flow[used[c]] for c in names])
+        sig = [np.hypot(self.flow_sigma.get(c, 0.0), self.cfg.flow_model_sigma) for c in names]
+        prior = tgt.vel if tgt.vel_known else None
+        V = geo.velocity_from_flows([self.Ps[c] for c in names], [X] * len(names), [frame[c].flow[used[c]] for c in names], sig, prior, self.cfg.velocity_prior_sigma)
         speed = np.linalg.norm(V[:2])
         if speed > self.cfg.max_speed:
             V = V * (self.cfg.max_speed / speed)
