@@ -1,13 +1,16 @@
 """Benchmark: analytic ``overhead_lab`` with 10 walkers, speed as a multiple of real time and
 memory per simulated minute.
 
-    python scripts/bench_analytic.py [--duration 60] [--repeats 3] [--walkers 10]
+    python scripts/bench_analytic.py [--duration 60] [--repeats 3] [--walkers 10] [--profile]
 
 Speed = simulated seconds / CPU seconds of this process (``time.process_time``; the process is
 single-threaded, so this is "on one core" and is not inflated by other jobs on a shared
 machine); wall-clock speed is printed too. Memory: the peak of Python allocations
 (``tracemalloc``) during one run, divided by the simulated minutes, plus the size of the
-returned recording's tables.
+returned recording's tables. The 1-minute load average is printed: on a shared machine under
+heavy load the CPU time of the same work still rises (caches, hyper-threads), so compare runs at
+similar load. ``--profile`` adds a cProfile of one run, timed by CPU time (cProfile's default
+wall-clock timer charges other processes' time slices to whatever function was running).
 """
 from __future__ import annotations
 
@@ -32,9 +35,11 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="simulated seconds per run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--walkers", type=int, default=10)
+    ap.add_argument("--profile", action="store_true", help="print the top functions of one run by CPU time")
     args = ap.parse_args(argv)
     scene = load_scene("overhead_lab", [f"walkers.count={args.walkers}"])
     simulate(scene, 0, 2.0)  # warm up imports and caches
+    load_before = os.getloadavg()[0]
     cpu, wall, plan = [], [], []
     for r in range(args.repeats):
         t0, w0 = time.process_time(), time.perf_counter()
@@ -51,13 +56,21 @@ def main(argv=None) -> int:
     table_bytes = sum(int(df.memory_usage(deep=True).sum()) for df in [*rec.observations.tables.values(), *rec.truth.tables.values()])
     minutes = args.duration / 60.0
     best = min(cpu)
-    print(f"overhead_lab analytic, {args.walkers} walkers, {args.duration:.0f} s simulated, {args.repeats} runs")
+    print(f"overhead_lab analytic, {args.walkers} walkers, {args.duration:.0f} s simulated, {args.repeats} runs "
+          f"(load average {load_before:.1f} before, {os.getloadavg()[0]:.1f} after, {os.cpu_count()} cores)")
     print(f"  CPU time per run: {', '.join(f'{c:.3f}' for c in cpu)} s  (trajectory planning alone: {min(plan):.3f} s)")
     print(f"  speed: {args.duration / best:.0f}x real time on one core (best run; median {args.duration / float(np.median(cpu)):.0f}x); "
           f"wall clock {args.duration / min(wall):.0f}x")
     print(f"  memory: peak Python allocations {peak / 2**20 / minutes:.1f} MiB per simulated minute; "
           f"recording tables {table_bytes / 2**20 / minutes:.1f} MiB per simulated minute")
     print(f"  rows: " + ", ".join(f"{k} {len(v)}" for k, v in rec.observations.tables.items()))
+    if args.profile:
+        import cProfile
+        import pstats
+
+        prof = cProfile.Profile(time.process_time)
+        prof.runcall(simulate, scene, 0, args.duration)
+        pstats.Stats(prof).sort_stats("tottime").print_stats(15)
     return 0
 
 

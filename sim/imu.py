@@ -17,9 +17,11 @@ import numpy as np
 import pandas as pd
 
 from . import noise
+from .analytic import str_column
 from .walkers import Trajectories
 from .world import World
 
+PROGRESS_EVERY = 100  # samples between progress reports
 IMU_COLUMNS = ["t", "phone_id", "ax", "ay", "az", "gx", "gy", "gz", "mx", "my", "mz"]
 
 
@@ -29,10 +31,11 @@ def imu_steps(traj: Trajectories, imu_rate: float) -> np.ndarray:
     return np.arange(0, traj.n_steps, stride)
 
 
-def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=None) -> np.ndarray:
+def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=None, progress=None) -> np.ndarray:
     """Noise-free readings (P, len(steps), 9) [acc, gyro, mag]; NaN for walkers without a phone.
 
-    ``on_step(k)`` is called after each step is set (the simulator casts its rays there).
+    ``on_step(k)`` is called after each step is set (the simulator casts its rays there);
+    ``progress(n)`` every PROGRESS_EVERY samples with the number done since its last call.
     """
     P = world.n_people
     out = np.full((P, len(steps), 9), np.nan)
@@ -42,14 +45,19 @@ def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=Non
     Q, V, A = world.packed(traj)
     S = np.empty((len(steps), m.nsensordata))
     inverse = mujoco.mj_inverse
-    for j, k in enumerate(steps):  # one mj_inverse per sample: what the sensors need
-        d.qpos[:] = Q[k]
-        d.qvel[:] = V[k]
-        d.qacc[:] = A[k]
+    qpos, qvel, qacc, sensordata = d.qpos, d.qvel, d.qacc, d.sensordata  # views, fetched once
+    for j, k in enumerate(steps.tolist()):  # one mj_inverse per sample: what the sensors need
+        qpos[:] = Q[k]
+        qvel[:] = V[k]
+        qacc[:] = A[k]
         inverse(m, d)
-        S[j] = d.sensordata
+        S[j] = sensordata
         if on_step is not None:
-            on_step(int(k))
+            on_step(k)
+        if progress is not None and j % PROGRESS_EVERY == PROGRESS_EVERY - 1:
+            progress(PROGRESS_EVERY)
+    if progress is not None and len(steps) % PROGRESS_EVERY:
+        progress(len(steps) % PROGRESS_EVERY)
     if phones:
         out[phones] = S[:, adr].reshape(len(steps), len(phones), 9).transpose(1, 0, 2)
     return out
@@ -69,6 +77,6 @@ def imu_table(readings: np.ndarray, t: np.ndarray, phone_ids: list[str], scene, 
     stacked = np.stack([noisy[pid] for pid, _ in phones], axis=1)  # (n, phones, 9), rows sorted
     n, m = stacked.shape[:2]
     flat = stacked.reshape(n * m, 9)
-    data = {"t": np.repeat(t, m), "phone_id": np.tile(np.array([p for p, _ in phones], dtype=object), n)}
+    data = {"t": np.repeat(t, m), "phone_id": str_column([p for p, _ in phones], np.tile(np.arange(m), n))}
     data.update({c: flat[:, j] for j, c in enumerate(IMU_COLUMNS[2:])})
     return pd.DataFrame(data)

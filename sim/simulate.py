@@ -15,6 +15,7 @@ seed therefore give bit-identical tables, and e.g. adding a camera does not chan
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 import platform
 from importlib import metadata
@@ -32,14 +33,20 @@ from .world import build_world
 VERSIONED = ("trackroom", "mujoco", "numpy", "scipy", "pandas", "pyarrow")
 
 
-def package_versions() -> dict[str, str]:
+@functools.cache
+def _versions() -> tuple:
     out = {"python": platform.python_version()}
     for name in VERSIONED:
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             pass
-    return out
+    return tuple(out.items())
+
+
+def package_versions() -> dict[str, str]:
+    """Python and package versions for the metadata (read once per process: ~6 ms)."""
+    return dict(_versions())
 
 
 def phone_ids(scene: Scene) -> list[str]:
@@ -54,11 +61,11 @@ def truth_people(scene: Scene, traj: Trajectories) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "t": np.tile(traj.t, P).reshape(P, N).T.ravel() if P else np.zeros(0),
-            "person_id": np.tile(np.array(traj.names, dtype=object), N),
+            "person_id": analytic.str_column(traj.names, np.tile(np.arange(P), N)),
             "x": traj.pos[:, :, 0].T.ravel(), "y": traj.pos[:, :, 1].T.ravel(), "z": traj.pos[:, :, 2].T.ravel(),
             "yaw": yaw.T.ravel(), "vx": traj.vel[:, :, 0].T.ravel(), "vy": traj.vel[:, :, 1].T.ravel(),
             "walking": traj.walking.T.ravel(),
-            "phone_id": np.tile(np.array(phone_ids(scene), dtype=object), N),
+            "phone_id": analytic.str_column(phone_ids(scene), np.tile(np.arange(P), N)),
         }
     )
 
@@ -92,15 +99,10 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         geometry = analytic.camera_geometry(scene, traj)
         occlusion = analytic.Occlusion(world, scene, traj, geometry)
 
-    def on_step(k: int) -> None:
-        if occlusion is not None:
-            occlusion.on_step(k)
-        if bar is not None and k % 100 == 0:
-            bar.update(min(100 // max(1, int(steps[1] - steps[0]) if len(steps) > 1 else 1), len(steps) - bar.n))
-
-    readings = imu.read_phones(world, traj, steps, on_step=on_step)
+    readings = imu.read_phones(
+        world, traj, steps, on_step=occlusion.on_step if occlusion is not None else None, progress=bar.update if bar is not None else None
+    )
     if bar is not None:
-        bar.update(len(steps) - bar.n)
         bar.close()
     tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
     truth_tables = {"people": truth_people(scene, traj)}
