@@ -29,7 +29,7 @@ from sim.recording import Calibration, Observations
 from .base import Estimator, EstimatorError, check_tracks, register
 from .qp_model import DISCRETISATIONS, IVX, IVY, IX, IY, NS, Bearings, Prior
 from .qp_solver import SolveResult, SolverSettings, solve_map
-from .qp_walls import is_convex, make_box_constraints, outline_halfplanes
+from .qp_walls import is_convex, make_box_constraints, outline_halfplanes, ray_limits
 
 INITS = ("paper", "ray")
 SPANS = ("recording", "observed")
@@ -51,7 +51,9 @@ class QPSmoother(Estimator):
         see ``qp_model.process_covariance``. sigma_px: bearing noise (px;
         None: the calibration's ``bearing_sigma_px``). constraints: field-of-view constraints
         (eq. 9) with ``margin`` (m). walls: floor-plan constraints (``qp_walls``) with
-        ``wall_margin`` (m, clearance from the wall surface) and ``wall_reach`` (m).
+        ``wall_margin`` (m, clearance from the wall surface) and ``wall_reach`` (m); with walls,
+        see_walls also keeps every observed point between its camera and the first wall along
+        its bearing ray (``qp_walls.ray_limits``).
         init: "paper" (unobserved points at the origin, observed ones ``init_depth`` m along the
         observing camera's axis) or "ray" (observed points ``init_depth`` m along their bearing
         ray, the rest interpolated). person_height: height (m) of the point whose bearing is
@@ -71,6 +73,7 @@ class QPSmoother(Estimator):
         walls: bool = False
         wall_margin: float = 0.1
         wall_reach: float = 1.0
+        see_walls: bool = True
         max_iter: int = 50
         init: str = "paper"
         init_depth: float = 1.0
@@ -169,8 +172,12 @@ class QPSmoother(Estimator):
                 raise EstimatorError("qp_smoother: walls=true needs a floor plan in the calibration")
             if is_convex(fp.outline):
                 rows.append(outline_halfplanes(fp, T, c.wall_margin))
+            rays = None
+            if c.see_walls:
+                C_r, l_r, rays = ray_limits(obs, fp, T, c.wall_margin, c.margin if c.constraints else -np.inf)
+                rows.append((C_r, l_r))
             if len(fp.walls) or len(fp.obstacles) or not is_convex(fp.outline):
-                extra = make_box_constraints(fp, T, c.wall_margin, c.wall_reach)
+                extra = make_box_constraints(fp, T, c.wall_margin, c.wall_reach, rays)
         C = sp.vstack([r[0] for r in rows], format="csc") if rows else sp.csc_matrix((0, n))
         lower = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
         return prior, obs, C, lower, extra

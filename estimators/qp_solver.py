@@ -43,8 +43,8 @@ class SolverSettings:
     system of its active set; guess_rounds: active-set rounds tried from the previous step's
     active set before osqp (a poor guess is left to osqp, which then certifies or corrects it);
     active_set_rounds: rounds from osqp's active set. eps_find: osqp's tolerance when it only has to
-    find the active set (the step is then the exact KKT solution, certified at eps_abs/eps_rel). pos_scale, vel_scale: variable scaling S
-    (m, m/s).
+    find the active set (the step is then the exact KKT solution, certified at eps_abs/eps_rel).
+    pos_scale, vel_scale: variable scaling S (m, m/s).
     """
 
     max_iter: int = 50
@@ -134,6 +134,10 @@ class StepKKT:
     #: above this many active rows one sparse LU of the whole KKT system beats the dense Schur
     #: complement (and avoids multi-threaded dense LAPACK on a busy machine)
     SCHUR_MAX = 24
+    #: -REG I on the active rows' block: dependent active rows (more than two at one step, or a
+    #: wall row repeating a field-of-view row) keep the system solvable; the step moves by
+    #: O(REG |nu|), far below the tolerances
+    REG = 1e-10
 
     def __init__(self, H, JTr, GS, rp, Cs, b):
         self.n = H.shape[0]
@@ -144,6 +148,8 @@ class StepKKT:
         self.w0 = self.lu.solve(np.concatenate([-JTr, -rp]))
         self.m_in = len(self.b)
         self.slack0 = self.Cs @ self.w0[: self.n] - self.b if self.m_in else np.zeros(0)
+        # time step of each inequality row (its first non-zero column // 4)
+        self.step_of = (self.Cs.indices[self.Cs.indptr[:-1]] // NS) if self.m_in else np.zeros(0, int)
         self._V: dict[int, np.ndarray] = {}  # row index -> K0^{-1} E_row^T (first n entries)
         self.factorisations = 1
 
@@ -162,7 +168,7 @@ class StepKKT:
         """The whole KKT system [[H, GS^T, C_a^T], [GS, -I, 0], [C_a, 0, 0]] by one sparse LU."""
         n, na = self.n, len(ia)
         Ca = self.Cs[ia].tocsc()
-        K = sp.bmat([[self.H, self.GS.T, Ca.T], [self.GS, -sp.identity(n), None], [Ca, None, sp.csc_matrix((na, na))]],
+        K = sp.bmat([[self.H, self.GS.T, Ca.T], [self.GS, -sp.identity(n), None], [Ca, None, -self.REG * sp.identity(na)]],
                     format="csc")
         self.factorisations += 1
         sol = spla.splu(K, permc_spec="COLAMD").solve(np.concatenate([-self.JTr, -self.rp, self.b[ia]]))
@@ -181,7 +187,7 @@ class StepKKT:
                 return np.full(self.n, np.nan), np.zeros(len(ia)), self.slack0
             return dY, nu, self.Cs @ dY - self.b
         V = self._columns(ia)
-        S = np.asarray(self.Cs[ia] @ V)
+        S = np.asarray(self.Cs[ia] @ V) + self.REG * np.eye(len(ia))
         r = self.slack0[ia]  # E w0 - b_a
         try:
             nu = np.linalg.solve(S, r)
@@ -191,14 +197,25 @@ class StepKKT:
         return dY, nu, self.Cs @ dY - self.b
 
 
+def _most_violated_per_step(viol: np.ndarray, slack: np.ndarray, step_of: np.ndarray) -> np.ndarray:
+    """The most violated of the violated rows at each time step (rows on one step compete for
+    its two degrees of freedom; adding them all at once makes the active rows dependent)."""
+    iv = np.nonzero(viol)[0]
+    order = iv[np.lexsort((slack[iv], step_of[iv]))]
+    _, first = np.unique(step_of[order], return_index=True)
+    out = np.zeros_like(viol)
+    out[order[first]] = True
+    return out
+
+
 def refine_active_set(kkt: StepKKT, active, max_rounds=100, bulk_rounds=8):
     """Exact solution of the step QP for a guessed active set, corrected by active-set rounds.
 
     For the active set a, ``kkt.solve`` gives the exact KKT solution; the multipliers of
     C dY >= b are mu = -nu >= 0. The first ``bulk_rounds`` rounds are primal-dual active-set
-    updates (every violated row joins, every row with mu < 0 leaves: few rounds from a poor
-    guess); after that violated rows join and only the most negative multiplier leaves per round
-    (no cycling). It stops when the KKT conditions hold: then the step is the QP's unique
+    updates (the most violated row of every step joins, every row with mu < 0 leaves: few rounds
+    from a poor guess); after that violated rows join and only the most negative multiplier
+    leaves per round (no cycling). It stops when the KKT conditions hold: then the step is the QP's unique
     solution (the QP is strictly convex in dY). Returns (dY, y, active) with y the multipliers in
     osqp's convention (nu on the inequality rows, 0 off the active set), or None when the rounds
     run out.
@@ -219,7 +236,8 @@ def refine_active_set(kkt: StepKKT, active, max_rounds=100, bulk_rounds=8):
             y_in = np.zeros(m_in)
             y_in[ia] = nu
             return dY, y_in, active
-        active = active | viol
+        if viol.any():
+            active = active | _most_violated_per_step(viol, slack, kkt.step_of)
         if rnd < bulk_rounds:
             active &= ~neg
         elif neg.any():
@@ -355,6 +373,12 @@ def _active_of(out, Cs, b, n: int) -> np.ndarray:
     return (out.y[n:] < 0) & (slack < 1e-3)
 
 
+def _extra(fn, X):
+    """(C_x, l_x, keys or None) from an iterate-dependent constraint function."""
+    out = fn(X)
+    return (out[0], out[1], np.asarray(out[2])) if len(out) == 3 else (out[0], out[1], None)
+
+
 def solve_map(
     prior: Prior,
     obs: Bearings,
@@ -367,7 +391,7 @@ def solve_map(
     """Gauss-Newton / sequential QP from X0.
 
     C, lower: fixed linear constraints C X >= lower (the field-of-view rows; may be empty).
-    extra_constraints: optional function X -> (C_x, l_x) of rows re-decided at every iterate
+    extra_constraints: optional function X -> (C_x, l_x[, keys]) of rows re-decided at every iterate
     (walls and obstacles, whose relevant side depends on where the iterate is).
     """
     s = settings or SolverSettings()
@@ -386,21 +410,27 @@ def solve_map(
     res.cost.append(eps_now)
     if s.keep_iterates:
         res.iterates.append(X.copy())
-    active = None
+    active, keys_prev = None, None
     qp = StepQP(s)
     for it in range(s.max_iter):
         Jo = obs.jacobian(X, n) if len(obs) else sp.csc_matrix((0, n))
         ro = obs.residual(X) if len(obs) else np.zeros(0)
         JoS = (Jo @ S).tocsc()
-        Cx, lx = C, lower
+        Cx, lx, guess = C, lower, active
         if extra_constraints is not None:
-            Ce, le = extra_constraints(X)
+            Ce, le, keys = _extra(extra_constraints, X)
             if Ce.shape[0]:
                 Cx, lx = sp.vstack([C, Ce], format="csc"), np.concatenate([lower, le])
+            # carry the active set over to the re-decided rows that are the same as before
+            guess = None
+            if active is not None and keys is not None and keys_prev is not None:
+                m0 = C.shape[0]
+                was = set(keys_prev[active[m0:]].tolist())
+                guess = np.concatenate([active[:m0], np.array([kk in was for kk in keys.tolist()], bool)])
+            keys_prev = keys
         rp = prior.residual(X)
         dY, status, iters, refined, active = qp_step(
-            (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X,
-            active if extra_constraints is None else None, s, qp,
+            (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X, guess, s, qp,
         )
         res.qp_status.append(status)
         res.qp_refined.append(refined)
@@ -441,7 +471,7 @@ def solve_map(
     if C.shape[0]:
         viol = max(viol, float(np.max(np.maximum(lower - C @ X, 0.0))))
     if extra_constraints is not None:
-        Ce, le = extra_constraints(X)
+        Ce, le, _ = _extra(extra_constraints, X)
         if Ce.shape[0]:
             viol = max(viol, float(np.max(np.maximum(le - Ce @ X, 0.0))))
     res.violation = viol

@@ -10,12 +10,24 @@ The paper's conclusion suggests encoding known walls as extra constraints. A QP 
   each is an oriented box. For every point within ``reach`` metres of a box at the current
   iterate, the face the point is most clearly outside of (largest signed distance
   n_f^T (x_k - c) - h_f) gives the half-plane n_f^T (x_k - c) >= h_f + margin. The side is decided
-  per point from the current Gauss-Newton iterate and re-decided at every iterate: a point next
-  to a wall stays on its side, a point by a wall's end (a door) is held off the end cap only, so
-  paths through doors stay possible. This is a local (convex-inner-approximation) rule: a point
-  the iterate has already put on the wrong side of a wall is kept there.
+  per point from a reference position and re-decided at every Gauss-Newton iterate: a point
+  next to a wall stays on its side, a point by a wall's end (a door) is held off the end cap
+  only, so paths through doors stay possible.
+- **What a camera could see** (``ray_limits``): a person a camera observed lies on the observed
+  bearing ray between the camera and the first wall or obstacle the ray meets (the camera cannot
+  see through walls). With c the camera's floor point and r the ray's unit direction (from the
+  measured u), that is the linear row  r^T (x_k - c) <= s_hit - clearance,  s_hit the distance
+  to the first wall along r and clearance = (thickness / 2 + margin) / |sin(angle of incidence)|.
+  It is fixed by the measurement, not by the iterate, so an observed point is never kept in the
+  wrong room. For the wall rule above, an observed step's reference position is the iterate
+  pulled back onto that visible segment of its ray, c + clip(r^T (x_k - c), margin, s_max) r,
+  so its faces are decided on the camera's side of every wall; unobserved steps use the iterate
+  itself (a local rule: an unobserved point the iterate has put on the wrong side of a wall is
+  kept there, but the observed points on either side of it pull the path through the doors).
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -68,15 +80,97 @@ def boxes(floorplan: Floorplan, include_outline: bool) -> list[tuple[np.ndarray,
     return out
 
 
-def make_box_constraints(floorplan: Floorplan, T: int, margin: float, reach: float):
-    """X -> (C, l): the per-point, per-iterate half-planes of walls and obstacles (module docstring)."""
+def _segments(floorplan: Floorplan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every wall (outline and interior) and obstacle edge as segments: start (S, 2), end (S, 2),
+    half thickness (S,)."""
+    a, b, h = [], [], []
+    for w in list(floorplan.walls) + list(floorplan.outline_walls()):
+        a.append(w.start)
+        b.append(w.end)
+        h.append(0.5 * w.thickness)
+    for o in floorplan.obstacles:
+        c, s, yaw = np.asarray(o.center, float), 0.5 * np.asarray(o.size[:2], float), float(o.yaw)
+        R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+        corners = c + np.array([[-s[0], -s[1]], [s[0], -s[1]], [s[0], s[1]], [-s[0], s[1]]]) @ R.T
+        for i in range(4):
+            a.append(corners[i])
+            b.append(corners[(i + 1) % 4])
+            h.append(0.0)
+    return np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2), np.asarray(h, float)
+
+
+@dataclass(frozen=True)
+class RayLimits:
+    """Visible segment of each observed step's bearing ray: points c + s r, s in [s_min, s_max]."""
+
+    k: np.ndarray  # (M,) step
+    c: np.ndarray  # (M, 2) camera floor point
+    r: np.ndarray  # (M, 2) unit ray direction
+    s_min: np.ndarray  # (M,)
+    s_max: np.ndarray  # (M,)
+
+    def reference(self, xy: np.ndarray) -> np.ndarray:
+        """xy (T, 2) with the observed steps pulled back onto their visible segments."""
+        ref = xy.copy()
+        s = np.einsum("ij,ij->i", xy[self.k] - self.c, self.r)
+        ref[self.k] = self.c + np.clip(s, self.s_min, self.s_max)[:, None] * self.r
+        return ref
+
+
+def ray_limits(obs, floorplan: Floorplan, T: int, margin: float, fov_margin: float):
+    """Rows C X >= l (one per observed step: -r^T x_k >= -(r^T c + s_max)) and the ``RayLimits``.
+
+    obs: ``qp_model.Bearings``. The ray of observation j is the floor line u(x) = u_j, i.e.
+    (a_j - u_j b_j) . x + (c_j - u_j d_j) = 0, through the camera floor point c (a . c + c = 0,
+    b . c + d = 0), pointing where b . r > 0 (in front). One row per step (its first observation).
+    """
+    if len(obs) == 0:
+        return sp.csc_matrix((0, NS * T)), np.zeros(0), None
+    _, first = np.unique(obs.k, return_index=True)
+    k = obs.k[first]
+    a, b, c, d, u = obs.a[first], obs.b[first], obs.c[first], obs.d[first], obs.u[first]
+    M = np.stack([a, b], axis=1)  # (m, 2, 2)
+    cam = np.linalg.solve(M, -np.stack([c, d], axis=1)[..., None])[..., 0]
+    nrm = a - u[:, None] * b
+    r = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    r[np.einsum("ij,ij->i", r, b) < 0] *= -1
+    A, B, H = _segments(floorplan)
+    e = B - A  # (S, 2)
+    # c + s r = A + t e  ->  [r, -e] [s, t]^T = A - c
+    den = r[:, None, 0] * (-e[None, :, 1]) - r[:, None, 1] * (-e[None, :, 0])  # (m, S)
+    w = A[None] - cam[:, None]  # (m, S, 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (w[..., 0] * (-e[None, :, 1]) - w[..., 1] * (-e[None, :, 0])) / den
+        t = (r[:, None, 0] * w[..., 1] - r[:, None, 1] * w[..., 0]) / den
+        sin_inc = np.abs(den) / np.linalg.norm(e, axis=1)[None]
+        clear = (H[None] + margin) / sin_inc
+        # the wall's own thickness also blocks rays that pass just beyond its end
+        ext = H[None] / np.linalg.norm(e, axis=1)[None]
+        hit = (np.abs(den) > 1e-12) & (s > 1e-6) & (t >= -ext) & (t <= 1 + ext)
+    s_hit = np.where(hit, s - clear, np.inf).min(axis=1)
+    s_min = np.full(len(k), fov_margin)
+    s_max = np.maximum(s_hit, s_min)
+    ok = np.isfinite(s_max)
+    k, cam, r, s_min, s_max = k[ok], cam[ok], r[ok], s_min[ok], s_max[ok]
+    rows = _rows(T, -r, k)
+    lower = -(np.einsum("ij,ij->i", r, cam) + s_max)
+    return rows, lower, RayLimits(k, cam, r, s_min, s_max)
+
+
+def make_box_constraints(floorplan: Floorplan, T: int, margin: float, reach: float, rays: RayLimits | None = None):
+    """X -> (C, l, keys): the per-point, per-iterate half-planes of walls and obstacles (module
+    docstring), keys identifying each row (step, box, face) so a solver can carry its active set
+    over iterates; with ``rays``, observed steps decide their faces from their visible ray segment."""
     convex = is_convex(floorplan.outline)
     bx = boxes(floorplan, include_outline=not convex)
 
     def constraints(X: np.ndarray):
         xy = np.stack([X[IX::NS], X[IY::NS]], axis=1)
-        normals, ks, lows = [], [], []
-        for c, h, yaw in bx:
+        if rays is not None:
+            xy = rays.reference(xy)
+        normals, ks, lows, keys = [], [], [], []
+        for ib, (c, h, yaw) in enumerate(bx):
             ca, sa = np.cos(yaw), np.sin(yaw)
             ax = np.array([[ca, sa], [-sa, ca], [-ca, -sa], [sa, -ca]])  # face normals +x, +y, -x, -y
             half = np.array([h[0], h[1], h[0], h[1]])
@@ -91,9 +185,15 @@ def make_box_constraints(floorplan: Floorplan, T: int, margin: float, reach: flo
             normals.append(n)
             ks.append(near)
             lows.append(n @ c + half[face] + margin)
+            keys.append((near * len(bx) + ib) * 4 + face)
         if not ks:
-            return sp.csc_matrix((0, NS * T)), np.zeros(0)
-        k = np.concatenate(ks)
-        return _rows(T, np.concatenate(normals), k), np.concatenate(lows)
+            return sp.csc_matrix((0, NS * T)), np.zeros(0), np.zeros(0, np.int64)
+        k, nrm, low, key = np.concatenate(ks), np.concatenate(normals), np.concatenate(lows), np.concatenate(keys)
+        # collinear walls (a wall split by a door) give the same half-plane twice: keep one
+        # (duplicate active rows would make the step's KKT system singular)
+        sig = np.c_[k, np.round(nrm, 9), np.round(low, 9)]
+        _, first = np.unique(sig, axis=0, return_index=True)
+        first = np.sort(first)
+        return _rows(T, nrm[first], k[first]), low[first], key[first]
 
     return constraints

@@ -2,9 +2,13 @@
 
     python -m scripts.fig_rahimi [--out docs/img]
 
-Fig. 3: the Gauss-Newton iterates converging (paper's initial guess). Fig. 4: several runs.
-Fig. 5: the same run without the field-of-view constraints. Fig. 7: the office floor loop, with
-and without the walls as constraints. Walkers: gauss_markov with process noise (1e-4, 0.1) on
+Fig. 3: the Gauss-Newton iterates 0, 1, 3, 9, ... and the converged one (paper's initial
+guess). Fig. 4: several runs. Fig. 5: a run with and without the field-of-view constraints (the
+seed whose unconstrained estimate put the most observed points behind their camera in
+``docs/qp_experiment.csv``, or ``--fig5-seed``), those points marked. One camera: the same kind of
+run given only the bearings of the camera that saw the person most: depth is not observable and
+the estimate collapses towards the camera along the bearing rays. Fig. 7: the office floor loop,
+with and without the walls as constraints. Walkers: gauss_markov with process noise (1e-4, 0.1) on
 bearing_hall (the estimator gets the matched prior); the scripted loop on office_floor (prior
 q = (1e-4, 0.1), not matched: the loop is not a Gauss-Markov path).
 """
@@ -47,7 +51,8 @@ def draw_room(ax, cal):
     ax.set_ylim(lo[1], hi[1])
 
 
-def run(scene, seed, duration, **kw):
+def run(scene, seed, duration, only_camera=None, **kw):
+    """Simulate, then solve one walker's trajectory; only_camera="most": that camera's bearings only."""
     from sim.simulate import simulate
 
     rec = simulate(scene, seed, duration)
@@ -55,6 +60,10 @@ def run(scene, seed, duration, **kw):
     cal, obs = rec.calibration, rec.observations
     b = obs["bearings"]
     b = b[b.label == w["color"]]
+    if only_camera == "most":
+        only_camera = str(b.camera.value_counts().idxmax())
+    if only_camera is not None:
+        b = b[b.camera == only_camera]
     dt = 1.0 / max(c.fps for c in cal.cameras.values())
     T = int(round(duration / dt))
     est = get("qp_smoother")(**kw)
@@ -63,7 +72,41 @@ def run(scene, seed, duration, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = est.solve(k, b.camera.to_numpy(object), b.u.to_numpy(), T, dt, {n: cal.cameras[n] for n in set(b.camera)}, sigma, cal, keep_iterates=True)
+    res.bearings = b  # what the solve was given, for drawing
     return rec, cal, truth_on_grid(rec, w["name"], dt, T), res
+
+
+def behind(cal, b, X, dt):
+    """Steps k and camera names of observed points estimated behind the camera that saw them."""
+    out = []
+    for name, g in b.groupby("camera"):
+        P = np.asarray(cal.cameras[name].P, float)
+        k = np.unique(np.rint(g.t.to_numpy() / dt).astype(int))
+        depth = X[4 * k] * P[2, 0] + X[4 * k + 2] * P[2, 1] + P[2, 2] * 0.9 + P[2, 3]
+        out += [(kk, name) for kk in k[depth < 0]]
+    return out
+
+
+def iterate_panels(n_iterates: int) -> list[int]:
+    """0, 1, 3, 9, 27, ... below the last iterate, then the last (converged) one."""
+    last = n_iterates - 1
+    its, i = [0], 1
+    while i < last:
+        its.append(i)
+        i = 1 if i == 0 else i * 3
+    return its + ([last] if last > 0 else [])
+
+
+def fig5_seed(csv: str, default: int = 0) -> int:
+    """The experiment's seed whose unconstrained run put the most observed points behind a camera."""
+    try:
+        import pandas as pd
+
+        df = pd.read_csv(csv)
+        u = df[df.variant == "qp_unconstrained"].dropna(subset=["behind_camera"])
+        return int(u.loc[u.behind_camera.idxmax(), "seed"]) if len(u) else default
+    except (FileNotFoundError, KeyError, ValueError):
+        return default
 
 
 def xy_of(X):
@@ -73,32 +116,65 @@ def xy_of(X):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs/img")
+    ap.add_argument("--csv", default="docs/qp_experiment.csv", help="experiment table (picks the Fig. 5 seed)")
+    ap.add_argument("--fig5-seed", type=int, default=None)
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     hall = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', f"walkers.process_noise=[{Q[0]}, {Q[1]}]"])
     # Fig. 3: iterates
     rec, cal, xy, res = run(hall, 0, 60.0, q_pos=Q[0], q_vel=Q[1])
-    its = [i for i in (0, 1, 3, 9, 11, 17) if i < len(res.iterates)] + [len(res.iterates) - 1]
+    its = iterate_panels(len(res.iterates))
     fig, axs = plt.subplots(1, len(its), figsize=(3 * len(its), 3.2))
     for ax, i in zip(axs, its):
         draw_room(ax, cal)
         ax.plot(xy[:, 0], xy[:, 1], "g-", lw=1, label="truth")
         ax.plot(*xy_of(res.iterates[i]), "r.-", ms=2, lw=0.5, label="estimate")
-        ax.set_title(f"iteration {i}", fontsize=8)
+        last = " (converged)" if i == len(res.iterates) - 1 and res.converged else ""
+        ax.set_title(f"iteration {i}{last}: cost {res.cost[i]:.4g}", fontsize=8)
     axs[0].legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(f"{args.out}/rahimi_fig3_iterations.png", dpi=110)
-    # Fig. 5: the same run without constraints
-    _, _, _, res_u = run(hall, 0, 60.0, q_pos=Q[0], q_vel=Q[1], constraints=False)
-    fig, axs = plt.subplots(1, 2, figsize=(7, 3.5))
-    for ax, r, title in ((axs[0], res, "with FOV constraints"), (axs[1], res_u, "without constraints")):
-        draw_room(ax, cal)
-        ax.plot(xy[:, 0], xy[:, 1], "g-", lw=1)
-        ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5)
-        e = np.sqrt(np.nanmean((r.X[0::4] - xy[:, 0]) ** 2 + (r.X[2::4] - xy[:, 1]) ** 2))
-        ax.set_title(f"{title}: RMSE {e:.2f} m", fontsize=8)
+    # Fig. 5: a run with and without the constraints
+    s5 = args.fig5_seed if args.fig5_seed is not None else fig5_seed(args.csv)
+    rec5, cal5, xy5, res_c = run(hall, s5, 60.0, q_pos=Q[0], q_vel=Q[1])
+    _, _, _, res_u = run(hall, s5, 60.0, q_pos=Q[0], q_vel=Q[1], constraints=False)
+    dt = 1.0 / max(c.fps for c in cal5.cameras.values())
+    fig, axs = plt.subplots(1, 2, figsize=(8, 4.2))
+    for ax, r, title in ((axs[0], res_c, "with FOV constraints"), (axs[1], res_u, "without constraints")):
+        draw_room(ax, cal5)
+        ax.plot(xy5[:, 0], xy5[:, 1], "g-", lw=1, label="truth")
+        ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5, label="estimate")
+        bad = behind(cal5, r.bearings, r.X, dt)
+        if bad:
+            kb = np.array([k for k, _ in bad])
+            ax.plot(r.X[4 * kb], r.X[4 * kb + 2], "x", color="m", ms=5, label="behind its camera")
+        e = np.sqrt(np.nanmean((r.X[0::4] - xy5[:, 0]) ** 2 + (r.X[2::4] - xy5[:, 1]) ** 2))
+        ax.set_title(f"seed {s5}, {title}\nRMSE {e:.2f} m, {len(bad)} observed points behind their camera", fontsize=8)
+        ax.legend(fontsize=6, loc="center")
     fig.tight_layout()
     fig.savefig(f"{args.out}/rahimi_fig5_unconstrained.png", dpi=110)
+    # One camera: depth is not observable
+    fig, axs = plt.subplots(1, 2, figsize=(8, 4.2))
+    for ax, seed in zip(axs, (s5, 0 if s5 != 0 else 2)):
+        _, cal1, xy1, r1 = run(hall, seed, 60.0, only_camera="most", q_pos=Q[0], q_vel=Q[1])
+        draw_room(ax, cal1)
+        cam = str(r1.bearings.camera.iloc[0])
+        k1 = np.unique(np.rint(r1.bearings.t.to_numpy() / dt).astype(int))
+        ax.plot(xy1[:, 0], xy1[:, 1], "g-", lw=0.6, alpha=0.6)
+        ax.plot(*xy_of(r1.X), "r-", lw=0.6, alpha=0.6)
+        ax.plot(xy1[k1, 0], xy1[k1, 1], "g.", ms=4, label=f"truth, seen by {cam}")
+        ax.plot(r1.X[4 * k1], r1.X[4 * k1 + 2], "r.", ms=4, label="estimate at those times")
+        for kk in k1[:: max(1, len(k1) // 12)]:
+            ax.plot([xy1[kk, 0], r1.X[4 * kk]], [xy1[kk, 1], r1.X[4 * kk + 2]], color="0.4", lw=0.5)
+        p = np.asarray(cal1.cameras[cam].position, float)[:2]
+        d_true = np.linalg.norm(xy1[k1] - p, axis=1).mean()
+        d_est = np.linalg.norm(np.c_[r1.X[4 * k1], r1.X[4 * k1 + 2]] - p, axis=1).mean()
+        e = np.sqrt(np.nanmean((r1.X[0::4] - xy1[:, 0]) ** 2 + (r1.X[2::4] - xy1[:, 1]) ** 2))
+        ax.set_title(f"seed {seed}, bearings of {cam} only: RMSE {e:.2f} m\nmean distance from camera: "
+                     f"true {d_true:.2f} m, estimated {d_est:.2f} m", fontsize=8)
+        ax.legend(fontsize=6, loc="center")
+    fig.tight_layout()
+    fig.savefig(f"{args.out}/rahimi_one_camera.png", dpi=110)
     # Fig. 4: several runs
     fig, axs = plt.subplots(1, 4, figsize=(12, 3.2))
     for ax, seed in zip(axs, (2, 4, 5, 6)):

@@ -138,3 +138,36 @@ def test_two_labels_are_two_tracks_and_online_runs(cal):
     assert set(tracks.track_id) == {"red", "blue"}
     assert (tracks.groupby("track_id").size() == 120).all()
     assert tracks.attrs["qp_smoother"]["red"]["windows"] > 1
+
+
+def test_ray_limit_stops_an_observed_point_at_the_first_wall():
+    """cam1 (office_floor, at (5, 0.06) looking +y) sees a person straight ahead: the person lies
+    on x = 5 between the camera and the corridor wall at y = 4 (thickness 0.1, margin 0.1), so
+    the row is -y >= -(4 - 0.05 - 0.1) by hand."""
+    from estimators.qp_walls import ray_limits
+
+    cal = hall_calibration("office_floor")
+    cam = cal.cameras["cam1"]
+    obs = Bearings.from_arrays([0], ["cam1"], [cam.bearing_u(np.array([[5.0, 2.0]]))[0]], cal.cameras, 1.0)
+    C, lower, rays = ray_limits(obs, cal.floorplan, 1, margin=0.1, fov_margin=0.2)
+    row = C.toarray()[0]
+    assert np.allclose(row[[0, 2]], [0.0, -1.0], atol=1e-9)
+    assert np.isclose(lower[0], -(4.0 - 0.05 - 0.1), atol=1e-6)
+    # a point pushed beyond the wall is pulled back onto the visible segment for the wall rule
+    ref = rays.reference(np.array([[5.0, 7.0]]))
+    assert np.allclose(ref, [[5.0, 3.85]], atol=1e-6)
+
+
+def test_office_walls_keep_observed_points_in_their_camera_room():
+    """With walls, every point cam1 observed stays in room A (south of the corridor, west of x = 10)."""
+    cal = hall_calibration("office_floor")
+    t = np.arange(80) * 0.25
+    xy = np.c_[4.0 + 0.1 * t, 2.5 + 0.025 * t]
+    df = bearings_of(cal, {"red": xy}, 0.25, sigma_px=1.0, seed=5)
+    df = df[df.camera == "cam1"].reset_index(drop=True)
+    assert len(df) > 10
+    tracks = QPSmoother(walls=True, q_pos=1e-4, q_vel=0.1).estimate(observations(df, 20.0), cal)
+    k = np.unique(np.rint(df.t / 0.25).astype(int))
+    est = np.c_[tracks.x.to_numpy()[k], tracks.y.to_numpy()[k]]
+    assert np.all(est[:, 1] <= 4.0 - 0.05 - 0.1 + 1e-6) and np.all(est[:, 0] <= 10.0 - 0.05 + 1e-6)
+    assert tracks.attrs["qp_smoother"]["red"]["violation_m"] < 1e-6
