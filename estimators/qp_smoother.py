@@ -182,10 +182,13 @@ class QPSmoother(Estimator):
         lower = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
         return prior, obs, C, lower, extra
 
-    def initial_guess(self, obs: Bearings, T: int, cameras) -> np.ndarray:
-        """The paper's initial iterate (sec. 6), or the "ray" variant."""
+    def initial_guess(self, obs: Bearings, T: int, cameras, origin=(0.0, 0.0)) -> np.ndarray:
+        """The paper's initial iterate (sec. 6: unobserved points at the origin), or the "ray"
+        variant. origin: where unobserved points start (with walls: the room centre, so that the
+        first iterate is inside the room rather than in its corner wall)."""
         c = self.config
         X = np.zeros(NS * T)
+        X[IX::NS], X[IY::NS] = origin[0], origin[1]
         if len(obs) == 0:
             return X
         pos = np.zeros((len(obs), 2))
@@ -205,7 +208,7 @@ class QPSmoother(Estimator):
         px = np.bincount(obs.k, pos[:, 0], minlength=T)
         py = np.bincount(obs.k, pos[:, 1], minlength=T)
         seen = cnt > 0
-        x, y = np.zeros(T), np.zeros(T)
+        x, y = np.full(T, float(origin[0])), np.full(T, float(origin[1]))
         x[seen], y[seen] = px[seen] / cnt[seen], py[seen] / cnt[seen]
         if c.init == "ray":
             ks = np.nonzero(seen)[0]
@@ -222,7 +225,11 @@ class QPSmoother(Estimator):
         """Batch MAP over T steps (k: step of each observation); X0 overrides the initial guess."""
         prior, obs, C, lower, extra = self.problem(k, cam_names, u, T, dt, cameras, sigma, calibration)
         if X0 is None:
-            X0 = self.initial_guess(obs, T, cameras)
+            fp = calibration.floorplan
+            origin = (0.0, 0.0)
+            if self.config.walls and fp is not None and len(fp.outline):
+                origin = tuple(np.asarray(fp.outline, float).mean(axis=0))
+            X0 = self.initial_guess(obs, T, cameras, origin)
         return solve_map(prior, obs, X0, C, lower, extra, self._settings(keep_iterates))
 
     def _solve_label(self, k, cam_names, u, T, dt, cameras, sigma, calibration):
