@@ -122,7 +122,7 @@ class HMMMatcher(Estimator):
         # is standing, else a walking speed of 1 m/s)
         # assignment
         llr_min: float = 8.0  # log Omega_min: least log-likelihood ratio for an assignment (chosen on
-        # development seeds 100-101, not the evaluation seeds)
+        # development seeds 100-104, not the evaluation seeds 0-9)
         margin_min: float = 2.0  # least lead (nats) of a claimed pair over its phone's other tracks (and "no claim")
         margin_rows: bool = False  # also over its track's other phones
 
