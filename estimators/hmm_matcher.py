@@ -39,11 +39,15 @@ Pipeline (one call of ``estimate``):
        Lambda(n, i) = log sum_e  w(n|e) / W  exp(LLR(e, i))   (+ a "newcomer" term with LLR 0),
    over the segments e that ended shortly before near it, with the tracker's continuity weights
    w(n|e) and W their sum with the newcomer density. People who cross, meet or stop together are
-   therefore re-identified instead of starting from zero evidence.
+   therefore re-identified instead of starting from zero evidence. With privacy cameras (blind to
+   people standing still) the frames of the gap between e and n add the phone's evidence that its
+   owner stood: sum_k log p(g_k | stopped) / p(g_k).
 5. **Global assignment** each camera frame (eq. 21): maximise sum (LLR - log Omega_min) over
    (segment, phone) pairs with ``linear_sum_assignment`` on a matrix augmented with one
    zero-score "no phone" column per segment, so a pair below Omega_min is never chosen and people
-   without phones stay unassigned.
+   without phones stay unassigned. A claim is kept only when its score leads the phone's other
+   tracks (and "no claim") by ``margin_min`` nats: a phone whose evidence does not single out one
+   track (two people moving alike) is not claimed.
 
 Output tracks: ``t, track_id, x, y, vx, vy, phone_id``; ``track_id`` is the phone id while a phone
 is assigned (segments joined into one identified track, as in Fig. 7c), else ``anon<segment>``.
