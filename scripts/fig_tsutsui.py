@@ -2,6 +2,7 @@
 on ``occlusion_lab``, and per camera the frames where it was tracking / lost / unreliable.
 
     python scripts/fig_tsutsui.py [--sensing analytic|rendered] [--duration 60] [--seed 0] [--out docs/img/tsutsui_trace.png]
+    python scripts/fig_tsutsui.py --recording DIR --out docs/img/tsutsui_trace_rendered.png   # a saved recording
 """
 from __future__ import annotations
 
@@ -29,14 +30,20 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="docs/img/tsutsui_trace.png")
+    ap.add_argument("--recording", help="a saved recording folder instead of a simulation")
     a = ap.parse_args(argv)
-    rec, res, m = run(a.sensing, a.duration, a.seed)
+    saved = None
+    if a.recording:
+        from sim.dataset import read_recording
+
+        saved = read_recording(a.recording)
+    rec, res, m = run(a.sensing, a.duration, a.seed, recording=saved)
     fp = rec.calibration.floorplan
     tr = res.tracks
     ppl = rec.truth.people
 
     fig = plt.figure(figsize=(12, 6.5))
-    ax = fig.add_axes([0.05, 0.08, 0.45, 0.85])
+    ax = fig.add_axes([0.06, 0.08, 0.45, 0.8])
     outline = np.vstack([fp.outline, fp.outline[:1]])
     ax.plot(outline[:, 0], outline[:, 1], "k-", lw=1.5)
     for o in fp.obstacles:
@@ -56,7 +63,7 @@ def main(argv=None) -> int:
         ax.annotate(name, cam.position[:2], fontsize=8)
     ax.set_aspect("equal")
     ax.set_title(
-        f"occlusion_lab ({a.sensing}): identity {100 * m['identity_held']:.1f}%, "
+        f"occlusion_lab ({m['sensing']}, seed {m['seed']}, {m['duration']:.0f} s): identity {100 * m['identity_held']:.1f}%, "
         f"RMSE {m['rmse_2plus']:.2f} m (>=2 cams), {m['rmse_1']:.2f} m (1 cam)",
         fontsize=9,
     )
@@ -64,7 +71,7 @@ def main(argv=None) -> int:
 
     st = res.status
     cams = sorted(st.camera.unique())
-    ax2 = fig.add_axes([0.58, 0.55, 0.4, 0.38])
+    ax2 = fig.add_axes([0.64, 0.55, 0.34, 0.38])
     for i, c in enumerate(cams):
         s = st[st.camera == c]
         for status, col in STATUS_COLOURS.items():
@@ -75,7 +82,7 @@ def main(argv=None) -> int:
     ax2.set_title("camera status for the target", fontsize=9)
     ax2.legend(fontsize=7, loc="upper right", ncol=3)
 
-    ax3 = fig.add_axes([0.58, 0.08, 0.4, 0.35])
+    ax3 = fig.add_axes([0.64, 0.08, 0.34, 0.35])
     t = tr.t.to_numpy()
     g = ppl[ppl.person_id == TARGET]
     k = np.clip(np.searchsorted(g.t.to_numpy(), t - 1e-9), 0, len(g) - 1)
