@@ -76,9 +76,12 @@ class GaitModel:
 
 def load_default() -> GaitModel:
     """The bundled model (fitted by ``trackroom train-gait``; see docs/hmm_matcher.md)."""
-    if DEFAULT_MODEL_PATH.exists():
-        return GaitModel.from_json(DEFAULT_MODEL_PATH)
-    return GaitModel()
+    if not DEFAULT_MODEL_PATH.exists():
+        raise FileNotFoundError(
+            f"bundled gait model {DEFAULT_MODEL_PATH} is missing (install with package data, or pass "
+            "gait_model=PATH from `trackroom train-gait`)"
+        )
+    return GaitModel.from_json(DEFAULT_MODEL_PATH)
 
 
 def _window_sums(t: np.ndarray, values: np.ndarray, t_query: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
