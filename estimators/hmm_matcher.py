@@ -140,7 +140,10 @@ class HMMMatcher(Estimator):
             raise EstimatorError("hmm_matcher: no floor detections")
         if not len(imu):
             raise EstimatorError("hmm_matcher: no IMU samples")
-        gait = GaitModel.from_json(cfg.gait_model) if cfg.gait_model else load_default()
+        try:
+            gait = GaitModel.from_json(cfg.gait_model) if cfg.gait_model else load_default()
+        except (OSError, ValueError, TypeError) as e:
+            raise EstimatorError(f"hmm_matcher: cannot load the gait model: {e}") from None
         privacy = any(c.privacy for c in calibration.cameras_of_kind("overhead").values())
         segs = self.track(det, calibration, observations.duration)
         field_world = calibration.noise.get("magnetic_field", (0.0, -0.5, 0.0))
