@@ -156,6 +156,13 @@ class GaussMarkovParams:
     A(dt) = [[1, dt], [0, 1]] per axis; Sigma(dt) = diag(q_pos dt, q_vel dt) per axis, so the
     paper's A (dt = 0.5 s) and Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s step are
     q_pos = 2e-10 m^2/s and q_vel = 2e-6 m^2/s^3.
+
+    ``Sigma(dt, "exact")`` is the exact discretisation of the continuous-time model
+    dx = v dt + sqrt(q_pos) dW_1, dv = sqrt(q_vel) dW_2 instead: per axis
+    [[q_pos dt + q_vel dt^3 / 3, q_vel dt^2 / 2], [q_vel dt^2 / 2, q_vel dt]]. It composes over
+    sub-steps (n steps of dt/n give Sigma(dt)), so a prior at any frame rate matches a process
+    simulated at a finer one; the paper's diagonal form does not (it drops the q_vel dt^3 / 3
+    position variance that the velocity noise accumulates within a step).
     """
 
     q_pos: float = 2e-10
@@ -165,8 +172,16 @@ class GaussMarkovParams:
         a = np.array([[1.0, dt], [0.0, 1.0]])
         return np.kron(np.eye(2), a)  # state [x, vx, y, vy]
 
-    def Sigma(self, dt: float) -> np.ndarray:
-        return np.diag([self.q_pos * dt, self.q_vel * dt, self.q_pos * dt, self.q_vel * dt])
+    def Sigma(self, dt: float, kind: str = "paper") -> np.ndarray:
+        """Process covariance of one step of dt s, state [x, vx, y, vy]; kind "paper"
+        (diagonal, the default) or "exact" (see the class docstring)."""
+        if kind == "paper":
+            return np.diag([self.q_pos * dt, self.q_vel * dt, self.q_pos * dt, self.q_vel * dt])
+        if kind != "exact":
+            raise ValueError(f"discretisation must be 'paper' or 'exact', got {kind!r}")
+        qp, qv = self.q_pos, self.q_vel
+        block = np.array([[qp * dt + qv * dt**3 / 3.0, qv * dt**2 / 2.0], [qv * dt**2 / 2.0, qv * dt]])
+        return np.kron(np.eye(2), block)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from scenes.spec import Scene
 
 from . import analytic, imu
 from .recording import SENSING_MODES, Calibration, Observations, Recording, Truth
-from .walkers import Trajectories, plan_trajectories
+from .walkers import GM_DISCRETISATION, Trajectories, plan_trajectories
 from .world import build_world
 
 VERSIONED = ("trackroom", "mujoco", "numpy", "scipy", "pandas", "pyarrow")
@@ -131,7 +131,9 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         "walkers": [
             {
                 "name": w.name, "color": w.color_name, "motion": w.motion, "phone_id": pids[i],
-                "gauss_markov": {"q_pos": traj.gauss_markov[i].q_pos, "q_vel": traj.gauss_markov[i].q_vel} if traj.gauss_markov[i] else None,
+                "gauss_markov": {"q_pos": traj.gauss_markov[i].q_pos, "q_vel": traj.gauss_markov[i].q_vel, "discretisation": GM_DISCRETISATION}
+                if traj.gauss_markov[i]
+                else None,
             }
             for i, w in enumerate(scene.walkers)
         ],

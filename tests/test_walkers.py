@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from scenes.loader import bundled_scenes, load_scene
+from scenes.spec import GaussMarkovParams
 from sim import walkers
 from sim.walkers import DEFAULT_WALKER_GM, follow_path, plan_trajectories
 
@@ -69,6 +70,51 @@ def test_gauss_markov_walker_stays_inside_with_few_draws():
     # an explicit process_noise is used as given
     scene2 = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', "walkers.process_noise=[1e-4, 0.1]"])
     assert plan_trajectories(scene2, 10.0, np.random.default_rng(2)).gauss_markov[0].q_vel == 0.1
+
+
+def test_gauss_markov_generates_on_every_seed():
+    """Unattended generation must not fail on some seeds: bearing_hall with process noise
+    [1e-4, 0.1] for 60 s on 32 seeds (motion streams as ``simulate`` spawns them; seeds 1 and 8
+    used to start near a wall heading into it and had no continuation)."""
+    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', "walkers.process_noise=[1e-4, 0.1]"])
+    r = scene.walkers[0].radius
+    draws = 0
+    for seed in range(32):
+        motion_rng = np.random.default_rng(seed).spawn(4)[0]
+        traj = plan_trajectories(scene, 60.0, motion_rng)
+        assert scene.floorplan.clearance(traj.pos[0, :, :2]).min() >= r, f"seed {seed} leaves free space"
+        draws += traj.draws[0]
+    assert draws / (32 * 60.0 / walkers.GM_CHUNK) < 15  # measured: ~4 draws per chunk
+
+
+def test_gauss_markov_too_stiff_for_the_room_fails_clearly():
+    """A prior that cannot turn within the room (velocity std over 30 s: 0.17 m/s) gives up
+    after the draw budget with an error naming the process noise."""
+    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', "walkers.process_noise=[1e-4, 1e-3]"])
+    with pytest.raises(ValueError, match=r"process_noise \(q_pos, q_vel\) = \(0.0001, 0.001\)"):
+        plan_trajectories(scene, 30.0, np.random.default_rng(0))
+
+
+def test_gauss_markov_exact_discretisation():
+    """Sigma(dt, "exact") composes over sub-steps, and the walker's draws follow it: the state
+    change over a chunk of n steps has covariance Sigma(n dt, "exact") (with the paper's diagonal
+    form at this coarse step the position variance would be 30 % lower)."""
+    pm = GaussMarkovParams(q_pos=0.02, q_vel=0.1)
+    A = pm.A(0.25)
+    np.testing.assert_allclose(A @ pm.Sigma(0.25, "exact") @ A.T + pm.Sigma(0.25, "exact"), pm.Sigma(0.5, "exact"), rtol=1e-12)
+    assert np.allclose(pm.Sigma(0.5), np.diag([0.01, 0.05, 0.01, 0.05]))  # the paper's form stays the default
+    with pytest.raises(ValueError, match="discretisation"):
+        pm.Sigma(0.5, "euler")
+    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"'])
+    dt = 0.5  # coarse, so that the discretisations differ: GM_CHUNK / dt = 4 steps per chunk
+    model = walkers._GaussMarkov(scene.walkers[0], walkers.FreeSpace(scene.floorplan), dt, np.random.default_rng(0), pm)
+    v0 = model.vel.copy()
+    d = []
+    for _ in range(4000):
+        x = model.propose(np.zeros(2), 0.0)
+        d.append([x[-1, 0] - walkers.GM_CHUNK * v0[0], model._vel[0] - v0[0], x[-1, 1] - walkers.GM_CHUNK * v0[1], model._vel[1] - v0[1]])
+    cov = np.cov(np.array(d).T)
+    np.testing.assert_allclose(cov, pm.Sigma(walkers.GM_CHUNK, "exact"), atol=0.08 * pm.Sigma(walkers.GM_CHUNK, "exact").max())
 
 
 def test_plans_around_a_wall():
