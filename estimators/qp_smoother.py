@@ -184,8 +184,8 @@ class QPSmoother(Estimator):
 
     def initial_guess(self, obs: Bearings, T: int, cameras, origin=(0.0, 0.0)) -> np.ndarray:
         """The paper's initial iterate (sec. 6: unobserved points at the origin), or the "ray"
-        variant. origin: where unobserved points start (with walls: the room centre, so that the
-        first iterate is inside the room rather than in its corner wall)."""
+        variant. origin: where unobserved points start (with walls: ``feasible_origin``, the
+        paper's origin moved just inside the room, so that the first iterate is feasible)."""
         c = self.config
         X = np.zeros(NS * T)
         X[IX::NS], X[IY::NS] = origin[0], origin[1]
@@ -225,10 +225,9 @@ class QPSmoother(Estimator):
         """Batch MAP over T steps (k: step of each observation); X0 overrides the initial guess."""
         prior, obs, C, lower, extra = self.problem(k, cam_names, u, T, dt, cameras, sigma, calibration)
         if X0 is None:
-            fp = calibration.floorplan
             origin = (0.0, 0.0)
-            if self.config.walls and fp is not None and len(fp.outline):
-                origin = tuple(np.asarray(fp.outline, float).mean(axis=0))
+            if self.config.walls and calibration.floorplan is not None:
+                origin = feasible_origin(calibration.floorplan, self.config.wall_margin)
             X0 = self.initial_guess(obs, T, cameras, origin)
         return solve_map(prior, obs, X0, C, lower, extra, self._settings(keep_iterates))
 
@@ -282,6 +281,20 @@ class QPSmoother(Estimator):
             "windows": len(summaries),
         }
         return X_out, d
+
+
+def feasible_origin(fp, margin: float) -> tuple[float, float]:
+    """The floor origin moved into the room: clipped to the outline's bounding box shrunk by the
+    wall clearance (+1 cm), when that point is clear of every wall; else the outline's centroid."""
+    p = np.asarray(fp.outline, float)
+    if not len(p):
+        return (0.0, 0.0)
+    need = 0.5 * fp.wall_thickness + margin + 0.01
+    o = np.clip(np.zeros(2), p.min(axis=0) + need, p.max(axis=0) - need)
+    if bool(fp.inside(o[None])[0]) and float(fp.clearance(o[None])[0]) >= margin + 0.005:
+        return (float(o[0]), float(o[1]))
+    c = p.mean(axis=0)
+    return (float(c[0]), float(c[1]))
 
 
 def _empty_tracks(diag: dict) -> pd.DataFrame:
