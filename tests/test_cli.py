@@ -34,3 +34,38 @@ def test_show_scene_writes_png(tmp_path):
     out = tmp_path / "hall.png"
     assert main(["show", "bearing_hall", "--out", str(out)]) == 0
     assert out.stat().st_size > 10_000
+
+
+def test_generate_estimate_score_round_trip(tmp_path):
+    import json
+
+    rec = tmp_path / "rec"
+    r = run_cli("generate", "overhead_lab", "--seed", "3", "--duration", "6", "--set", "walkers.count=2", "--out", str(rec), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert (rec / "manifest.json").exists() and (rec / "calibration" / "ceil_sw.xml").exists()
+    r = run_cli("generate", "overhead_lab", "--out", str(rec), "--duration", "1", "--quiet")
+    assert r.returncode == 2 and "exists" in r.stderr  # an existing recording is never clobbered
+    tracks = tmp_path / "tracks.csv"
+    r = run_cli("estimate", str(rec), "--estimator", "ekf", "--out", str(tracks))
+    assert r.returncode == 0, r.stderr
+    r = run_cli("score", str(rec), str(tracks), "--json")
+    assert r.returncode == 0, r.stderr
+    scores = json.loads(r.stdout)
+    assert {"mota", "motp", "id_switches", "idf1", "fp", "fn", "rmse"} <= set(scores)
+    assert scores["mota"] > 0.8
+    r = run_cli("show", str(rec))
+    assert r.returncode == 0 and (rec / "topdown.png").exists()
+
+
+def test_rendered_frames_and_contact_sheets(tmp_path):
+    rec = tmp_path / "rendered"
+    r = run_cli("generate", "occlusion_lab", "--duration", "0.6", "--sensing", "rendered", "--save-frames", "--out", str(rec), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (rec / "frames").glob("*.mp4")) == ["obl_ne.mp4", "obl_nw.mp4", "obl_se.mp4", "obl_sw.mp4"]
+    r = run_cli("show", str(rec), "--frames")
+    assert r.returncode == 0, r.stderr
+    from pathlib import Path
+
+    sheets = [Path(ln.split()[-1]) for ln in r.stdout.splitlines() if ln.startswith("wrote")]
+    sheets = [p for p in sheets if p.name.startswith("frames_")]
+    assert len(sheets) == 4 and all(p.stat().st_size > 10_000 for p in sheets)
