@@ -149,7 +149,7 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     for key in ("pose", "render", "segment", "perception", "labels", "video"):
         tm.setdefault(key, 0.0)
     model, data, cam_ids, person_geoms = world_maps(world, scene)
-    sync_cameras(model, scene, cam_ids)
+    check_cameras(model, scene, cam_ids)
     P = len(person_geoms)
     names = list(traj.names) if len(getattr(traj, "names", ())) == P else [w.name for w in scene.walkers]
     person_of_geom = np.full(model.ngeom, -1, np.int16)
@@ -223,16 +223,36 @@ def camera_quat(cam: Camera) -> np.ndarray:
     return q
 
 
-def sync_cameras(model, scene, cam_ids) -> None:
-    """Make each MuJoCo camera the calibrated ``Camera`` (pose, orientation, fovy): the camera
-    model is the reference that the analytic mode and the estimators use, so the pixels must
-    come from exactly that camera."""
+CAMERA_TOL = 1e-9  # position (m), orientation (quaternion components), fovy (degrees)
+
+
+def check_cameras(model, scene, cam_ids) -> None:
+    """Check that each compiled MuJoCo camera is the calibrated ``Camera`` (position,
+    orientation, fovy, fixed mode): the camera model is the reference that the analytic mode and
+    the estimators use, so the pixels must come from exactly that camera. ``sim.world`` builds
+    them so (since commit 3d17992; a MuJoCo-marker render's segmentation centroid lies within
+    0.25 px of ``Camera.project`` for every camera kind); a ValueError names a camera that is not."""
     for c in scene.cameras:
         i = cam_ids[c.name]
-        model.cam_pos[i] = c.position
-        model.cam_quat[i] = camera_quat(c)
-        model.cam_fovy[i] = np.degrees(c.fovy)
-        model.cam_mode[i] = mujoco.mjtCamLight.mjCAMLIGHT_FIXED
+        q, qc = model.cam_quat[i], camera_quat(c)
+        bad = []
+        if np.abs(model.cam_pos[i] - np.asarray(c.position, float)).max() > CAMERA_TOL:
+            bad.append(f"position {model.cam_pos[i].tolist()} != {list(c.position)}")
+        if min(np.abs(q - qc).max(), np.abs(q + qc).max()) > CAMERA_TOL:
+            bad.append(f"orientation {q.tolist()} != {qc.tolist()}")
+        if abs(model.cam_fovy[i] - np.degrees(c.fovy)) > CAMERA_TOL:
+            bad.append(f"fovy {model.cam_fovy[i]} != {np.degrees(c.fovy)}")
+        if model.cam_mode[i] != mujoco.mjtCamLight.mjCAMLIGHT_FIXED:
+            bad.append("not a fixed camera")
+        if bad:
+            raise ValueError(f"MuJoCo camera {c.name!r} is not the calibrated camera: {'; '.join(bad)}")
+
+
+def sync_cameras(model, scene, cam_ids) -> None:
+    """Former workaround (it overwrote the compiled cameras); the world now compiles the
+    calibrated cameras, so this only checks them (``check_cameras``). Kept for
+    ``scripts/bench_render.py``, which imports it."""
+    check_cameras(model, scene, cam_ids)
 
 
 def _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows) -> None:
