@@ -139,7 +139,7 @@ def main(argv=None) -> int:
     rec5, cal5, xy5, res_c = run(hall, s5, 60.0, q_pos=Q[0], q_vel=Q[1])
     _, _, _, res_u = run(hall, s5, 60.0, q_pos=Q[0], q_vel=Q[1], constraints=False)
     dt = 1.0 / max(c.fps for c in cal5.cameras.values())
-    fig, axs = plt.subplots(1, 2, figsize=(8, 4.2))
+    fig, axs = plt.subplots(1, 3, figsize=(12, 4.2))
     for ax, r, title in ((axs[0], res_c, "with FOV constraints"), (axs[1], res_u, "without constraints")):
         draw_room(ax, cal5)
         ax.plot(xy5[:, 0], xy5[:, 1], "g-", lw=1, label="truth")
@@ -151,6 +151,27 @@ def main(argv=None) -> int:
         e = np.sqrt(np.nanmean((r.X[0::4] - xy5[:, 0]) ** 2 + (r.X[2::4] - xy5[:, 1]) ** 2))
         ax.set_title(f"seed {s5}, {title}\nRMSE {e:.2f} m, {len(bad)} observed points behind their camera", fontsize=8)
         ax.legend(fontsize=6, loc="center")
+    # zoom on the camera with the most points behind it
+    bad = behind(cal5, res_u.bearings, res_u.X, dt)
+    ax = axs[2]
+    draw_room(ax, cal5)
+    if bad:
+        names = [n for _, n in bad]
+        cam = max(set(names), key=names.count)
+        p = np.asarray(cal5.cameras[cam].position, float)[:2]
+        ax.plot(xy5[:, 0], xy5[:, 1], "g-", lw=1, label="truth")
+        ax.plot(*xy_of(res_c.X), "b.-", ms=3, lw=0.6, label="with constraints")
+        ax.plot(*xy_of(res_u.X), "r.-", ms=3, lw=0.6, label="without")
+        kb = np.array([k for k, n in bad if n == cam])
+        ax.plot(res_u.X[4 * kb], res_u.X[4 * kb + 2], "x", color="m", ms=6, label=f"behind {cam}")
+        yaw = cal5.cameras[cam].yaw
+        # the camera's image plane through its centre: points beyond it are behind the camera
+        d = np.array([-np.sin(yaw), np.cos(yaw)])
+        ax.plot(*np.c_[p - 3 * d, p + 3 * d], "k--", lw=0.8)
+        ax.set_xlim(p[0] - 1.5, p[0] + 1.5)
+        ax.set_ylim(p[1] - 1.5, p[1] + 1.5)
+        ax.set_title(f"zoom on {cam}: dashed = its image plane\n(points beyond it are behind the camera)", fontsize=8)
+        ax.legend(fontsize=6, loc="lower right")
     fig.tight_layout()
     fig.savefig(f"{args.out}/rahimi_fig5_unconstrained.png", dpi=110)
     # One camera: depth is not observable
