@@ -211,9 +211,10 @@ class FreeSpace:
         d = p - self.centres[ij[:, 0], ij[:, 1]]
         e = np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2) + 1e-9  # + rounding allowance
         thr = inflate - tol
-        free = g - e >= thr
-        unsure = ~free & (g + e >= thr)  # -inf nodes (outside the room) are blocked only if the point is
-        unsure |= ~np.isfinite(g) & (g < 0)
+        # g > e: the disc |p - node| < g lies in the room, where d is the 1-Lipschitz distance
+        free = (g - e >= thr) & (g > e)
+        unsure = ~free & (g + e >= thr)
+        unsure |= np.isneginf(g)  # node outside the room: p may still be just inside it
         if unsure.any():
             free[unsure] = self.clearance(p[unsure]) >= thr
         return free
