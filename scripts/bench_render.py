@@ -26,14 +26,14 @@ import numpy as np  # noqa: E402
 
 from scenes.loader import load_scene  # noqa: E402
 from sim.render import SceneRenderer  # noqa: E402
-from sim.rendered import _pose, camera_schedule, observe, sync_cameras, world_maps  # noqa: E402
+from sim.rendered import _pose, camera_schedule, check_cameras, observe, world_maps  # noqa: E402
 from sim.walkers import plan_trajectories  # noqa: E402
 from sim.world import build_world  # noqa: E402
 
 
 def bare(world, scene, traj, segment: bool) -> tuple[float, int]:
     model, data, cam_ids, person_geoms = world_maps(world, scene)
-    sync_cameras(model, scene, cam_ids)
+    check_cameras(model, scene, cam_ids)
     r = SceneRenderer(model, np.asarray(world.geom_person, np.int16), shadows=scene.render.shadows)
     n = 0
     t0 = time.perf_counter()

@@ -248,13 +248,6 @@ def check_cameras(model, scene, cam_ids) -> None:
             raise ValueError(f"MuJoCo camera {c.name!r} is not the calibrated camera: {'; '.join(bad)}")
 
 
-def sync_cameras(model, scene, cam_ids) -> None:
-    """Former workaround (it overwrote the compiled cameras); the world now compiles the
-    calibrated cameras, so this only checks them (``check_cameras``). Kept for
-    ``scripts/bench_render.py``, which imports it."""
-    check_cameras(model, scene, cam_ids)
-
-
 def _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows) -> None:
     if cam.kind in ("horizontal", "oblique"):
         for d in detect_bearings(rgb, backgrounds[cam.name], app, params):
