@@ -14,6 +14,9 @@ import pkgutil
 import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering on the CPU; set before mujoco loads
+# One BLAS thread per process: the problems here are small or sparse, comparisons run one process
+# per core, and spinning BLAS threads on a busy 2-core machine made small dense solves ~700x slower.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 from scripts.errors import CommandError  # noqa: E402  (re-exported: commands raise it)
