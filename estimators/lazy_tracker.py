@@ -35,8 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
+from scipy.stats import norm
 
-SEGMENT_COLUMNS = ["frame", "t", "segment", "x", "y", "vx", "vy", "pvv", "zx", "zy", "svx", "svy", "svv"]
+SEGMENT_COLUMNS = ["frame", "t", "segment", "track", "x", "y", "vx", "vy", "pvv", "zx", "zy", "svx", "svy", "svv"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,8 @@ class TrackerConfig:
     sigma_birth: float = 0.3  # continuity std at zero gap, m
     speed_max: float = 1.0  # growth of the continuity std with the gap, m/s
     newcomer_density: float = 0.01  # 1/m^2: weight of "someone new" against the continuity densities
+    consume: bool = True  # an ended segment that takes over half of a birth's weight stops being a
+    # candidate for later births (False: it stays one for carry_s, and the matcher shares it out)
 
     def __post_init__(self):
         if not self.r_exit >= self.r_enter > 0:
@@ -69,13 +72,22 @@ class TrackerConfig:
 class Segments:
     """The tracker's output.
 
-    rows: one row per (frame, segment) with a detection: ``frame, t, segment`` and the filtered
+    rows: one row per (frame, segment) with a detection: ``frame, t, segment``, ``track`` (the
+    filtered track, kept across cuts: a cut ends a segment, not the track) and the filtered
     state ``x, y, vx, vy`` (m, m/s), the velocity variance ``pvv`` (m^2/s^2, per axis), the raw
     detection ``zx, zy`` and the smoothed velocity ``svx, svy`` with its variance ``svv`` (see
     ``window_velocity``); sorted by frame.
     info: per segment: ``start_frame, end_frame, start_t, end_t, end_x, end_y, end_vx, end_vy``,
     ``end_reason`` (proximity, missed, static, end).
     predecessors: per new segment, a list of (ended segment, continuity weight density in 1/m^2).
+    continues: per segment started by a cut of a live track (proximity or static ambiguity), the
+    segment that the same filtered track had just before, and the probability that the
+    association swapped that track with a neighbour during it,
+        p_swap = Phi(-d_min / (2 sigma)),
+    d_min the segment's closest approach to any other track (m): two tracks d apart whose
+    detections (noise sigma per axis, each compared with a prediction about as uncertain) are
+    swapped when the difference of the noises along their separation exceeds d, and that
+    difference has std 2 sigma.
     frame_times: (F,) time of every camera frame (s).
     """
 
@@ -83,6 +95,7 @@ class Segments:
     info: pd.DataFrame
     predecessors: dict[int, list[tuple[int, float]]] = field(default_factory=dict)
     frame_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    continues: dict[int, tuple[int, float]] = field(default_factory=dict)
 
     @property
     def n_segments(self) -> int:
@@ -126,7 +139,11 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     # predicted from its last update only when a detection is offered to it
     X = np.zeros((0, 10))
     seg = np.zeros(0, np.int64)
+    trk = np.zeros(0, np.int64)  # filtered-track number: kept across cuts, new at a birth
+    n_tracks = 0
     pending = np.zeros(0, bool)  # a cut decided while the track was not seen, applied when it is
+    dmin = np.zeros(0)  # closest approach of each track's current segment to any other track, m
+    continues: dict[int, tuple[int, float]] = {}
     linked = np.zeros((0, 0), bool)
     gate2, enter2, exit2, dup2 = cfg.gate_m**2, cfg.r_enter**2, cfg.r_exit**2, cfg.duplicate_m**2
 
@@ -134,6 +151,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     out = np.zeros((len(Z), 7))  # px, py, vx, vy, pvv, zx, zy
     out_frame = np.zeros(len(Z), np.int64)
     out_seg = np.zeros(len(Z), np.int64)
+    out_trk = np.zeros(len(Z), np.int64)
     start_frame: list[int] = []
     end_state: list[tuple] = []  # per segment: (t, x, y, vx, vy) when it ended
     end_reason: list[str] = []
@@ -167,7 +185,8 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
             if near[b].any():
                 predecessors[n] = [(int(e), float(w)) for e, w in zip(e_arr[near[b]], dens[b][near[b]])]
                 # an ended segment that clearly continues as this birth is no candidate for later ones
-                taken |= near[b] & (dens[b] > 0.5 * (dens[b][near[b]].sum() + cfg.newcomer_density))
+                if cfg.consume:
+                    taken |= near[b] & (dens[b] > 0.5 * (dens[b][near[b]].sum() + cfg.newcomer_density))
         if taken.any():
             ended[:] = [e for e, tk in zip(ended, taken) if not tk]
 
@@ -222,7 +241,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 end_segment(a, "missed", X[a, 7])
                 cut |= linked[a] & alive  # a track vanishing next to others: static ambiguity
             keep = np.flatnonzero(alive)
-            X, seg, cut = X[keep], seg[keep], cut[keep]
+            X, seg, cut, dmin, trk = X[keep], seg[keep], cut[keep], dmin[keep], trk[keep]
             linked = linked[np.ix_(keep, keep)]
         # start tracks for unmatched detections
         births: list[int] = []
@@ -239,6 +258,9 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 X = np.concatenate([X, Xn])
                 seg = np.concatenate([seg, np.array(births, np.int64)])
                 cut = np.concatenate([cut, np.zeros(n_new, bool)])
+                dmin = np.concatenate([dmin, np.full(n_new, np.inf)])
+                trk = np.concatenate([trk, n_tracks + np.arange(n_new)])
+                n_tracks += n_new
                 nl = len(X)
                 grown = np.zeros((nl, nl), bool)
                 grown[: nl - n_new, : nl - n_new] = linked
@@ -251,6 +273,8 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
             d2 = (diff * diff).sum(-1)
             new_linked = np.where(linked, d2 <= exit2, d2 < enter2)
             np.fill_diagonal(new_linked, False)
+            np.fill_diagonal(d2, np.inf)
+            dmin = np.minimum(dmin, np.sqrt(d2.min(axis=1)))
             changed = new_linked != linked
             if changed.any():
                 if n_new:  # newborn tracks start a fresh segment anyway: only their partners are cut
@@ -264,7 +288,10 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
             pending = cut & ~seen
             for a in np.flatnonzero(cut & seen):
                 end_segment(a, "proximity", t)
+                old = int(seg[a])
                 seg[a] = new_segment(k)
+                continues[int(seg[a])] = (old, float(norm.cdf(-dmin[a] / (2.0 * np.sqrt(R)))))
+                dmin[a] = np.inf
                 births.append(int(seg[a]))
         else:
             pending = np.zeros(nl, bool)
@@ -279,15 +306,18 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         out[n_out:n_out + n] = X[rows][:, [0, 1, 2, 3, 6, 8, 9]]
         out_frame[n_out:n_out + n] = k
         out_seg[n_out:n_out + n] = seg[rows]
+        out_trk[n_out:n_out + n] = trk[rows]
         n_out += n
 
-    frames, state, segs = out_frame[:n_out], out[:n_out], out_seg[:n_out]
+    frames, state, segs, trks = out_frame[:n_out], out[:n_out], out_seg[:n_out], out_trk[:n_out]
     rows = pd.DataFrame({
-        "frame": frames, "t": frame_times[frames] if len(frames) else np.zeros(0), "segment": segs,
+        "frame": frames, "t": frame_times[frames] if len(frames) else np.zeros(0), "segment": segs, "track": trks,
         "x": state[:, 0], "y": state[:, 1], "vx": state[:, 2], "vy": state[:, 3], "pvv": state[:, 4],
         "zx": state[:, 5], "zy": state[:, 6],
     })
-    svx, svy, svv = window_velocity(segs, rows["t"].to_numpy(float), state[:, 5], state[:, 6],
+    # the evidence velocity follows the filtered track across cuts (a cut changes who may be who,
+    # not the track's motion), so a new segment does not restart from a velocity of zero
+    svx, svy, svv = window_velocity(trks, rows["t"].to_numpy(float), state[:, 5], state[:, 6],
                                     cfg.velocity_window_s, cfg.sigma_m, cfg.init_speed_sigma)
     rows["svx"], rows["svy"], rows["svv"] = svx, svy, svv
     # per-segment summary from its rows (the last row is where it was last seen)
@@ -299,7 +329,8 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         "end_t": last["t"].to_numpy(float), "end_x": last["x"].to_numpy(float), "end_y": last["y"].to_numpy(float),
         "end_vx": last["vx"].to_numpy(float), "end_vy": last["vy"].to_numpy(float), "end_reason": end_reason,
     })
-    return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float))
+    return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float),
+                    continues=continues)
 
 
 def fuse_pairs(z: np.ndarray, close: np.ndarray) -> np.ndarray:

@@ -97,3 +97,22 @@ def test_window_velocity_by_hand():
 def test_bad_radii_rejected():
     with pytest.raises(ValueError, match="r_exit"):
         TrackerConfig(r_enter=1.0, r_exit=0.5)
+
+
+def test_cut_keeps_the_filtered_track_and_prices_a_swap_by_the_closest_approach():
+    # head-on along y = 5 and y = 5.3 (closest 0.3 m), noise floor sigma = 0.1 m
+    segs = run([line(2, 5, 1, 0), line(7, 5.3, -1, 0)], cfg=TrackerConfig(sigma_m=0.1))
+    rows = segs.rows
+    assert rows["track"].nunique() == 2 and rows["segment"].nunique() == 6
+    # after the exit cut each new segment continues the same filtered track's linked segment
+    last = segs.info.index[segs.info["start_frame"] == segs.info["start_frame"].max()]
+    for n in last:
+        old, p_swap = segs.continues[int(n)]
+        assert rows.loc[rows["segment"] == old, "track"].iloc[0] == rows.loc[rows["segment"] == n, "track"].iloc[0]
+        # Phi(-0.3 / 0.2) = 0.067: the filtered tracks come a little closer or farther than 0.3 m
+        assert 0.02 < p_swap < 0.2, p_swap
+    # on entry nobody was closer than r_enter yet: a swap is all but impossible
+    first_cut = segs.info.index[segs.info["start_frame"] == sorted(set(segs.info["start_frame"]))[1]]
+    assert all(segs.continues[int(n)][1] < 0.01 for n in first_cut)
+    # the evidence velocity does not restart at a cut
+    np.testing.assert_allclose(rows.groupby("frame").filter(lambda g: g["frame"].iloc[0] > 30)["svx"].abs(), 1.0, atol=0.3)
