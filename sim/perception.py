@@ -19,10 +19,11 @@ Detectors:
 - ``detect_bearings`` (horizontal cameras, Rahimi): per person blob the horizontal centroid
   u = mean(i) + 1/2 (pixels), width = u_right - u_left, label = colour name.
 - ``OverheadDetector`` (Teixeira): regular mode maps each person blob to the floor through the
-  camera model using the top of the person (see ``floor_from_blob``); privacy mode sees only
-  moving pixels (|I_k - I_{k-1}| > threshold), so a person standing still gives nothing, and
-  quantises x, y to the camera's ``quantum``. Only detections inside the camera's ``region`` are
-  reported.
+  camera model using the top of the person (see ``floor_from_blob``); privacy mode reports only
+  the person blobs that moved themselves since the previous frame (frame differences
+  |I_k - I_{k-1}| > threshold on the blob's own pixels; ``sim/perception_privacy.py``), so a
+  person standing still gives nothing, and quantises x, y to the camera's ``quantum``. Only
+  detections inside the camera's ``region`` are reported.
 - The oblique optical-flow tracker is in ``sim/perception_flow.py``.
 """
 from __future__ import annotations
@@ -63,13 +64,12 @@ class PerceptionParams:
     diff_threshold: int = 12  # grey levels, background difference
     motion_threshold: int = 6  # grey levels, frame difference (privacy cameras)
     min_area: float = 60.0  # smallest person blob
-    min_motion_area: float = 25.0  # smallest moving-pixel blob (privacy)
+    min_motion_px: float = 3.0  # privacy: fewest own-motion pixels of a person who is reported
     min_chroma: float = 0.25  # saturation below which a pixel has no colour vote
     split_share: float = 0.2  # a second colour must hold this share of a blob to split it
     max_chroma_dist: float = 0.15  # a pixel further than this from every walker colour has no vote
     merge_gap_px: float = 2.0  # horizontal cameras: merge blobs whose column spans are this close
     border_px: float = 1.0  # a silhouette end this close to the image edge is taken as clipped
-    motion_border_px: float = 8.0  # the same for moving-pixel blobs, which stop short of the edge
 
     def area(self, a: float, width: int, height: int) -> float:
         return a * (width * height) / (320 * 240)
@@ -113,6 +113,49 @@ def split_by_colour(votes: np.ndarray, app: Appearance, params: PerceptionParams
         label = app.names[int(counts.argmax())] if counts.sum() else ""
         return [(label, np.arange(len(votes)))]
     return [(app.names[c], np.flatnonzero(votes == c)) for c in strong]
+
+
+@dataclass
+class PersonBlob:
+    """One person hypothesis in an image: colour index (-1: none) and its pixel rows and columns."""
+
+    colour: int
+    ys: np.ndarray
+    xs: np.ndarray
+
+
+def largest_part(ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """Indices of the pixels of the largest 8-connected part (after a 3 px closing) of a pixel set."""
+    y0, x0 = ys.min(), xs.min()
+    m = np.zeros((ys.max() - y0 + 1, xs.max() - x0 + 1), np.uint8)
+    m[ys - y0, xs - x0] = 1
+    m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
+    n, lab, st, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+    if n <= 2:
+        return np.arange(len(ys))
+    return np.flatnonzero(lab[ys - y0, xs - x0] == 1 + int(np.argmax(st[1:, 4])))
+
+
+def person_blobs(rgb: np.ndarray, background: np.ndarray, app: Appearance, params: PerceptionParams,
+                 coherent: bool = False) -> list[PersonBlob]:
+    """Person blobs of an overhead image: closed foreground components of at least ``min_area``,
+    split by colour (``split_by_colour``). ``coherent``: when a blob is split, each colour keeps
+    only its largest connected part."""
+    H, W = rgb.shape[:2]
+    labels, stats, n = components(foreground(rgb, background, params.diff_threshold))
+    min_area = params.area(params.min_area, W, H)
+    out = []
+    for k in range(n):
+        if stats[k, 4] < min_area:
+            continue
+        ys, xs = np.nonzero(labels == k + 1)
+        votes = colour_votes(rgb[ys, xs], app, params)
+        groups = split_by_colour(votes, app, params, min_area)
+        for label, idx in groups:
+            if coherent and len(groups) > 1:
+                idx = idx[largest_part(ys[idx], xs[idx])]
+            out.append(PersonBlob(app.names.index(label) if label else -1, ys[idx], xs[idx]))
+    return out
 
 
 # ----------------------------------------------------------------------------- horizontal cameras
@@ -251,42 +294,34 @@ def in_region(cam: Camera, xy) -> bool:
 
 
 class OverheadDetector:
-    """Floor detections of one overhead camera; keeps the previous frame (privacy mode)."""
+    """Floor detections of one overhead camera.
+
+    Regular mode: every person blob (``person_blobs``) mapped to the floor (``floor_from_blob``).
+    Privacy mode (``cam.privacy``): only the blobs that moved since the previous frame
+    (``sim.perception_privacy.MotionGate``), with positions quantised to ``cam.quantum``.
+    Detections are kept when the (unquantised) position lies in the camera's ``region``.
+    """
 
     def __init__(self, cam: Camera, background: np.ndarray, app: Appearance, person: PersonModel,
                  params: PerceptionParams = PerceptionParams()):
         self.cam, self.background, self.app, self.person, self.params = cam, background, app, person, params
-        self._prev: np.ndarray | None = None
+        self.gate = None
+        if cam.privacy:
+            from sim.perception_privacy import MotionGate  # imports this module: imported late
+
+            self.gate = MotionGate(cam, background, app, params)
 
     def __call__(self, rgb: np.ndarray) -> list[tuple[float, float]]:
         cam, p = self.cam, self.params
-        H, W = rgb.shape[:2]
-        if cam.privacy:
-            prev, self._prev = self._prev, rgb
-            if prev is None:
-                return []
-            mask = foreground(rgb, prev, p.motion_threshold)
-            labels, stats, n = components(mask, close_px=7)
-            min_area = p.area(p.min_motion_area, W, H)
-            groups = [(None, np.nonzero(labels == k + 1)) for k in range(n) if stats[k, 4] >= min_area]
-        else:
-            mask = foreground(rgb, self.background, p.diff_threshold)
-            labels, stats, n = components(mask)
-            min_area = p.area(p.min_area, W, H)
-            groups = []
-            for k in range(n):
-                if stats[k, 4] < min_area:
-                    continue
-                ys, xs = np.nonzero(labels == k + 1)
-                votes = colour_votes(rgb[ys, xs], self.app, p)
-                for _, idx in split_by_colour(votes, self.app, p, min_area):
-                    groups.append((None, (ys[idx], xs[idx])))
+        blobs = person_blobs(rgb, self.background, self.app, p, coherent=self.gate is not None)
+        if self.gate is not None:
+            blobs = self.gate(rgb, blobs)
         out = []
-        for _, (ys, xs) in groups:
-            xy = floor_from_blob(cam, xs, ys, self.person, p.motion_border_px if cam.privacy else p.border_px)
+        for b in blobs:
+            xy = floor_from_blob(cam, b.xs, b.ys, self.person, p.border_px)
             if xy is None or not in_region(cam, xy):
                 continue
-            if cam.privacy and cam.quantum > 0:
+            if self.gate is not None and cam.quantum > 0:
                 xy = (cam.quantum * round(xy[0] / cam.quantum), cam.quantum * round(xy[1] / cam.quantum))
             out.append(xy)
         return out
