@@ -71,6 +71,7 @@ class TargetPlanes(Estimator):
         initial_xy: list | None = None  # target's floor position at the first frame (m)
         initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
         multi_person: bool = False  # track every mover (beyond the paper)
+        exclude_neighbours: bool = True  # 4.1 literally: track ids once seen beside the target are never the target
         track_others: bool = True  # single target: also track the other movers (4.1 taken to 3-D), so they hold their own windows
         height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
         radius: float = 0.2  # cylinder radius (m)
@@ -106,6 +107,8 @@ class TargetPlanes(Estimator):
         init_min_cameras: int = 2  # multi-person: windows needed to start a target
         confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
         max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
+        box_sigma_px: float | None = None  # window centroid/edge noise (px); None: the calibration's ``box_sigma_px``
+        flow_sigma_px_s: float | None = None  # region-mean flow noise (px/s); None: the calibration's ``flow_sigma_px_s``
 
     # ------------------------------------------------------------------------------------------
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
@@ -132,8 +135,12 @@ class TargetPlanes(Estimator):
         times = frame_times(calibration, cams, observations.duration, boxes)
         # flow noise (px/s) of each camera's averaged window flow: the calibrated region-mean flow
         # noise (``flow_sigma_px_s``) or, for recordings without it, window-edge noise x fps
-        sigma_px = float(calibration.noise.get("box_sigma_px", 0.0) or 0.0)
-        fs = calibration.noise.get("flow_sigma_px_s")
+        noise = dict(calibration.noise)
+        for key in ("box_sigma_px", "flow_sigma_px_s"):  # the Config overrides the calibration
+            if getattr(cfg, key) is not None:
+                noise[key] = float(getattr(cfg, key))
+        sigma_px = float(noise.get("box_sigma_px", 0.0) or 0.0)
+        fs = noise.get("flow_sigma_px_s")
         flow_sigma = {
             c: (float(fs) if fs is not None else sigma_px * calibration.cameras[c].fps) / np.sqrt(cfg.flow_window) for c in cams
         }
@@ -263,7 +270,7 @@ class TargetPlanes(Estimator):
                 cs.reason in ("overlap", "width")
                 and shared[j] == 1
                 and width_ratio(boxes.width[j], view.w_c) <= cfg.rejoin_width_ratio
-                and np.isfinite(upd.search_costs(c, view, boxes, set(claimed), cs.others)[j])
+                and np.isfinite(upd.search_costs(c, view, boxes, set(claimed), self._others(cs))[j])
             ):
                 cs.status, cs.reason = TRACKING, ""
                 claimed[j] = tg.tid
@@ -283,7 +290,7 @@ class TargetPlanes(Estimator):
                 j = idx.get(tg.tid)
                 if j is not None and tg.cams[c].reason in ("overlap", "width"):
                     blocked.add(j)
-            cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked, tg.cams[c].others) for tg in searchers])
+            cost = np.vstack([upd.search_costs(c, views[tg.tid][c], boxes, blocked, self._others(tg.cams[c])) for tg in searchers])
             finite = np.isfinite(cost)
             if finite.any():
                 r, k = linear_sum_assignment(np.where(finite, cost, 1e6))
@@ -306,6 +313,9 @@ class TargetPlanes(Estimator):
                 continue  # keeps following its window until the target is separated again
             cs.status, cs.track, cs.reason = LOST, None, ""
             cs.near = {}
+
+    def _others(self, cs: CameraState) -> set:
+        return cs.others if self.config.exclude_neighbours else set()
 
     def _confirm(self, tg: Target, xy_pred, used: dict, acquired: set, frame, upd: TargetUpdater) -> None:
         """Re-acquisition test (beyond the paper, whose lost cameras trust the velocity gate alone).

@@ -90,6 +90,13 @@ def single_target_metrics(rec: Recording, res: TargetPlanesResult) -> dict:
     }
 
 
+ESTIMATOR_KW: dict = {}
+
+
+def estimator_config(rec: Recording) -> dict:
+    return dict(ESTIMATOR_KW)
+
+
 def movers_only(rec: Recording, scene) -> Recording:
     """The recording with truth restricted to the people who walk (the movers)."""
     movers = {w.name for w in scene.walkers if w.motion != "standing"}
@@ -108,11 +115,12 @@ def run(sensing: str, duration: float, seed: int, progress: bool = False, record
     if recording is not None:
         sensing, seed, duration = rec.meta.get("sensing", "?"), rec.meta.get("seed", "?"), rec.observations.duration
     t0 = time.time()
-    res = TargetPlanes(initial_xy=target_start(scene)).run(rec.observations, rec.calibration)
+    kw = estimator_config(rec)
+    res = TargetPlanes(initial_xy=target_start(scene), **kw).run(rec.observations, rec.calibration)
     t_est = time.time() - t0
     m = {"sensing": sensing, "seed": seed, "duration": duration, "sim_s": round(t_sim, 1), "estimate_s": round(t_est, 2)}
     m.update(single_target_metrics(rec, res))
-    multi = TargetPlanes(multi_person=True).estimate(rec.observations, rec.calibration)
+    multi = TargetPlanes(multi_person=True, **kw).estimate(rec.observations, rec.calibration)
     ev = evaluate(movers_only(rec, scene), multi, gate=1.0)
     mm = ev.metrics()
     m.update({f"multi_{k}": mm[k] for k in ("mota", "motp", "id_switches", "fp", "fn", "idf1", "tracks")})

@@ -169,7 +169,7 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
                        for c in scene.cameras}
         overhead = {c.name: OverheadDetector(c, backgrounds[c.name], app, pm, params)
                     for c in scene.cameras if c.kind == "overhead"}
-        flow = {c.name: FlowTracker(c.width, c.height) for c in scene.cameras if c.kind == "oblique"}
+        flow = {c.name: FlowTracker(c.width, c.height, camera=c) for c in scene.cameras if c.kind == "oblique"}
         masks = {(c.width, c.height): np.zeros((c.height, c.width), np.uint8) for c in scene.cameras}
         for k, due in schedule.items():
             t0 = time.perf_counter()
