@@ -156,7 +156,8 @@ class HMMMatcher(Estimator):
         # assignment
         llr_min: float = 8.0  # log Omega_min: least log-likelihood ratio for an assignment (chosen on
         # development seeds 100-104, not the evaluation seeds 0-9)
-        margin_min: float = 2.0  # least lead (nats) of a claimed pair over its phone's other tracks (and "no claim")
+        margin_min: float = 4.0  # least lead (nats) of a claimed pair over its phone's other tracks: after a
+        # cut that may have swapped two tracks (p_swap), the lead is log((1 - p_swap) / p_swap)
         margin_rows: bool = False  # also over its track's other phones
         carry: str = "posterior"  # how evidence crosses segment breaks: "posterior" (probabilities
         # shared out among the births, saturating) or "likelihood" (the first version: a mixture
@@ -283,9 +284,9 @@ class HMMMatcher(Estimator):
                 S = score_all[r0:r1]
                 Sr = S[ri].copy(); Sr[np.arange(len(ri)), ci] = -np.inf
                 Sc = S[:, ci].copy(); Sc[ri, np.arange(len(ri))] = -np.inf
-                alt = Sc.max(axis=0, initial=0.0)
+                alt = Sc.max(axis=0, initial=-np.inf)  # "no claim" is already beaten: score > 0
                 if cfg.margin_rows:
-                    alt = np.maximum(alt, Sr.max(axis=1, initial=0.0))
+                    alt = np.maximum(alt, Sr.max(axis=1, initial=-np.inf))
                 keep = S[ri, ci] - alt >= cfg.margin_min
                 ri, ci = ri[keep], ci[keep]
             assigned[r0 + ri] = ci
