@@ -11,7 +11,10 @@ camera cannot fix depth, the observability limit the README must show), and the 
 cameras saw the person at each time (truth ``visibility``: 0, 1, >= 2; for the one-camera
 variant only that camera counts), the depth bias at the times a single camera saw the person
 (mean of estimated minus true distance from that camera: negative = collapsed towards it),
-convergence and osqp statuses, points outside the room.
+convergence and osqp statuses, points outside the room. ``oracle`` (not an estimator: it
+linearises at the truth, ``oracle_linearised``) splits RMSE / sqrt(CRB) into the MAP's
+non-linearity and the rest. ``--set`` adds scene overrides (e.g. the walls moved far out),
+``--variants`` picks a subset.
 
     python -m scripts.experiment_qp --seeds 24 --out docs/qp_experiment.csv
 """
@@ -35,7 +38,7 @@ from sim.recording import Observations
 FIRST = (100.0, 10.0, 100.0, 10.0)  # the estimator's default weak first-state prior
 
 
-def truth_on_grid(rec, person: str, dt: float, T: int) -> np.ndarray:
+def truth_on_grid(rec, person: str, dt: float, T: int, cols=("x", "y")) -> np.ndarray:
     p = rec.truth.people
     p = p[p.person_id == person]
     k = np.rint(p.t.to_numpy() / dt)
@@ -43,7 +46,7 @@ def truth_on_grid(rec, person: str, dt: float, T: int) -> np.ndarray:
     xy = np.full((T, 2), np.nan)
     kk = k[on].astype(int)
     ok = kk < T
-    xy[kk[ok]] = p[["x", "y"]].to_numpy()[on][ok]
+    xy[kk[ok]] = p[list(cols)].to_numpy()[on][ok]
     return xy
 
 
@@ -96,10 +99,39 @@ def behind_cameras(txy: np.ndarray, bearings: pd.DataFrame, cameras, dt: float, 
     return n
 
 
-def run_seed(seed: int, q: tuple[float, float], duration: float) -> list[dict]:
+def oracle_linearised(xy: np.ndarray, vxy: np.ndarray, b: pd.DataFrame, k: np.ndarray, cameras, sigma: float,
+                      dt: float, q: tuple[float, float], centre) -> np.ndarray:
+    """NOT an estimator (it uses the truth): the linear-Gaussian smoother with every bearing
+    linearised at the TRUE state, X^ = J_X^{-1} (G^T g + sum_j H_j^T (y_j - u_j(s*) + H_j s*) / sigma^2),
+    J_X the information of ``metrics.crb`` (same prior, first-state prior and H_j). Were the paths
+    drawn from the prior independently of the observation pattern and u linear near the truth, its
+    mean squared error averaged over paths would be exactly the CRB. So RMSE(MAP) / RMSE(oracle)
+    measures what the bearing model's non-linearity costs the MAP, and RMSE(oracle) / sqrt(CRB)
+    everything else: the walker's room conditioning and the selection of paths by their
+    observation pattern (``scripts.crb_montecarlo``). Returns (T, 2) positions."""
+    from estimators.qp_model import IX, IY, NS, Bearings, Prior
+    from scenes.spec import GaussMarkovParams
+    from scripts.crb_montecarlo import oracle
+
+    T = len(xy)
+    prior = Prior.build(T, dt, GaussMarkovParams(*q), first_mean=(centre[0], 0.0, centre[1], 0.0), first_sigma=FIRST)
+    S = np.zeros((T, NS))
+    S[:, IX], S[:, 1], S[:, IY], S[:, 3] = xy[:, 0], vxy[:, 0], xy[:, 1], vxy[:, 1]
+    obs = Bearings.from_arrays(k, b.camera.to_numpy(object), b.u.to_numpy(float), cameras, sigma)
+    X = oracle(prior, obs, obs.u, S)
+    return np.c_[X[IX::NS], X[IY::NS]]
+
+
+QP_VARIANTS = ("qp", "qp_unconstrained", "qp_walls", "qp_one_camera")
+ALL_VARIANTS = QP_VARIANTS + ("oracle", "ekf", "ekf_rts")
+
+
+def run_seed(seed: int, q: tuple[float, float], duration: float, overrides: tuple[str, ...] = (),
+             which: tuple[str, ...] = ALL_VARIANTS) -> list[dict]:
     from sim.simulate import simulate
 
-    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', f"walkers.process_noise=[{q[0]}, {q[1]}]"])
+    scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', f"walkers.process_noise=[{q[0]}, {q[1]}]",
+                                        *overrides])
     try:
         rec = simulate(scene, seed, duration)
     except ValueError as e:  # the walker planner found no in-room Gauss-Markov path for this seed
@@ -110,6 +142,8 @@ def run_seed(seed: int, q: tuple[float, float], duration: float) -> list[dict]:
     cal, obs = rec.calibration, rec.observations
     b = obs["bearings"]
     b = b[b.label == label]
+    if b.empty:  # a short run can miss every view: nothing to estimate, no bound to compare with
+        return [{"seed": seed, "variant": "unobserved", "note": "no bearings of the walker"}]
     dt = 1.0 / max(c.fps for c in cal.cameras.values())
     T = int(round(duration / dt))
     xy = truth_on_grid(rec, person, dt, T)
@@ -131,7 +165,7 @@ def run_seed(seed: int, q: tuple[float, float], duration: float) -> list[dict]:
         "qp_one_camera": (dict(constraints=True), one),
     }
     for name, (kw, only) in variants.items():
-        if name == "qp_one_camera" and one is None:
+        if name not in which or (name == "qp_one_camera" and one is None):
             continue
         row = dict(base)
         obs_v, seen = obs, seen_all
@@ -171,7 +205,24 @@ def run_seed(seed: int, q: tuple[float, float], duration: float) -> list[dict]:
                     "qp_not_solved": d.get("qp_not_solved"), "reason": d.get("reason"), "outside_room": outside,
                     "behind_camera": behind, "seconds": d.get("seconds")})
         rows.append(row)
+    if "oracle" in which:
+        vxy = truth_on_grid(rec, person, dt, T, ("vx", "vy"))
+        centre = np.asarray(cal.floorplan.outline, float).mean(axis=0)
+        oxy = oracle_linearised(xy, vxy, b, k, cal.cameras, sigma, dt, (gm["q_pos"], gm["q_vel"]), centre)
+        e2 = np.sum((oxy - xy) ** 2, axis=1)
+        rmse = float(np.sqrt(np.mean(e2)))
+        kb = np.rint(b.t.to_numpy() / dt).astype(int)
+        single = np.nonzero(seen_all == 1)[0]
+        cam_of = pd.Series(b.camera.to_numpy(object), index=kb)
+        cam_of = cam_of[~cam_of.index.duplicated()]
+        steps = {c: np.intersect1d(single, cam_of.index[cam_of == c]) for c in cam_of.unique()}
+        ns = [len(v) for v in steps.values()]
+        bias = float(np.average([depth_bias(oxy, xy, cal.cameras[c], v) for c, v in steps.items()], weights=ns)) if sum(ns) else float("nan")
+        rows.append({**base, "variant": "oracle", "rmse": rmse, "rmse_over_crb": rmse / crb.sqrt_crb,
+                     **split_errors(e2, seen_all), "depth_bias_1cam": bias})
     for name, kw in {"ekf": dict(), "ekf_rts": dict(smooth=True)}.items():
+        if name not in which:
+            continue
         tr = get("ekf")(**kw).estimate(obs, cal)
         # nearest EKF track to the truth at each grid step (optimistic for the baseline)
         kk = np.rint(tr.t.to_numpy() / dt).astype(int)
@@ -188,7 +239,7 @@ def run_seed(seed: int, q: tuple[float, float], duration: float) -> list[dict]:
 
 def summarise(df: pd.DataFrame) -> str:
     """Markdown table per variant (runs split by how many cameras' bearings the variant had)."""
-    ok = df[df.variant != "simulation_failed"]
+    ok = df[~df.variant.isin(("simulation_failed", "unobserved"))]
     lines = ["| variant | cameras | runs | median RMSE (m) | median sqrt(CRB) (m) | median RMSE/sqrt(CRB) | converged |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
     for (v, grp), g in ok.assign(grp=np.where(ok.n_cameras >= 2, ">=2", ok.n_cameras.astype(str))).groupby(["variant", "grp"], sort=False):
@@ -200,7 +251,7 @@ def summarise(df: pd.DataFrame) -> str:
 
 def summarise_split(df: pd.DataFrame) -> str:
     """Markdown table: pooled RMSE over all runs' steps seen by 0, 1, >= 2 cameras, per variant."""
-    ok = df[df.variant != "simulation_failed"]
+    ok = df[~df.variant.isin(("simulation_failed", "unobserved"))]
     lines = ["| variant | RMSE, 0 cameras (steps) | RMSE, 1 camera (steps) | RMSE, >= 2 cameras (steps) | depth bias at 1-camera steps (m) |",
              "| --- | --- | --- | --- | --- |"]
     for v, g in ok.groupby("variant", sort=False):
@@ -221,18 +272,28 @@ def main(argv=None) -> int:
     ap.add_argument("--q", type=float, nargs=2, default=(1e-4, 0.1), metavar=("Q_POS", "Q_VEL"))
     ap.add_argument("--out", default="docs/qp_experiment.csv")
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="extra scene override (repeatable), e.g. room.outline=[[-40,-40],[50,-40],[50,50],[-40,50]]")
+    ap.add_argument("--variants", default=",".join(ALL_VARIANTS),
+                    help=f"comma-separated subset of {','.join(ALL_VARIANTS)}")
     args = ap.parse_args(argv)
+    which = tuple(v.strip() for v in args.variants.split(",") if v.strip())
+    bad = sorted(set(which) - set(ALL_VARIANTS))
+    if bad or "qp" not in which:
+        ap.error(f"--variants must include qp and name only {ALL_VARIANTS}; got {bad or which}")
+    extra = tuple(args.set)
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     rows = []
     if args.jobs > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(args.jobs) as ex:
-            for r in tqdm(ex.map(run_seed, seeds, [tuple(args.q)] * len(seeds), [args.duration] * len(seeds)), total=len(seeds)):
+            n = len(seeds)
+            for r in tqdm(ex.map(run_seed, seeds, [tuple(args.q)] * n, [args.duration] * n, [extra] * n, [which] * n), total=n):
                 rows += r
     else:
         for s in tqdm(seeds):
-            rows += run_seed(s, tuple(args.q), args.duration)
+            rows += run_seed(s, tuple(args.q), args.duration, extra, which)
     df = pd.DataFrame(rows)
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     df.to_csv(args.out, index=False)
@@ -249,15 +310,24 @@ def main(argv=None) -> int:
     if len(multi):
         print(f"matched prior, >= 2 cameras: median RMSE {multi.rmse.median():.3f} m vs 1.5 sqrt(CRB) "
               f"{1.5 * multi.sqrt_crb.median():.3f} m; median RMSE/sqrt(CRB) = {multi.rmse_over_crb.median():.2f} (target <= 1.5)")
-    un = df[df.variant == "qp_unconstrained"].set_index("seed").rmse
-    worse = (un.reindex(qp.seed).to_numpy() >= qp.rmse.to_numpy() - 1e-6)
-    print(f"without constraints worse or equal in {int(worse.sum())}/{len(qp)} runs")
+    ora = df[(df.variant == "oracle") & (df.n_cameras >= 2)]
+    if len(ora) and len(multi):
+        r = multi.set_index("seed").rmse / ora.set_index("seed").rmse.reindex(multi.seed).to_numpy()
+        print(f"oracle (linearised at the truth, uses the truth): median RMSE/sqrt(CRB) = {ora.rmse_over_crb.median():.2f}; "
+              f"median RMSE(qp) / RMSE(oracle) = {r.median():.2f}")
+    if "qp_unconstrained" in which:
+        un = df[df.variant == "qp_unconstrained"].set_index("seed").rmse
+        worse = (un.reindex(qp.seed).to_numpy() >= qp.rmse.to_numpy() - 1e-6)
+        print(f"without constraints worse or equal in {int(worse.sum())}/{len(qp)} runs")
     for v in ("qp", "qp_unconstrained", "qp_one_camera"):
         g = df[df.variant == v]
+        if not len(g):
+            continue
         print(f"{v}: observed points estimated behind the camera that saw them: {int(g.behind_camera.sum())} "
               f"in {int((g.behind_camera > 0).sum())}/{len(g)} runs")
     wl = df[df.variant == "qp_walls"]
-    print(f"with walls: {int(wl.outside_room.sum())} estimated points outside the room over {len(wl)} runs")
+    if len(wl):
+        print(f"with walls: {int(wl.outside_room.sum())} estimated points outside the room over {len(wl)} runs")
     return 0
 
 

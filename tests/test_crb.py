@@ -52,3 +52,32 @@ def test_more_observations_tighten_the_bound(cams):
     many = trajectory_crb(xy, np.arange(10), ["cam_south"] * 10, cams, 1.0, dt, 1e-4, 1e-2)
     assert many.crb < few.crb
     assert np.isclose(rmse_over_crb(xy + [0.0, many.sqrt_crb], xy, many), 1.0)
+
+
+def test_truth_linearised_smoother_is_exact_on_a_noiseless_constant_velocity_walk():
+    """The oracle of scripts.crb_montecarlo (the yardstick splitting RMSE / sqrt(CRB)): a
+    constant-velocity path has zero prior residual, so with noiseless bearings and a first-state
+    prior centred on its start it is returned exactly; bearing noise moves it."""
+    from estimators.qp_model import Bearings, Prior
+    from scenes.spec import GaussMarkovParams
+    from scripts.crb_montecarlo import oracle
+
+    sc = load_scene("bearing_hall")
+    cams = {c.name: c for c in sc.cameras}
+    T, dt = 80, 0.25
+    t = np.arange(T) * dt
+    S = np.c_[2.0 + 0.3 * t, np.full(T, 0.3), 2.5 + 0.2 * t, np.full(T, 0.2)]
+    k, names = [], []
+    for name, cam in cams.items():
+        kk = np.nonzero(cam.in_horizontal_fov(S[:, [0, 2]]))[0]
+        k += kk.tolist()
+        names += [name] * len(kk)
+    k, names = np.array(k), np.array(names, object)
+    assert len(k) >= 3
+    u = np.array([cams[n].bearing_u(S[kk, [0, 2]]) for kk, n in zip(k, names)])
+    prior = Prior.build(T, dt, GaussMarkovParams(1e-4, 0.1), first_mean=S[0], first_sigma=(100.0, 10.0, 100.0, 10.0))
+    obs = Bearings.from_arrays(k, names, u, cams, 1.0)
+    X = oracle(prior, obs, u, S)
+    assert np.max(np.abs(X - S.ravel())) < 1e-6
+    X2 = oracle(prior, obs, u + np.random.default_rng(0).standard_normal(len(u)), S)
+    assert np.max(np.abs(X2 - S.ravel())) > 1e-4
