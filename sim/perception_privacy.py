@@ -43,25 +43,26 @@ import cv2
 import numpy as np
 
 from scenes.camera import Camera
-from sim.perception import Appearance, PerceptionParams, PersonBlob, colour_votes, foreground
+from sim.perception import Appearance, PerceptionParams, PersonBlob, foreground
 
 _NEIGHBOURS = np.ones((3, 3), np.uint8)
 
 
-def own_motion(blob: PersonBlob, rgb: np.ndarray, prev: np.ndarray, background: np.ndarray,
-               moving: np.ndarray, app: Appearance, params: PerceptionParams) -> int:
-    """Number of the blob's pixels that are evidence of its own motion (module docstring, step 2)."""
+def own_motion(blob: PersonBlob, rgb: np.ndarray, prev: np.ndarray, background: np.ndarray, moving: np.ndarray,
+               votes: np.ndarray, prev_votes: np.ndarray, params: PerceptionParams) -> int:
+    """Number of the blob's pixels that are evidence of its own motion (module docstring, step 2).
+
+    moving: (H, W) bool, max_ch |I_k - I_{k-1}| > ``motion_threshold``; votes, prev_votes: (H, W)
+    colour votes of frames k and k-1 (-1: none or not a person pixel).
+    """
     ys, xs = blob.ys, blob.xs
     mv = moving[ys, xs]
     my, mx = ys[mv], xs[mv]
     if blob.colour < 0 or len(my) == 0:
         return int(len(my))
     c = blob.colour
-    now_me = colour_votes(rgb[my, mx], app, params) == c
-    before = prev[my, mx]
-    was_floor = np.abs(before.astype(np.int16) - background[my, mx]).max(axis=1) <= params.diff_threshold
-    was_me = colour_votes(before, app, params) == c
-    ok = now_me & (was_floor | was_me)
+    was_floor = np.abs(prev[my, mx].astype(np.int16) - background[my, mx]).max(axis=1) <= params.diff_threshold
+    ok = (votes[my, mx] == c) & (was_floor | (prev_votes[my, mx] == c))
     if not ok.any():
         return 0
     # pixels next to another colour, now or in the previous frame: a shared edge, not own motion
@@ -69,8 +70,7 @@ def own_motion(blob: PersonBlob, rgb: np.ndarray, prev: np.ndarray, background: 
     y0, y1 = max(int(my.min()) - 1, 0), min(int(my.max()) + 2, H)
     x0, x1 = max(int(mx.min()) - 1, 0), min(int(mx.max()) + 2, W)
     other = np.zeros((y1 - y0, x1 - x0), np.uint8)
-    for img in (rgb, prev):
-        v = colour_votes(img[y0:y1, x0:x1].reshape(-1, 3), app, params).reshape(other.shape)
+    for v in (votes[y0:y1, x0:x1], prev_votes[y0:y1, x0:x1]):
         other |= ((v >= 0) & (v != c)).astype(np.uint8)
     other = cv2.dilate(other, _NEIGHBOURS)
     ok &= other[my - y0, mx - x0] == 0
@@ -78,18 +78,20 @@ def own_motion(blob: PersonBlob, rgb: np.ndarray, prev: np.ndarray, background: 
 
 
 class MotionGate:
-    """Keeps the previous frame of one privacy camera and selects the person blobs that moved."""
+    """Keeps the previous frame (and its colour votes) of one privacy camera and selects the
+    person blobs that moved."""
 
     def __init__(self, cam: Camera, background: np.ndarray, app: Appearance, params: PerceptionParams):
         self.cam, self.background, self.app, self.params = cam, background, app, params
         self.min_px = params.area(params.min_motion_px, cam.width, cam.height)
-        self._prev: np.ndarray | None = None
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
 
-    def __call__(self, rgb: np.ndarray, blobs: list[PersonBlob]) -> list[PersonBlob]:
-        """The blobs that moved since the previous frame (none on the first frame)."""
-        prev, self._prev = self._prev, rgb
+    def __call__(self, rgb: np.ndarray, votes: np.ndarray, blobs: list[PersonBlob]) -> list[PersonBlob]:
+        """The blobs that moved since the previous frame (none on the first frame). ``votes``:
+        the frame's colour votes, filled by ``person_blobs``."""
+        prev, self._prev = self._prev, (rgb, votes)
         if prev is None:
             return []
-        moving = foreground(rgb, prev, self.params.motion_threshold)
-        return [b for b in blobs
-                if own_motion(b, rgb, prev, self.background, moving, self.app, self.params) >= self.min_px]
+        moving = foreground(rgb, prev[0], self.params.motion_threshold)
+        p = self.params
+        return [b for b in blobs if own_motion(b, rgb, prev[0], self.background, moving, votes, prev[1], p) >= self.min_px]

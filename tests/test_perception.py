@@ -134,7 +134,7 @@ def test_privacy_camera_sees_walkers_and_misses_people_standing_still():
 def test_privacy_motion_gate_ignores_ownership_changes():
     """Hand-made frames: a blue person standing still gets changed pixels only from a red person
     crossing its edge; the red person moves. Only red is reported as moving."""
-    from sim.perception import Appearance, PerceptionParams, PersonBlob
+    from sim.perception import Appearance, PerceptionParams, PersonBlob, colour_votes
     from sim.perception_privacy import own_motion
 
     app = Appearance(("red", "blue"), np.array([[0.8, 0.1, 0.1], [0.1, 0.1, 0.8]]))
@@ -146,12 +146,13 @@ def test_privacy_motion_gate_ignores_ownership_changes():
     prev[12:28, 20:35] = (200, 20, 20)  # red overlaps blue's right edge ...
     now[12:28, 23:38] = (200, 20, 20)  # ... and moves 3 px right, uncovering blue pixels 20..22
     moving = np.abs(now.astype(int) - prev).max(axis=2) > params.motion_threshold
+    votes, prev_votes = (colour_votes(img.reshape(-1, 3), app, params).reshape(40, 60) for img in (now, prev))
     ys, xs = np.nonzero((now == (20, 20, 200)).all(axis=2))
     blue = PersonBlob(1, ys, xs)
     ys, xs = np.nonzero((now == (200, 20, 20)).all(axis=2))
     red = PersonBlob(0, ys, xs)
-    assert own_motion(blue, now, prev, bg, moving, app, params) == 0
-    assert own_motion(red, now, prev, bg, moving, app, params) == 3 * 16  # the leading edge: floor before
+    assert own_motion(blue, now, prev, bg, moving, votes, prev_votes, params) == 0
+    assert own_motion(red, now, prev, bg, moving, votes, prev_votes, params) == 3 * 16  # the leading edge: floor before
 
 
 def test_oblique_flow_windows_contain_walkers():
