@@ -35,22 +35,25 @@ Pipeline (one call of ``estimate``):
    so an LLR near 0 means "no evidence either way". Consecutive frames share most of their data
    (1 s windows, a filtered velocity), so emissions are tempered by ``evidence_weight`` (the
    fraction of a frame that is new information).
-4. **Carrying evidence across segment breaks** (beyond the paper): a new segment n inherits
-       Lambda(n, i) = log sum_e  w(n|e) / W  exp(LLR(e, i))   (+ a "newcomer" term with LLR 0),
-   over the segments e that ended shortly before near it, with the tracker's continuity weights
-   w(n|e) and W their sum with the newcomer density. People who cross, meet or stop together are
-   therefore re-identified instead of starting from zero evidence. With privacy cameras (blind to
-   people standing still) the frames of the gap between e and n add the phone's evidence that its
+4. **Carrying evidence across segment breaks** (beyond the paper; ``carried_evidence``): a
+   segment started by a cut of a live track inherits a mixture of Bayes factors over its own
+   old segment (weight 1 - p_swap, the tracker's swap probability) and the live neighbours cut
+   with it; a segment born after a gap inherits saturating posterior log-odds,
+       Lambda(n, i) = logit(sum_e rho(n|e) pi(e, i) + rho_new q0) - logit(q0),
+   with the ended segments shared out among births (``_carried_posterior``). ``carry=
+   "likelihood"`` is the first version (a Bayes-factor mixture at every birth). With privacy
+   cameras (blind to people standing still) the frames of a gap add the phone's evidence that its
    owner stood: sum_k log p(g_k | stopped) / p(g_k).
 5. **Global assignment** each camera frame (eq. 21): maximise sum (LLR - log Omega_min) over
    (segment, phone) pairs with ``linear_sum_assignment`` on a matrix augmented with one
    zero-score "no phone" column per segment, so a pair below Omega_min is never chosen and people
    without phones stay unassigned. A claim is kept only when its score leads the phone's other
-   tracks (and "no claim") by ``margin_min`` nats: a phone whose evidence does not single out one
-   track (two people moving alike) is not claimed.
+   tracks by ``margin_min`` nats: a phone whose evidence does not single out one track (two
+   people moving alike, or a possible swap) is not claimed.
 
 Output tracks: ``t, track_id, x, y, vx, vy, phone_id``; ``track_id`` is the phone id while a phone
-is assigned (segments joined into one identified track, as in Fig. 7c), else ``anon<segment>``.
+is assigned (segments joined into one identified track, as in Fig. 7c), else the phone its
+filtered track claimed last (if free in that frame), else ``anon<track>`` (``output_track_ids``).
 """
 from __future__ import annotations
 

@@ -213,3 +213,17 @@ def test_gait_model_separates_walking_from_standing():
     g = bobbing_feature(imu["t"].to_numpy(), imu[["ax", "ay", "az"]].to_numpy(), tq, 0.8)
     assert list(load_default().walking(g)) == [True, False]
     assert isinstance(load_default(), GaitModel)
+
+
+def test_output_track_ids_follow_the_phone_and_the_filtered_track():
+    from estimators.hmm_matcher import output_track_ids
+
+    # frames 0-3, filtered tracks 0 and 1; track 0 claims phone 0 in frames 1-2 only, then in
+    # frame 3 track 1 claims phone 0 (track 0 must give the label up)
+    frame = np.array([0, 0, 1, 1, 2, 2, 3, 3])
+    track = np.array([0, 1, 0, 1, 0, 1, 0, 1])
+    assigned = np.array([-1, -1, 0, -1, 0, -1, -1, 0])
+    ids = output_track_ids(frame, track, assigned, ["phX"])
+    assert list(ids) == ["anon0", "anon1", "phX", "anon1", "phX", "anon1", "anon0", "phX"]
+    ids = output_track_ids(frame[:6], track[:6], np.array([-1, -1, 0, -1, -1, -1]), ["phX"])
+    assert list(ids[4:]) == ["phX", "anon1"]  # unclaimed, keeps its last phone's label
