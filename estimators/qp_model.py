@@ -60,13 +60,9 @@ def process_covariance(params: GaussMarkovParams, dt: float, kind: str = "exact"
     [q_vel dt^2 / 2, q_vel dt]]. It composes exactly over sub-steps, so it is the same prior at
     every frame rate (and the matched prior of a Gauss-Markov walker simulated at a finer rate).
     """
-    if kind == "paper":
-        return params.Sigma(dt)
-    if kind != "exact":
+    if kind not in DISCRETISATIONS:
         raise ValueError(f"discretisation must be one of {DISCRETISATIONS}, got {kind!r}")
-    qp, qv = params.q_pos, params.q_vel
-    block = np.array([[qp * dt + qv * dt**3 / 3.0, qv * dt**2 / 2.0], [qv * dt**2 / 2.0, qv * dt]])
-    return np.kron(np.eye(2), block)
+    return params.Sigma(dt, kind)
 
 
 def pos_index(T: int) -> tuple[np.ndarray, np.ndarray]:
