@@ -48,13 +48,14 @@ from .tp_frames import CameraBoxes, frame_times, split_boxes
 from .tp_initiate import propose
 from .tp_tracker import LOST, TRACKING, UNRELIABLE, CameraState, Target, TargetUpdater, width_ratio
 
-STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason"]
+STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
 
 
 @dataclass
 class TargetPlanesResult:
     """``tracks``: t, track_id, x, y, vx, vy (+ ``n_cameras``: reliable tracking cameras used,
-    ``mode``: planes / area / predicted); ``status``: t, track_id, camera, status, reason."""
+    ``mode``: planes / area / predicted); ``status``: t, track_id, camera, status, reason, window (the camera's own track id it
+    follows while tracking)."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
@@ -71,6 +72,8 @@ class TargetPlanes(Estimator):
         initial_xy: list | None = None  # target's floor position at the first frame (m)
         initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
         multi_person: bool = False  # track every mover (beyond the paper)
+        crowd_overlap: float | None = 0.25  # a camera where two targets' estimated windows overlap by this share of the narrower is left out for both (None: off)
+        jump_gate: bool = True  # an estimate farther from the prediction than the search radius leaves out the straying camera
         exclude_neighbours: bool = True  # 4.1 literally: track ids once seen beside the target are never the target
         track_others: bool = True  # single target: also track the other movers (4.1 taken to 3-D), so they hold their own windows
         height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
@@ -107,7 +110,8 @@ class TargetPlanes(Estimator):
         init_min_cameras: int = 2  # multi-person: windows needed to start a target
         confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
         max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
-        box_sigma_px: float | None = None  # window centroid/edge noise (px); None: the calibration's ``box_sigma_px``
+        box_sigma_px: float | None = None  # window edge noise (px); None: the calibration's ``box_sigma_px``
+        bearing_sigma_px: float | None = None  # window centroid noise (px); None: the calibration's ``bearing_sigma_px``
         flow_sigma_px_s: float | None = None  # region-mean flow noise (px/s); None: the calibration's ``flow_sigma_px_s``
 
     # ------------------------------------------------------------------------------------------
@@ -136,7 +140,7 @@ class TargetPlanes(Estimator):
         # flow noise (px/s) of each camera's averaged window flow: the calibrated region-mean flow
         # noise (``flow_sigma_px_s``) or, for recordings without it, window-edge noise x fps
         noise = dict(calibration.noise)
-        for key in ("box_sigma_px", "flow_sigma_px_s"):  # the Config overrides the calibration
+        for key in ("box_sigma_px", "bearing_sigma_px", "flow_sigma_px_s"):  # the Config overrides the calibration
             if getattr(cfg, key) is not None:
                 noise[key] = float(getattr(cfg, key))
         sigma_px = float(noise.get("box_sigma_px", 0.0) or 0.0)
@@ -144,7 +148,7 @@ class TargetPlanes(Estimator):
         flow_sigma = {
             c: (float(fs) if fs is not None else sigma_px * calibration.cameras[c].fps) / np.sqrt(cfg.flow_window) for c in cams
         }
-        upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px)
+        upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px, float(noise.get("bearing_sigma_px", sigma_px) or 0.0))
         inside_room = calibration.floorplan.inside
 
         targets: list[Target] = []
@@ -170,8 +174,9 @@ class TargetPlanes(Estimator):
             held = {tg.tid: [] for tg in targets}  # (camera, box) of overlapped windows still containing the target
             acquired = {tg.tid: set() for tg in targets}  # cameras that (re)acquired the target this frame
             followed = {c: set() for c in cams}
+            crowded = self._crowded(targets, preds, views) if cfg.crowd_overlap is not None else {}
             for c in cams:
-                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt, acquired)
+                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt, acquired, crowded)
             for tg in list(targets):
                 self._confirm(tg, preds[tg.tid], used[tg.tid], acquired[tg.tid], frame, upd)
                 self._update(tg, preds[tg.tid], used[tg.tid], held[tg.tid], frame, upd, dt)
@@ -181,7 +186,7 @@ class TargetPlanes(Estimator):
                 for xy, support in propose(cfg, upd.margin_px, Ps, frame, free, inside_room):
                     if self._reacquire(targets, preds, xy, support, frame, upd):
                         continue
-                    tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=cfg.sigma_planes)
+                    tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=upd.search_sigma(xy, support))
                     next_id += 1
                     for c, j in support.items():
                         tg.cams[c] = CameraState(TRACKING, frame[c].track[j])
@@ -195,7 +200,7 @@ class TargetPlanes(Estimator):
                 rows.append((t, tg.tid, tg.xy[0], tg.xy[1], tg.vel[0], tg.vel[1], tg.n_used, tg.mode))
                 for c in cams:
                     cs = tg.cams[c]
-                    status_rows.append((t, tg.tid, c, cs.status, cs.reason))
+                    status_rows.append((t, tg.tid, c, cs.status, cs.reason, cs.track if cs.status == TRACKING else None))
         tracks = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
         status = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
         return TargetPlanesResult(tracks, status)
@@ -229,9 +234,37 @@ class TargetPlanes(Estimator):
         tg.area = area.polygon
         return tg
 
-    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt, acquired) -> None:
+    def _crowded(self, targets, preds, views) -> dict[int, set]:
+        """Cameras in which a target's predicted window overlaps another confirmed target's
+        (beyond the paper: section 4.1's overlap, foreseen from the 3-D predictions of the people
+        being tracked): the intervals [u_l, u_r] of the estimated windows overlap by more than
+        ``crowd_overlap`` of the narrower one. Such a camera cannot tell the two apart (their
+        flows are alike, their windows merge or split anywhere), so it is left out for both.
+        Two targets nearer than 2 ``radius`` on the floor are one person seen twice, not a crowd."""
+        cfg = self.config
+        out: dict[int, set] = {tg.tid: set() for tg in targets}
+        live = [tg for tg in targets if tg.confirmed or tg.tid == 0]
+        for a in range(len(live)):
+            for b in range(a + 1, len(live)):
+                ta, tb = live[a], live[b]
+                if np.linalg.norm(preds[ta.tid] - preds[tb.tid]) < 2 * cfg.radius:
+                    continue
+                both = [c for c in views[ta.tid] if c in views[tb.tid]]
+                hit = set()
+                for c in both:
+                    va, vb = views[ta.tid][c], views[tb.tid][c]
+                    inter = min(va.win_point[1], vb.win_point[1]) - max(va.win_point[0], vb.win_point[0])
+                    if inter > cfg.crowd_overlap * min(va.w_c, vb.w_c):
+                        hit.add(c)
+                if len(hit) < len(both):  # crowded in every view: no camera separates them; the per-window tests of section 4 decide
+                    out[ta.tid] |= hit
+                    out[tb.tid] |= hit
+        return out
+
+    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt, acquired, crowded=None) -> None:
         """One camera: continue tracking cameras' windows, then search for the others."""
         cfg = self.config
+        crowded = crowded or {}
         claimed: dict[int, int] = {}  # box -> target id
         idx = {}
         for tg in targets:
@@ -251,10 +284,19 @@ class TargetPlanes(Estimator):
             if view is None:
                 cs.status, cs.track, cs.reason = LOST, None, "out of view"
                 continue
+            if c in crowded.get(tg.tid, ()) and j is not None and width_ratio(boxes.width[j], view.w_c) > cfg.rejoin_width_ratio:
+                # another target stands beside, in front of or behind it in this view and the
+                # window is wider than one person: the two are merged in it; follow the window
+                # but use nothing from this camera
+                followed[c].add(j)
+                cs.status, cs.reason = UNRELIABLE, "crowded"
+                continue
             if j is None:
                 searchers.append(tg)
                 continue
             followed[c].add(j)
+            if cs.status == UNRELIABLE and cs.reason == "crowded":
+                cs.status = TRACKING  # separated again: judged afresh by section 4
             if cs.status == TRACKING:
                 reason = "overlap" if shared[j] > 1 else upd.check_reliable(c, cs, view, boxes, j, dt)
                 if not reason:
@@ -309,6 +351,7 @@ class TargetPlanes(Estimator):
             cs = tg.cams[c]
             if c in used[tg.tid] or c not in views[tg.tid]:
                 continue
+
             if cs.status == UNRELIABLE and idx.get(tg.tid) is not None:
                 continue  # keeps following its window until the target is separated again
             cs.status, cs.track, cs.reason = LOST, None, ""
@@ -371,7 +414,7 @@ class TargetPlanes(Estimator):
         for c, j in joined.items():
             tg.cams[c] = CameraState(TRACKING, frame[c].track[j], others=tg.cams[c].others)
         if tg.n_used < 2:  # the crossing is a better estimate than the target's own
-            tg.xy, tg.sigma, tg.sigma_v, tg.area = xy.copy(), self.config.sigma_planes, self.config.sigma_v_tracked, None
+            tg.xy, tg.sigma, tg.sigma_v, tg.area = xy.copy(), upd.search_sigma(xy, support), self.config.sigma_v_tracked, None
             tg.n_used, tg.mode, tg.misses_s = len(support), "planes", 0.0
             upd.velocity(tg, xy, support, frame)
         return True
@@ -391,6 +434,18 @@ class TargetPlanes(Estimator):
         for c in dropped:
             used.pop(c, None)
             tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "inconsistent"
+        if cfg.jump_gate:
+            # a person cannot be farther from the prediction than its search radius: the camera
+            # whose window strays most from the prediction is left out until the estimate is there
+            gate = upd.search_radius(tg)
+            while mode != "predicted" and float(np.linalg.norm(xy - xy_pred)) > gate:
+                worst = max(used, key=lambda c: upd.stray(c, frame[c], used[c], xy_pred))
+                used.pop(worst)
+                tg.cams[worst].status, tg.cams[worst].reason = UNRELIABLE, "jump"
+                xy, poly, mode, more = upd.estimate(tg, xy_pred, dict(used), frame, [])
+                for c in more:
+                    used.pop(c, None)
+                    tg.cams[c].status, tg.cams[c].reason = UNRELIABLE, "inconsistent"
         if mode == "predicted":
             tg.sigma = min(tg.sigma + cfg.sigma_growth * dt, cfg.sigma_max)
             tg.sigma_v = min(tg.sigma_v + cfg.accel_max * dt, cfg.max_speed)
@@ -398,7 +453,7 @@ class TargetPlanes(Estimator):
                 tg.area = tg.area + (xy - tg.xy)
             tg.misses_s += dt
         else:
-            tg.sigma = cfg.sigma_planes
+            tg.sigma = upd.search_sigma(xy, used)
             tg.sigma_v = cfg.sigma_v_tracked
             tg.area = poly if mode == "area" else None
             tg.misses_s = 0.0

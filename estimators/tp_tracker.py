@@ -58,6 +58,15 @@ class CameraView:
         return max(self.win_point[1] - self.win_point[0], 1.0)
 
 
+def _focal(P: np.ndarray) -> float:
+    """Focal length (px) of P = K [R | t] with K = [[f, 0, cx], [0, f, cy], [0, 0, 1]]:
+    M M^T = K K^T for M = P[:, :3], so f^2 = (K K^T)_00 - cx^2 with cx = (K K^T)_02 / (K K^T)_22."""
+    M = np.asarray(P, float)[:, :3]
+    KK = M @ M.T
+    KK = KK / KK[2, 2]
+    return float(np.sqrt(max(KK[0, 0] - KK[0, 2] ** 2, 1e-12)))
+
+
 def width_ratio(width_t: float, width_c: float) -> float:
     """Eq. 8: (width_t - width_c) / width_c, tracking against estimated window width."""
     return (width_t - width_c) / width_c
@@ -94,12 +103,24 @@ class Target:
 class TargetUpdater:
     """The per-frame logic for targets, configured once from the estimator's Config."""
 
-    def __init__(self, cfg, Ps: dict[str, np.ndarray], flow_sigma: dict[str, float] | None = None, window_sigma_px: float = 0.0):
+    def __init__(self, cfg, Ps: dict[str, np.ndarray], flow_sigma: dict[str, float] | None = None, window_sigma_px: float = 0.0,
+                 centroid_sigma_px: float | None = None):
         self.cfg = cfg
         self.margin_px = cfg.window_margin_px + 3.0 * window_sigma_px  # target-area allowance for window noise
         self.Ps = Ps
+        self.centroid_sigma_px = window_sigma_px if centroid_sigma_px is None else centroid_sigma_px
+        self.focal = {c: _focal(P) for c, P in Ps.items()}
         self.flow_sigma = flow_sigma or {}
         self.min_angle = np.radians(cfg.min_plane_angle_deg)
+
+    def search_sigma(self, xy: np.ndarray, cams) -> float:
+        """Search radius (m) after an estimate from ``cams``: ``sigma_planes`` plus three times
+        the floor error that the calibrated centroid noise sigma_u (px, ``bearing_sigma_px``)
+        causes across the line of sight, max over the cameras of sigma_u d_c / f_c (d_c depth of
+        the target, f_c focal length)."""
+        X = np.array([xy[0], xy[1], self.cfg.flow_height_fraction * self.cfg.height, 1.0])
+        lateral = [self.centroid_sigma_px * float(self.Ps[c][2] @ X) / self.focal[c] for c in cams if c in self.Ps]
+        return self.cfg.sigma_planes + 3.0 * max(lateral, default=0.0)
 
     # --- prediction -------------------------------------------------------------------------
     def views(self, tgt: Target, xy_pred: np.ndarray) -> dict[str, CameraView]:

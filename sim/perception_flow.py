@@ -25,7 +25,8 @@ Regions, one per person (the paper: "an object region has almost uniform flow ve
    and legs, or into parts above and below an occluding desk, becomes one region; two people
    walking side by side do not fit one person's width and stay apart);
 4. regions holding less than ``min_person_fraction`` of the expected person's pixel area
-   (and fewer than ``min_pixels``) are dropped: flow noise, a hand-sized flicker.
+   (and fewer than ``min_pixels``) are dropped: flow noise, a hand-sized flicker; so are
+   windows narrower or shorter than ``min_side_px`` (a person all but out of the image).
    Without a calibrated camera, steps 2-4 fall back to merging overlapping fragments of
    similar flow and the fixed ``min_pixels``.
 
@@ -64,11 +65,12 @@ class FlowParams:
     merge_tol_px: float = 1.0  # px/frame: fragments of one person may differ in flow by this,
     merge_tol_rel: float = 0.5  # plus this fraction of the larger flow,
     merge_loom: float = 0.05  # plus (vertical flow only) this fraction of the person's image height (a person walking towards the camera grows)
-    size_slack: float = 1.3  # a region may be this much larger than the expected person window,
-    size_pad_px: float = 8.0  # plus this (full-res px: flow spread around the silhouette), plus the frame's motion
+    size_slack: float = 1.5  # a merged silhouette may be this much larger than the expected person window,
+    size_pad_px: float = 4.0  # plus this (full-res px)
     min_person_fraction: float = 0.12  # regions smaller than this share of a person's area are dropped
     iou_min: float = 0.1  # association gate: IoU of predicted window and region box
     max_missed: int = 2  # frames a window coasts without a region before its id ends
+    min_side_px: float = 3.0  # a window narrower or shorter than this (full-res px, e.g. a person leaving the image) is dropped
     spread_px: float = 4.0  # full-res px the moving region extends beyond the silhouette (see ``current_box``)
     centre_of_box: bool = True  # report u as the centre of the window (measured: 3.8 px robust spread against the body axis, the region centroid 5.3 px)
 
@@ -182,10 +184,15 @@ def current_box(box: np.ndarray, m: np.ndarray, spread: float, size: tuple[int, 
     lo = box[:2] + spread + np.maximum(m, 0.0)
     hi = box[2:] - spread + np.minimum(m, 0.0)
     if size is not None:
-        lo = np.where(box[:2] <= 1.0, box[:2], lo)
-        hi = np.where(box[2:] >= np.asarray(size, float) - 1.0, box[2:], hi)
+        lim = np.asarray(size, float)
+        lo = np.clip(np.where(box[:2] <= 1.0, box[:2], lo), 0.0, lim)
+        hi = np.clip(np.where(box[2:] >= lim - 1.0, box[2:], hi), 0.0, lim)
     mid = 0.5 * (lo + hi)
     lo, hi = np.minimum(lo, mid - 0.5), np.maximum(hi, mid + 0.5)  # at least one pixel, never inverted
+    if size is not None:  # ... and inside the image
+        lim = np.asarray(size, float)
+        shift = np.clip(lo, 0.0, None) - lo + np.clip(hi, None, lim) - hi
+        lo, hi = lo + shift, hi + shift
     return np.r_[lo, hi]
 
 
@@ -276,7 +283,8 @@ def person_regions(flow, moving, p: FlowParams, camera, size: tuple[int, int]) -
             e = expected_person_window(camera, 0.5 * (r.box[0] + r.box[2]), r.box[1], p.person_height, p.person_radius)
             if e is not None:
                 need = min(need, p.min_person_fraction * (e[2] - e[0]) * (e[3] - e[1]) * np.pi / 4)
-        if len(r.xs) / (s * s) >= need:
+        cur = current_box(r.box, r.flow, p.spread_px, size)
+        if len(r.xs) / (s * s) >= need and min(cur[2] - cur[0], cur[3] - cur[1]) >= p.min_side_px:
             out.append(r)
     return out
 
@@ -295,8 +303,19 @@ def _fits_person(box, a: Region, b: Region, p: FlowParams, camera) -> bool:
     h_e = e[3] - e[1]
     if d[0] > tol or d[1] > tol + p.merge_loom * h_e:
         return False
-    m = np.maximum(np.abs(a.flow), np.abs(b.flow))  # the moving pixels cover the old and the new silhouette
-    return (box[2] - box[0]) <= p.size_slack * (e[2] - e[0]) + p.size_pad_px + m[0] and (box[3] - box[1]) <= p.size_slack * h_e + p.size_pad_px + m[1]
+    if _contained(a.box, b.box) >= 0.7:
+        return True  # one fragment lies inside the other: the same region
+    m = np.maximum(np.abs(a.flow), np.abs(b.flow))
+    cur = current_box(box, m, p.spread_px)  # the silhouette the union stands for (motion and flow spread removed)
+    return (cur[2] - cur[0]) <= p.size_slack * (e[2] - e[0]) + p.size_pad_px and (cur[3] - cur[1]) <= p.size_slack * h_e + p.size_pad_px
+
+
+def _contained(a, b) -> float:
+    """Intersection area over the smaller box's area."""
+    iw = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    ih = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    small = min((a[2] - a[0]) * (a[3] - a[1]), (b[2] - b[0]) * (b[3] - b[1]))
+    return iw * ih / small if small > 0 else 0.0
 
 
 def _gap(a, b) -> float:
