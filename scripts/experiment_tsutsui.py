@@ -1,7 +1,12 @@
 """Measure the target-plane tracker (Tsutsui et al.) on ``occlusion_lab``.
 
     python scripts/experiment_tsutsui.py [--sensing analytic|rendered|both] [--duration 60] [--seeds 0,1,2,3,4]
-    python scripts/experiment_tsutsui.py --recording DIR      # a saved recording (e.g. a rendered one)
+    python scripts/experiment_tsutsui.py --recording DIR[,DIR...]      # saved recordings (e.g. rendered ones)
+    python scripts/experiment_tsutsui.py --recording DIR --window-errors    # the flow windows against the truth
+
+Rendered recordings: the estimator is given the measured window noise of the flow detector
+(``sim.perception_flow.RENDERED_WINDOW_NOISE``: edges, centroid, flow), since a rendered
+recording's calibration holds the scene's analytic noise figures.
 
 For each sensing mode it simulates the scene, runs ``target_planes`` on the target (initialised
 by hand, as in the paper: the target's scripted start position - where a user would click in
@@ -34,6 +39,7 @@ import pandas as pd
 from estimators.target_planes import TargetPlanes, TargetPlanesResult
 from metrics.score import evaluate
 from scenes.loader import load_scene
+from sim.perception_flow import RENDERED_WINDOW_NOISE
 from sim.recording import Recording, Truth
 from sim.simulate import simulate
 
@@ -90,11 +96,72 @@ def single_target_metrics(rec: Recording, res: TargetPlanesResult) -> dict:
     }
 
 
-ESTIMATOR_KW: dict = {}
-
-
 def estimator_config(rec: Recording) -> dict:
-    return dict(ESTIMATOR_KW)
+    """Noise allowances for the estimator: a rendered recording gets the flow detector's measured
+    window errors (its calibration holds the analytic noise of the scene file)."""
+    return dict(RENDERED_WINDOW_NOISE) if rec.sensing == "rendered" else {}
+
+
+def window_errors(rec: Recording, min_speed: float = 0.3) -> pd.DataFrame:
+    """Each window of ``boxes`` against the truth (measurement only, never given to estimators).
+
+    A window belongs to the person whose segmentation box (``labels``) it overlaps most; its
+    errors are against that person's body centre X (truth ``people``) projected by the camera:
+    ``e_u`` = u - u(X) (centroid against the body axis), ``e_flow_u/v`` = mean flow - dx(X)/dt
+    (px/s), ``e_top``/``e_bottom``/``e_left``/``e_right`` = window edges - segmentation box edges.
+    Windows overlapping no person have ``person`` = None.
+    """
+    lab = rec.truth.tables.get("labels")
+    if lab is None or not len(lab):
+        raise SystemExit("window errors need the segmentation labels of a rendered recording")
+    boxes = rec.observations["boxes"]
+    ppl = rec.truth.people
+    tracks = {pid: g.sort_values("t") for pid, g in ppl.groupby("person_id")}
+    labels = {(round(float(t), 6), c): g for (t, c), g in lab.groupby(["t", "camera"])}
+    rows = []
+    for (t, c), g in boxes.groupby(["t", "camera"]):
+        cam = rec.calibration.cameras[c]
+        L = labels.get((round(float(t), 6), c))
+        for r in g.itertuples():
+            best, area = None, 0.0
+            if L is not None:
+                iw = np.clip(np.minimum(r.u_right, L.x1) - np.maximum(r.u_left, L.x0), 0, None)
+                ih = np.clip(np.minimum(r.v_bottom, L.y1) - np.maximum(r.v_top, L.y0), 0, None)
+                k = int(np.argmax(iw * ih))
+                if (iw * ih).iloc[k] > 0:
+                    best, area = L.iloc[k], float((iw * ih).iloc[k])
+            if best is None:
+                rows.append({"t": t, "camera": c, "track": r.track, "person": None})
+                continue
+            tr = tracks[best.person_id]
+            k = min(int(np.searchsorted(tr["t"].to_numpy(), t - 1e-9)), len(tr) - 1)
+            x, y, z, vx, vy = tr[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
+            uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
+            vel = (uv[1] - uv[0]) / 0.01
+            rows.append({"t": t, "camera": c, "track": r.track, "person": best.person_id, "speed": float(np.hypot(vx, vy)),
+                         "visible_fraction": float(best.visible_fraction),
+                         "e_u": r.u - uv[0, 0], "e_flow_u": r.flow_u - vel[0], "e_flow_v": r.flow_v - vel[1],
+                         "e_top": r.v_top - best.y0, "e_bottom": r.v_bottom - best.y1,
+                         "e_left": r.u_left - best.x0, "e_right": r.u_right - best.x1})
+    return pd.DataFrame(rows)
+
+
+def window_error_summary(E: pd.DataFrame, min_speed: float = 0.3) -> pd.DataFrame:
+    """Median, robust sigma (1.4826 MAD), standard deviation and 90th percentile of |e| of each
+    error over the windows on walking people (speed > ``min_speed``), plus counts."""
+    mv = E[E["person"].notna()]
+    mv = mv[mv["speed"] > min_speed]
+    out = {}
+    for k in ("e_u", "e_top", "e_bottom", "e_left", "e_right", "e_flow_u", "e_flow_v"):
+        x = mv[k].to_numpy(float)
+        med = float(np.median(x))
+        out[k] = {"median": med, "robust_sigma": 1.4826 * float(np.median(np.abs(x - med))), "sd": float(x.std()),
+                  "p90_abs": float(np.percentile(np.abs(x), 90))}
+    per = mv.groupby(["t", "camera", "person"]).size()
+    print(f"windows {len(E)}, on no person {int(E['person'].isna().sum())}, on walking people {len(mv)}; "
+          f"person-frames with more than one window {int((per > 1).sum())} of {len(per)}; "
+          f"track ids per walking person and camera {mv.groupby(['camera', 'person'])['track'].nunique().mean():.1f}")
+    return pd.DataFrame(out).T
 
 
 def movers_only(rec: Recording, scene) -> Recording:
@@ -132,13 +199,19 @@ def main(argv=None) -> int:
     ap.add_argument("--sensing", default="both", choices=["analytic", "rendered", "both"])
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--seeds", default="0", help="comma-separated seeds")
-    ap.add_argument("--recording", help="evaluate a saved recording folder instead of simulating")
+    ap.add_argument("--recording", help="evaluate saved recording folders (comma-separated) instead of simulating")
+    ap.add_argument("--window-errors", action="store_true", help="with --recording: the flow windows' errors against the truth")
     ap.add_argument("--json", action="store_true", help="print one JSON object per run")
     a = ap.parse_args(argv)
     if a.recording:
         from sim.dataset import read_recording
 
-        runs = [(None, None, read_recording(a.recording))]
+        runs = [(None, None, read_recording(d)) for d in a.recording.split(",")]
+        if a.window_errors:
+            for _, _, rec in runs:
+                print(f"{rec.scene} seed {rec.seed} ({rec.sensing})")
+                print(window_error_summary(window_errors(rec)).round(2).to_string())
+            return 0
     else:
         modes = ["analytic", "rendered"] if a.sensing == "both" else [a.sensing]
         runs = [(mode, int(s), None) for mode in modes for s in a.seeds.split(",")]
