@@ -96,10 +96,20 @@ def single_target_metrics(rec: Recording, res: TargetPlanesResult) -> dict:
     }
 
 
+# eq. 8 threshold for the rendered flow windows: on rendered occlusion_lab (seed 0) the windows of
+# isolated, fully visible walkers have (w_t - w_c) / w_c <= 0.10 in 99 % of frames (none above
+# 0.5), while windows holding the target and the look-alike side by side reach 0.7-1.3; the
+# paper's threshold of 1 was set for its coarser windows.
+RENDERED_WIDTH_RATIO = 0.5
+
+
 def estimator_config(rec: Recording) -> dict:
-    """Noise allowances for the estimator: a rendered recording gets the flow detector's measured
-    window errors (its calibration holds the analytic noise of the scene file)."""
-    return dict(RENDERED_WINDOW_NOISE) if rec.sensing == "rendered" else {}
+    """Allowances for the estimator: a rendered recording gets the flow detector's measured
+    window errors (its calibration holds the analytic noise of the scene file) and the eq. 8
+    threshold its window widths support."""
+    if rec.sensing != "rendered":
+        return {}
+    return {**RENDERED_WINDOW_NOISE, "width_ratio_threshold": RENDERED_WIDTH_RATIO}
 
 
 def window_errors(rec: Recording, min_speed: float = 0.3) -> pd.DataFrame:
