@@ -18,12 +18,15 @@ Regions, one per person (the paper: "an object region has almost uniform flow ve
    head lies on the ray through (u, v_t) at Z = H; the cylinder projected there gives the
    person's expected window (w_e, h_e). (If the top is not the head the ray meets Z = H nearer
    the camera and the expected window is larger: the prior errs on the side of merging.)
-3. fragments are merged, largest first, while their flows are similar (|m_i - m_j| <=
-   tol(m_i) + tol(m_j)) and their union fits one person: width <= ``size_slack`` w_e +
-   ``size_pad_px`` + |m_u|, height <= ``size_slack`` h_e + ``size_pad_px`` + |m_v| (the moving
-   pixels spread a few pixels around the silhouette and cover its old and new place; a person whose window broke into a head, a torso edge
-   and legs, or into parts above and below an occluding desk, becomes one region; two people
-   walking side by side do not fit one person's width and stay apart);
+3. fragments are merged, largest first, while they are one person: horizontal flows alike,
+   |m_i,u - m_j,u| <= tol = ``merge_tol_px`` + ``merge_tol_rel`` max(|m_i|, |m_j|), vertical
+   flows within tol + ``merge_loom`` h_e (a person walking towards the camera grows) unless one
+   box lies inside the other (the vertical flow along a uniformly coloured person's vertical
+   edges is ill-posed: the aperture problem), and the silhouette their union stands for
+   (``current_box``: motion and flow spread removed) fits one person, width <= ``size_slack`` w_e
+   + ``size_pad_px`` and height <= ``size_slack`` h_e + ``size_pad_px``. A person whose window
+   broke into a head, edges and legs, or into parts above and below an occluding desk, becomes
+   one region; two people walking side by side do not fit one person's width and stay apart;
 4. regions holding less than ``min_person_fraction`` of the expected person's pixel area
    (and fewer than ``min_pixels``) are dropped: flow noise, a hand-sized flicker; so are
    windows on the image border narrower or shorter than ``min_side_px`` (a person all but out
@@ -33,10 +36,10 @@ Regions, one per person (the paper: "an object region has almost uniform flow ve
 
 Tracking windows keep their ids across frames (the paper's steps 1-4, with the region search
 done once per frame for all windows): each window's prediction is its previous box shifted by
-its previous mean flow (step 1); regions are assigned to predictions by
+its previous flow (step 1); regions are assigned to predictions by
 ``scipy.optimize.linear_sum_assignment`` on cost 1 - IoU(prediction, region box), gated by IoU
 >= ``iou_min`` and similar flow (steps 2-3); the window becomes the rectangle circumscribing
-the assigned region (step 4). A window without a region coasts (unreported) for
+the assigned region, moved to the current frame (step 4, ``_update``). A window without a region coasts (unreported) for
 ``max_missed`` frames along its flow, so a one-frame dropout keeps the id; a region no window
 claims starts a new id (ids are never reused).
 
@@ -86,7 +89,7 @@ class FlowParams:
     max_missed: int = 2  # frames a window coasts without a region before its id ends
     min_side_px: float = 3.0  # a window on the image border narrower or shorter than this (full-res px: a person leaving the image) is dropped
     spread_px: float = 4.0  # full-res px the moving region extends beyond the silhouette (see ``current_box``)
-    centre_of_box: bool = True  # report u as the centre of the window (measured: 3.8 px robust spread against the body axis, the region centroid 5.3 px)
+    centre_of_box: bool = True  # report u as the centre of the window (measured on rendered occlusion_lab: 3.4 px robust spread against the body axis, the region centroid 5.3 px)
 
 
 @dataclass
