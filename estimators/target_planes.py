@@ -79,7 +79,7 @@ class TargetPlanes(Estimator):
         height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
         radius: float = 0.2  # cylinder radius (m)
         min_plane_angle_deg: float = 12.0  # planes closer than this to parallel are not intersected
-        width_ratio_threshold: float = 1.0  # eq. 8
+        width_ratio_threshold: float | None = None  # eq. 8; None: the calibration's ``box_width_ratio_threshold``, else the paper's 1
         position_tol: float = 1.0  # section 4.3: |u - u_c| allowed, in estimated-window widths
         search_margin: float = 0.5  # estimated window widened by this many widths when searching
         overlap_gap: float = 0.0  # windows closer than this (widths) overlap (section 4.1)
@@ -111,16 +111,43 @@ class TargetPlanes(Estimator):
         confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
         max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
         box_sigma_px: float | None = None  # window edge noise (px); None: the calibration's ``box_sigma_px``
-        bearing_sigma_px: float | None = None  # window centroid noise (px); None: the calibration's ``bearing_sigma_px``
+        box_u_sigma_px: float | None = None  # window centroid noise (px); None: the calibration's ``box_u_sigma_px``, else (analytic windows, whose u gets the bearing noise) ``bearing_sigma_px``
         flow_sigma_px_s: float | None = None  # region-mean flow noise (px/s); None: the calibration's ``flow_sigma_px_s``
 
     # ------------------------------------------------------------------------------------------
+    def resolved_config(self, calibration: Calibration) -> "TargetPlanes.Config":
+        """The Config with the detector allowances filled in: a Config value wins, else the
+        calibration's noise entry, else a fallback. Window edges ``box_sigma_px`` (fallback 0);
+        window centroid ``box_u_sigma_px`` (fallback ``bearing_sigma_px``: the analytic windows'
+        u carries the bearing noise, ``sim/noise.py``; then the edge noise); region flow
+        ``flow_sigma_px_s`` (None: edge noise x fps); eq. 8 threshold
+        ``box_width_ratio_threshold`` (fallback the paper's 1; rendered recordings declare their
+        detector's, ``sim.perception_flow.RENDERED_WINDOW_NOISE``)."""
+        cfg, noise = self.config, calibration.noise or {}
+
+        def pick(value, *keys, default=None):
+            if value is not None:
+                return value
+            for k in keys:
+                if noise.get(k) is not None:
+                    return float(noise[k])
+            return default
+
+        box = float(pick(cfg.box_sigma_px, "box_sigma_px", default=0.0))
+        return dataclasses.replace(
+            cfg,
+            box_sigma_px=box,
+            box_u_sigma_px=float(pick(cfg.box_u_sigma_px, "box_u_sigma_px", "bearing_sigma_px", default=box)),
+            flow_sigma_px_s=pick(cfg.flow_sigma_px_s, "flow_sigma_px_s"),
+            width_ratio_threshold=float(pick(cfg.width_ratio_threshold, "box_width_ratio_threshold", default=1.0)),
+        )
+
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         tr = self.run(observations, calibration).tracks
         return check_tracks(tr[["t", "track_id", "x", "y", "vx", "vy"]], self.name)
 
     def run(self, observations: Observations, calibration: Calibration) -> TargetPlanesResult:
-        cfg = self.config
+        cfg = self.resolved_config(calibration)
         boxes = observations["boxes"]
         cams = sorted(calibration.cameras_of_kind("oblique")) or sorted(set(boxes["camera"]))
         unknown = sorted(set(boxes["camera"]) - set(calibration.cameras))
@@ -139,16 +166,12 @@ class TargetPlanes(Estimator):
         times = frame_times(calibration, cams, observations.duration, boxes)
         # flow noise (px/s) of each camera's averaged window flow: the calibrated region-mean flow
         # noise (``flow_sigma_px_s``) or, for recordings without it, window-edge noise x fps
-        noise = dict(calibration.noise)
-        for key in ("box_sigma_px", "bearing_sigma_px", "flow_sigma_px_s"):  # the Config overrides the calibration
-            if getattr(cfg, key) is not None:
-                noise[key] = float(getattr(cfg, key))
-        sigma_px = float(noise.get("box_sigma_px", 0.0) or 0.0)
-        fs = noise.get("flow_sigma_px_s")
+        sigma_px = float(cfg.box_sigma_px)
         flow_sigma = {
-            c: (float(fs) if fs is not None else sigma_px * calibration.cameras[c].fps) / np.sqrt(cfg.flow_window) for c in cams
+            c: (float(cfg.flow_sigma_px_s) if cfg.flow_sigma_px_s is not None else sigma_px * calibration.cameras[c].fps) / np.sqrt(cfg.flow_window)
+            for c in cams
         }
-        upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px, float(noise.get("bearing_sigma_px", sigma_px) or 0.0))
+        upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px, float(cfg.box_u_sigma_px))
         inside_room = calibration.floorplan.inside
 
         targets: list[Target] = []

@@ -4,9 +4,9 @@
     python scripts/experiment_tsutsui.py --recording DIR[,DIR...]      # saved recordings (e.g. rendered ones)
     python scripts/experiment_tsutsui.py --recording DIR --window-errors    # the flow windows against the truth
 
-Rendered recordings: the estimator is given the measured window noise of the flow detector
-(``sim.perception_flow.RENDERED_WINDOW_NOISE``: edges, centroid, flow), since a rendered
-recording's calibration holds the scene's analytic noise figures.
+Rendered recordings declare the flow detector's measured window noise and eq. 8 threshold in
+their calibration (``sim.perception_flow.RENDERED_WINDOW_NOISE``); recordings saved before that
+are given them here.
 
 For each sensing mode it simulates the scene, runs ``target_planes`` on the target (initialised
 by hand, as in the paper: the target's scripted start position - where a user would click in
@@ -96,20 +96,14 @@ def single_target_metrics(rec: Recording, res: TargetPlanesResult) -> dict:
     }
 
 
-# eq. 8 threshold for the rendered flow windows: on rendered occlusion_lab (seed 0) the windows of
-# isolated, fully visible walkers have (w_t - w_c) / w_c <= 0.10 in 99 % of frames (none above
-# 0.5), while windows holding the target and the look-alike side by side reach 0.7-1.3; the
-# paper's threshold of 1 was set for its coarser windows.
-RENDERED_WIDTH_RATIO = 0.5
-
-
 def estimator_config(rec: Recording) -> dict:
-    """Allowances for the estimator: a rendered recording gets the flow detector's measured
-    window errors (its calibration holds the analytic noise of the scene file) and the eq. 8
-    threshold its window widths support."""
-    if rec.sensing != "rendered":
-        return {}
-    return {**RENDERED_WINDOW_NOISE, "width_ratio_threshold": RENDERED_WIDTH_RATIO}
+    """Allowances for the estimator: none, it reads them from the calibration. Rendered
+    recordings written before their calibration declared the flow detector's noise
+    (``sim.simulate`` now merges ``sim.perception_flow.RENDERED_WINDOW_NOISE`` into it) get it
+    here, in the calibration, as a new recording would."""
+    if rec.sensing == "rendered" and "box_u_sigma_px" not in rec.calibration.noise:
+        rec.calibration.noise = {**rec.calibration.noise, **RENDERED_WINDOW_NOISE}
+    return {}
 
 
 def window_errors(rec: Recording, min_speed: float = 0.3) -> pd.DataFrame:

@@ -7,6 +7,10 @@
    (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
+5. Calibration noise: the scene's ``sensors`` figures; a rendered recording's ``boxes`` come from
+   the flow detector, so its measured window noise (``sim.perception_flow.RENDERED_WINDOW_NOISE``:
+   ``box_sigma_px``, ``box_u_sigma_px``, ``flow_sigma_px_s``, ``box_width_ratio_threshold``)
+   replaces / adds to them.
 
 Randomness: one ``numpy.random.default_rng(seed)`` spawns independent streams, in this fixed
 order: motion, imu, cameras (one child per camera, scene order), rendering. The same scene and
@@ -139,7 +143,9 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         ],
         "versions": package_versions(),
     }
-    calibration = Calibration(
-        cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=dataclasses.asdict(scene.sensors)
-    )
+    noise = dataclasses.asdict(scene.sensors)
+    if sensing == "rendered":
+        # the rendered boxes come from the flow detector: declare its measured window noise
+        noise.update(importlib.import_module("sim.perception_flow").RENDERED_WINDOW_NOISE)
+    calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=noise)
     return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta)

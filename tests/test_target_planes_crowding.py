@@ -121,7 +121,7 @@ def test_config_noise_overrides_the_calibration():
     try:
         cal = calib(cams)
         cal.noise = {"box_sigma_px": 1.0, "bearing_sigma_px": 1.0, "flow_sigma_px_s": 5.0}
-        TargetPlanes(initial_xy=list(tgt[0]), box_sigma_px=1.5, bearing_sigma_px=3.5).run(obs, cal)
+        TargetPlanes(initial_xy=list(tgt[0]), box_sigma_px=1.5, box_u_sigma_px=3.5).run(obs, cal)
     finally:
         TargetUpdater.__init__ = orig
     assert seen["window"] == 1.5 and seen["centroid"] == 3.5

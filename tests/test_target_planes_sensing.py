@@ -32,3 +32,28 @@ def test_windows_follow_only_the_walker():
         assert b.u_left - 3 <= u <= b.u_right + 3 and b.v_top - 3 <= v <= b.v_bottom + 3
     # region-averaged flow noise, not edge noise x fps: |flow| of a walker at ~1 m/s is tens of px/s
     assert rec.calibration.noise["flow_sigma_px_s"] < rec.calibration.noise["box_sigma_px"] * 10
+
+
+def test_rendered_recordings_declare_the_flow_detectors_noise():
+    """A rendered recording's calibration carries the flow detector's measured window noise
+    (its own keys: the horizontal cameras' ``bearing_sigma_px`` is left alone), and the
+    estimator picks it up; analytic recordings fall back to the bearing noise and eq. 8's 1."""
+    from estimators.target_planes import TargetPlanes
+    from sim.perception_flow import RENDERED_WINDOW_NOISE
+
+    scene = load_scene("occlusion_lab")
+    rec = simulate(scene, seed=0, duration=0.2, sensing="rendered")
+    noise = rec.calibration.noise
+    for key, value in RENDERED_WINDOW_NOISE.items():
+        assert noise[key] == value
+    assert noise["bearing_sigma_px"] == scene.sensors.bearing_sigma_px  # not overloaded
+    cfg = TargetPlanes(multi_person=True).resolved_config(rec.calibration)
+    assert (cfg.box_sigma_px, cfg.box_u_sigma_px, cfg.flow_sigma_px_s, cfg.width_ratio_threshold) == (
+        RENDERED_WINDOW_NOISE["box_sigma_px"], RENDERED_WINDOW_NOISE["box_u_sigma_px"],
+        RENDERED_WINDOW_NOISE["flow_sigma_px_s"], RENDERED_WINDOW_NOISE["box_width_ratio_threshold"])
+    assert TargetPlanes(multi_person=True, width_ratio_threshold=0.8).resolved_config(rec.calibration).width_ratio_threshold == 0.8
+
+    analytic = simulate(scene, seed=0, duration=0.2).calibration
+    assert "box_u_sigma_px" not in analytic.noise
+    cfg = TargetPlanes(multi_person=True).resolved_config(analytic)
+    assert cfg.box_u_sigma_px == analytic.noise["bearing_sigma_px"] and cfg.width_ratio_threshold == 1.0
