@@ -28,8 +28,10 @@ Visibility: ``in_fov`` = some of the unoccluded silhouette lies in the image;
 from __future__ import annotations
 
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import mujoco
@@ -37,7 +39,8 @@ import numpy as np
 import pandas as pd
 
 from scenes.camera import Camera
-from sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
+from sim.perception import (Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings,
+                            fixed_camera)
 from sim.perception_flow import FlowTracker
 from sim.render import SceneRenderer, VideoSink
 
@@ -101,7 +104,8 @@ def geom_surface_points(model, data, g: int) -> np.ndarray:
 
 
 def unoccluded_pixels(cam: Camera, model, data, geoms, mask: np.ndarray) -> int:
-    """Pixel area of the union of the person's geoms projected into the image (no occlusion)."""
+    """Pixel area of the union of the person's geoms projected into the image (no occlusion).
+    ``data``: anything with ``geom_xpos`` and ``geom_xmat`` (an ``MjData`` or a ``GeomPoses``)."""
     mask[:] = 0
     for g in geoms:
         uv, depth = cam.project(geom_surface_points(model, data, int(g)))
@@ -112,14 +116,34 @@ def unoccluded_pixels(cam: Camera, model, data, geoms, mask: np.ndarray) -> int:
     return int(cv2.countNonZero(mask))
 
 
+class GeomPoses(NamedTuple):
+    """A snapshot of the geoms' world poses (``MjData.geom_xpos``, ``geom_xmat``) at one step, so
+    labels can be computed after the world has moved on."""
+
+    geom_xpos: np.ndarray
+    geom_xmat: np.ndarray
+
+
 def frame_labels(seg: np.ndarray, n_people: int):
-    """Visible pixels (P,) and boxes (P, 4) [x0, y0, x1, y1] of each person in a person-index image."""
-    counts = np.bincount(seg[seg >= 0].ravel(), minlength=n_people)[:n_people]
+    """Visible pixels (P,) and boxes (P, 4) [x0, y0, x1, y1] of each person in a person-index image.
+
+    One pass over the person pixels: counts by ``bincount``, box edges by per-person minimum and
+    maximum of their rows and columns (x1, y1 exclusive); people without pixels get a zero box."""
+    ys, xs = np.nonzero(seg >= 0)
+    who = seg[ys, xs].astype(np.intp)
+    keep = who < n_people
+    ys, xs, who = ys[keep], xs[keep], who[keep]
+    counts = np.bincount(who, minlength=n_people)[:n_people]
+    lo = np.full((n_people, 2), np.iinfo(np.intp).max, np.intp)
+    hi = np.full((n_people, 2), -1, np.intp)
+    np.minimum.at(lo, (who, 0), xs)
+    np.minimum.at(lo, (who, 1), ys)
+    np.maximum.at(hi, (who, 0), xs)
+    np.maximum.at(hi, (who, 1), ys)
     boxes = np.zeros((n_people, 4))
-    for i in np.flatnonzero(counts):
-        rows = np.flatnonzero((seg == i).any(axis=1))
-        cols = np.flatnonzero((seg == i).any(axis=0))
-        boxes[i] = [cols[0], rows[0], cols[-1] + 1, rows[-1] + 1]
+    seen = counts > 0
+    boxes[seen, :2] = lo[seen]
+    boxes[seen, 2:] = hi[seen] + 1
     return counts, boxes
 
 
@@ -136,18 +160,30 @@ def camera_schedule(scene, traj) -> dict[int, list[tuple[Camera, float]]]:
     return dict(sorted(sched.items()))
 
 
-def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None = None):
+OVERLAP = True  # default of ``observe(overlap=...)``: measured faster end to end (scripts/bench_render.py)
+MAX_IN_FLIGHT = 8  # frames rendered ahead of the perception worker at most
+
+
+def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None = None,
+            overlap: bool | None = None):
     """Render every camera, run perception, label from segmentation.
 
     Returns (observation tables, truth tables): ``bearings`` (+ ``width``), ``boxes``,
     ``floor_detections``; ``visibility``, ``labels``. ``save_frames``: a folder to write
     ``<camera>.mp4`` into, or None. ``rng`` is unused: pixels are deterministic and the
     perception errors are the measurement noise. ``timings``: a dict that receives seconds spent
-    per stage (render, segment, perception, labels, video).
+    per stage (pose, render, segment in the rendering thread; perception, labels, video in the
+    thread that runs them; ``wait``: the rendering thread waiting for that one).
+
+    ``overlap`` (default ``OVERLAP``): perception, labels and MP4 writing of each frame run in one
+    worker thread while the main thread poses and renders the next frames (MuJoCo's render and
+    OpenCV release the GIL). One worker takes the frames in order, so the stateful detectors (flow
+    tracker, privacy gate) see the same sequence and the tables are identical either way.
     """
     tm = timings if timings is not None else {}
-    for key in ("pose", "render", "segment", "perception", "labels", "video"):
+    for key in ("pose", "render", "segment", "perception", "labels", "video", "wait"):
         tm.setdefault(key, 0.0)
+    overlap = OVERLAP if overlap is None else bool(overlap)
     model, data, cam_ids, person_geoms = world_maps(world, scene)
     check_cameras(model, scene, cam_ids)
     P = len(person_geoms)
@@ -159,47 +195,73 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     params = PerceptionParams()
     pm = person_model(scene, model, person_geoms)
     schedule = camera_schedule(scene, traj)
+    cams = {c.name: fixed_camera(c) for c in scene.cameras}  # K, R computed once per camera
     sink = VideoSink(save_frames) if save_frames else None
     renderer = SceneRenderer(model, person_of_geom, shadows=scene.render.shadows)
     rows = {k: [] for k in ("bearings", "boxes", "floor_detections", "visibility", "labels")}
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="perception") if overlap else None
+    pending: deque = deque()
     try:
         _pose(world, traj, 0)
         all_person_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
         backgrounds = {c.name: renderer.background(data, cam_ids[c.name], c.width, c.height, all_person_geoms)
                        for c in scene.cameras}
-        overhead = {c.name: OverheadDetector(c, backgrounds[c.name], app, pm, params)
+        overhead = {c.name: OverheadDetector(cams[c.name], backgrounds[c.name], app, pm, params)
                     for c in scene.cameras if c.kind == "overhead"}
-        flow = {c.name: FlowTracker(c.width, c.height, camera=c) for c in scene.cameras if c.kind == "oblique"}
+        flow = {c.name: FlowTracker(c.width, c.height, camera=cams[c.name]) for c in scene.cameras if c.kind == "oblique"}
         masks = {(c.width, c.height): np.zeros((c.height, c.width), np.uint8) for c in scene.cameras}
+        all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
+
+        def process(cam, t, rgb, seg, poses):
+            t2 = time.perf_counter()
+            _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows)
+            t3 = time.perf_counter()
+            _label(cam, t, seg, names, model, poses, person_geoms, masks[(cam.width, cam.height)], rows)
+            t4 = time.perf_counter()
+            if sink is not None:
+                sink.write(cam.name, rgb, cam.fps)
+            t5 = time.perf_counter()
+            tm["perception"] += t3 - t2
+            tm["labels"] += t4 - t3
+            tm["video"] += t5 - t4
+
         for k, due in schedule.items():
             t0 = time.perf_counter()
             _pose(world, traj, k)
+            # the people's geom poses at this step, for the labels (the world moves on meanwhile)
+            xpos = np.zeros_like(data.geom_xpos)
+            xmat = np.zeros_like(data.geom_xmat)
+            xpos[all_geoms], xmat[all_geoms] = data.geom_xpos[all_geoms], data.geom_xmat[all_geoms]
+            poses = GeomPoses(xpos, xmat)
             tm["pose"] += time.perf_counter() - t0
-            for cam, t in due:
+            for c, t in due:
+                cam = cams[c.name]
                 t0 = time.perf_counter()
                 r = renderer.renderer(cam.width, cam.height)
                 r.update_scene(data, camera=cam_ids[cam.name])
                 rgb = r.render()
                 t1 = time.perf_counter()
-                r.enable_segmentation_rendering()
-                try:
-                    seg = renderer.person_index(r.render())
-                finally:
-                    r.disable_segmentation_rendering()
+                seg = renderer.segment(data, cam_ids[cam.name], cam.width, cam.height)
                 t2 = time.perf_counter()
-                _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows)
-                t3 = time.perf_counter()
-                _label(cam, t, seg, names, model, data, person_geoms, masks[(cam.width, cam.height)], rows)
-                t4 = time.perf_counter()
-                if sink is not None:
-                    sink.write(cam.name, rgb, cam.fps)
-                t5 = time.perf_counter()
                 tm["render"] += t1 - t0
                 tm["segment"] += t2 - t1
-                tm["perception"] += t3 - t2
-                tm["labels"] += t4 - t3
-                tm["video"] += t5 - t4
+                if pool is None:
+                    process(cam, t, rgb, seg, poses)
+                    continue
+                pending.append(pool.submit(process, cam, t, rgb, seg, poses))
+                if len(pending) > MAX_IN_FLIGHT:
+                    t0 = time.perf_counter()
+                    pending.popleft().result()  # re-raises a worker's exception here
+                    tm["wait"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        while pending:
+            pending.popleft().result()
+        tm["wait"] += time.perf_counter() - t0
     finally:
+        if pool is not None:
+            for f in pending:
+                f.cancel()
+            pool.shutdown(wait=True)
         renderer.close()
         if sink is not None:
             sink.close()
@@ -262,10 +324,10 @@ def _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows) -> No
                                   float(w.flow[0] * cam.fps), float(w.flow[1] * cam.fps)))
 
 
-def _label(cam, t, seg, names, model, data, person_geoms, mask, rows) -> None:
+def _label(cam, t, seg, names, model, poses, person_geoms, mask, rows) -> None:
     counts, boxes = frame_labels(seg, len(person_geoms))
     for i, geoms in enumerate(person_geoms):
-        area = unoccluded_pixels(cam, model, data, geoms, mask)
+        area = unoccluded_pixels(cam, model, poses, geoms, mask)
         frac = min(1.0, counts[i] / area) if area > 0 else 0.0
         rows["visibility"].append((t, cam.name, names[i], area > 0, bool(counts[i] > 0 and frac >= VISIBLE_FRACTION)))
         if counts[i] > 0:
