@@ -72,6 +72,8 @@ class TargetPlanes(Estimator):
         initial_xy: list | None = None  # target's floor position at the first frame (m)
         initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
         multi_person: bool = False  # track every mover (beyond the paper)
+        split_merged: bool = True  # a window holding the target and a tracked neighbour merged gives the target its side's part (TargetUpdater.split_window)
+        split_min_sep: float = 0.25  # ... when their predicted centres are this many estimated widths apart in the image
         crowd_overlap: float | None = 0.25  # a camera where two targets' estimated windows overlap by this share of the narrower is left out for both (None: off)
         jump_gate: bool = True  # an estimate farther from the prediction than the search radius leaves out the straying camera
         exclude_neighbours: bool = True  # 4.1 literally: track ids once seen beside the target are never the target
@@ -172,6 +174,7 @@ class TargetPlanes(Estimator):
             for c in cams
         }
         upd = TargetUpdater(cfg, Ps, flow_sigma, sigma_px, float(cfg.box_u_sigma_px))
+        upd.image_width = {c: float(calibration.cameras[c].width) for c in cams}
         inside_room = calibration.floorplan.inside
 
         targets: list[Target] = []
@@ -197,9 +200,9 @@ class TargetPlanes(Estimator):
             held = {tg.tid: [] for tg in targets}  # (camera, box) of overlapped windows still containing the target
             acquired = {tg.tid: set() for tg in targets}  # cameras that (re)acquired the target this frame
             followed = {c: set() for c in cams}
-            crowded = self._crowded(targets, preds, views) if cfg.crowd_overlap is not None else {}
+            crowded, partners = self._crowded(targets, preds, views) if cfg.crowd_overlap is not None else ({}, {})
             for c in cams:
-                self._associate(c, frame[c], targets, views, used, held, followed, upd, dt, acquired, crowded)
+                frame[c] = self._associate(c, frame[c], targets, views, used, held, followed, upd, dt, acquired, crowded, partners)
             for tg in list(targets):
                 self._confirm(tg, preds[tg.tid], used[tg.tid], acquired[tg.tid], frame, upd)
                 self._update(tg, preds[tg.tid], used[tg.tid], held[tg.tid], frame, upd, dt)
@@ -207,7 +210,7 @@ class TargetPlanes(Estimator):
                 claimed = {c: set(followed[c]) | {j for u in used.values() for cc, j in u.items() if cc == c} for c in cams}
                 free = {c: [j for j in range(len(frame[c])) if j not in claimed[c]] for c in cams}
                 for xy, support in propose(cfg, upd.margin_px, Ps, frame, free, inside_room):
-                    if self._reacquire(targets, preds, xy, support, frame, upd):
+                    if self._reacquire(targets, preds, xy, support, frame, upd, views):
                         continue
                     tg = Target(next_id, xy.copy(), {c: CameraState() for c in cams}, sigma=upd.search_sigma(xy, support))
                     next_id += 1
@@ -257,15 +260,19 @@ class TargetPlanes(Estimator):
         tg.area = area.polygon
         return tg
 
-    def _crowded(self, targets, preds, views) -> dict[int, set]:
+    def _crowded(self, targets, preds, views) -> tuple[dict[int, set], dict[int, dict[str, list[int]]]]:
         """Cameras in which a target's predicted window overlaps another confirmed target's
         (beyond the paper: section 4.1's overlap, foreseen from the 3-D predictions of the people
         being tracked): the intervals [u_l, u_r] of the estimated windows overlap by more than
         ``crowd_overlap`` of the narrower one. Such a camera cannot tell the two apart (their
         flows are alike, their windows merge or split anywhere), so it is left out for both.
-        Two targets nearer than 2 ``radius`` on the floor are one person seen twice, not a crowd."""
+        Two targets nearer than 2 ``radius`` on the floor are one person seen twice, not a crowd.
+
+        Also returns, for each target and camera, the targets whose estimated windows overlap
+        its own there (in every view too): the neighbours a merged window may be split with."""
         cfg = self.config
         out: dict[int, set] = {tg.tid: set() for tg in targets}
+        partners: dict[int, dict[str, list[int]]] = {tg.tid: {} for tg in targets}
         live = [tg for tg in targets if tg.confirmed or tg.tid == 0]
         for a in range(len(live)):
             for b in range(a + 1, len(live)):
@@ -279,13 +286,50 @@ class TargetPlanes(Estimator):
                     inter = min(va.win_point[1], vb.win_point[1]) - max(va.win_point[0], vb.win_point[0])
                     if inter > cfg.crowd_overlap * min(va.w_c, vb.w_c):
                         hit.add(c)
+                        partners[ta.tid].setdefault(c, []).append(tb.tid)
+                        partners[tb.tid].setdefault(c, []).append(ta.tid)
                 if len(hit) < len(both):  # crowded in every view: no camera separates them; the per-window tests of section 4 decide
                     out[ta.tid] |= hit
                     out[tb.tid] |= hit
+        return out, partners
+
+    def _splits(self, c, boxes, targets, views, idx, partners, upd: TargetUpdater) -> dict[int, tuple[int, np.ndarray]]:
+        """Targets of camera c whose window is merged with a tracked neighbour's: target id ->
+        (merged window index, the target's part, ``TargetUpdater.split_window``). Only where the
+        split can be trusted: the target's last estimate came from two or more cameras' planes
+        (its prediction says on which side it is), and the window is the one this camera was
+        already following for the target, now wider than one person (eq. 8 above
+        ``rejoin_width_ratio``), holding both predicted centres and moving with the target's
+        predicted image velocity (3.4.2). A lost camera is never re-acquired by a split."""
+        cfg = self.config
+        out = {}
+        if not cfg.split_merged or not len(boxes):
+            return out
+        for tg in targets:
+            view = views[tg.tid].get(c)
+            if view is None or tg.mode != "planes":
+                continue
+            for otid in partners.get(tg.tid, {}).get(c, ()):
+                pv = views.get(otid, {}).get(c)
+                if pv is None:
+                    continue
+                lo = np.minimum(view.u_c, pv.u_c)
+                hi = np.maximum(view.u_c, pv.u_c)
+                cand = (width_ratio(boxes.width, view.w_c) > cfg.rejoin_width_ratio) & (boxes.win[:, 0] <= lo) & (boxes.win[:, 1] >= hi)
+                cand &= upd.flow_ok(c, view, boxes.flow)
+                j = idx.get(tg.tid)
+                if j is None or not cand[j]:
+                    continue
+                k = j
+                sub = upd.split_window(view, pv, boxes.win[k], upd.image_width.get(c))
+                if sub is not None:
+                    out[tg.tid] = (int(k), sub)
+                    break
         return out
 
-    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt, acquired, crowded=None) -> None:
-        """One camera: continue tracking cameras' windows, then search for the others."""
+    def _associate(self, c, boxes, targets, views, used, held, followed, upd: TargetUpdater, dt, acquired, crowded=None, partners=None) -> CameraBoxes:
+        """One camera: split merged windows, continue tracking cameras' windows, then search for
+        the others. Returns the camera's windows with the split-off parts appended."""
         cfg = self.config
         crowded = crowded or {}
         claimed: dict[int, int] = {}  # box -> target id
@@ -299,6 +343,8 @@ class TargetPlanes(Estimator):
         for tid, j in idx.items():
             if j is not None:
                 shared[j] = shared.get(j, 0) + 1
+        splits = self._splits(c, boxes, targets, views, idx, partners or {}, upd)
+        extra = []  # split-off windows, appended after the camera's own
         searchers = []
         for tg in targets:
             cs = tg.cams[c]
@@ -306,6 +352,17 @@ class TargetPlanes(Estimator):
             j = idx.get(tg.tid)
             if view is None:
                 cs.status, cs.track, cs.reason = LOST, None, "out of view"
+                continue
+            if tg.tid in splits:
+                k, sub = splits[tg.tid]
+                if cs.status != TRACKING or cs.track != boxes.track[k]:
+                    acquired[tg.tid].add(c)  # a re-acquisition: to be confirmed
+                cs.status, cs.track, cs.reason = TRACKING, boxes.track[k], "split"
+                jj = len(boxes) + len(extra)
+                extra.append(((boxes.track[k], "split", tg.tid), sub, boxes.flow[k]))
+                followed[c].add(k)
+                claimed[k] = tg.tid
+                used[tg.tid][c] = jj
                 continue
             if c in crowded.get(tg.tid, ()) and j is not None and width_ratio(boxes.width[j], view.w_c) > cfg.rejoin_width_ratio:
                 # another target stands beside, in front of or behind it in this view and the
@@ -320,6 +377,8 @@ class TargetPlanes(Estimator):
             followed[c].add(j)
             if cs.status == UNRELIABLE and cs.reason == "crowded":
                 cs.status = TRACKING  # separated again: judged afresh by section 4
+            if cs.reason == "split":
+                cs.status, cs.reason = UNRELIABLE, "overlap"  # the merged window: the target's alone only once narrow again
             if cs.status == TRACKING:
                 reason = "overlap" if shared[j] > 1 else upd.check_reliable(c, cs, view, boxes, j, dt)
                 if not reason:
@@ -379,6 +438,9 @@ class TargetPlanes(Estimator):
                 continue  # keeps following its window until the target is separated again
             cs.status, cs.track, cs.reason = LOST, None, ""
             cs.near = {}
+        for track, sub, flow in extra:
+            boxes, _ = boxes.with_box(track, sub, flow)
+        return boxes
 
     def _others(self, cs: CameraState) -> set:
         return cs.others if self.config.exclude_neighbours else set()
@@ -423,17 +485,27 @@ class TargetPlanes(Estimator):
                 self._reject(tg, c, used, keep_pending=area_ok)
             return
 
-    def _reacquire(self, targets, preds, xy, support, frame, upd: TargetUpdater) -> bool:
+    def _reacquire(self, targets, preds, xy, support, frame, upd: TargetUpdater, views=None) -> bool:
         """A mover found by two or more cameras' crossing planes (``tp_initiate``) within the
         search radius of an existing target is that target seen by more cameras (the agreement
         ``_confirm`` asks of a re-acquisition), not a new person: its windows join the target
-        in the cameras that do not track it."""
+        in the cameras that do not track it. A window joins only if it moves as the target is
+        predicted to (section 3.4.2's velocity gate, as for a lost camera's own search): a target
+        that vanished from every view has most likely stopped, and a look-alike walking past it
+        does not move like someone starting from rest (``TargetUpdater.flow_ok`` with the
+        velocity uncertainty grown by ``accel_max`` since it was lost). If no window may join,
+        the mover is still near the target, so it is not started as a new person."""
         pred = {tg.tid: preds.get(tg.tid, tg.xy) for tg in targets}  # targets started this frame: their position
         near = [tg for tg in targets if np.linalg.norm(xy - pred[tg.tid]) <= upd.search_radius(tg)]
         if not near:
             return False
         tg = min(near, key=lambda tg: float(np.linalg.norm(xy - pred[tg.tid])))
         joined = {c: j for c, j in support.items() if tg.cams[c].status != TRACKING}
+        if views is not None and tg.tid in views:
+            v = views[tg.tid]
+            joined = {c: j for c, j in joined.items() if c in v and upd.flow_ok(c, v[c], frame[c].flow[j : j + 1])[0]}
+            if not joined:
+                return True
         for c, j in joined.items():
             tg.cams[c] = CameraState(TRACKING, frame[c].track[j], others=tg.cams[c].others)
         if tg.n_used < 2:  # the crossing is a better estimate than the target's own

@@ -41,6 +41,16 @@ class CameraBoxes:
         """(u, u_left, u_right, v_top, v_bottom) of box j."""
         return (float(self.u[j]), *map(float, self.win[j]))
 
+    def with_box(self, track, win, flow) -> tuple["CameraBoxes", int]:
+        """These windows plus one more (its centroid u the window's centre); returns the new
+        frame and the index of the added window."""
+        win = np.asarray(win, float).reshape(1, 4)
+        tr = np.empty(len(self) + 1, object)
+        tr[:-1], tr[-1] = self.track, track
+        out = CameraBoxes(tr, np.append(self.u, 0.5 * (win[0, 0] + win[0, 1])), np.vstack([self.win, win]),
+                          np.vstack([self.flow, np.asarray(flow, float).reshape(1, 2)]))
+        return out, len(self)
+
     @staticmethod
     def empty() -> "CameraBoxes":
         return CameraBoxes(np.array([], object), np.zeros(0), np.zeros((0, 4)), np.zeros((0, 2)))

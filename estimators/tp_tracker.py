@@ -112,6 +112,7 @@ class TargetUpdater:
         self.focal = {c: _focal(P) for c, P in Ps.items()}
         self.flow_sigma = flow_sigma or {}
         self.min_angle = np.radians(cfg.min_plane_angle_deg)
+        self.image_width: dict[str, float] = {}  # image widths (px): a window edge there is cut by the border
 
     def search_sigma(self, xy: np.ndarray, cams) -> float:
         """Search radius (m) after an estimate from ``cams``: ``sigma_planes`` plus three times
@@ -233,6 +234,47 @@ class TargetUpdater:
                 continue
             cost[j] = abs(boxes.u[j] - view.u_c) / view.w_c
         return cost
+
+    def split_window(self, view: CameraView, partner: CameraView, win: np.ndarray, image_width: float | None) -> np.ndarray | None:
+        """The target's part of a window that holds it and a tracked neighbour merged (beyond the
+        paper: two people side by side with the same image velocity make one flow region).
+
+        The target is predicted at u_c (estimated window width w_c), the neighbour at u_c'. When
+        both centres lie inside the merged window [u_l, u_r] (widened by half a width) and they
+        are apart in the image (|u_c - u_c'| >= ``split_min_sep`` min(w_c, w_c')), and the merged
+        window is as wide as the union of their two estimated windows (within
+        ``rejoin_width_ratio`` min(w_c, w_c'): it holds these two, not a third or a ghost), the merged
+        window's outer edge on the target's side is the target's own edge (the person on that
+        side bounds the region there), so the target's window is [u_l, u_l + w_c] if u_c < u_c',
+        else [u_r - w_c, u_r]; its rows are the estimated window's (clipped to the merged
+        window's; those belong to whichever of the two is nearer the camera). Returns None where the target's edge
+        is cut by the image border, the two are in line (one behind the other), or a centre lies
+        outside the window."""
+        cfg = self.cfg
+        ul, ur = float(win[0]), float(win[1])
+        w, wp = view.w_c, partner.w_c
+        if ur - ul <= w:
+            return None
+        for u, ww in ((view.u_c, w), (partner.u_c, wp)):
+            if not (ul - 0.5 * ww <= u <= ur + 0.5 * ww):
+                return None
+        d = view.u_c - partner.u_c
+        if abs(d) < cfg.split_min_sep * min(w, wp):
+            return None
+        union = max(view.win_point[1], partner.win_point[1]) - min(view.win_point[0], partner.win_point[0])
+        if abs((ur - ul) - union) > cfg.rejoin_width_ratio * min(w, wp):
+            return None  # not the two of them: the window's width is not their estimated windows' union
+        # rows: the merged window's top and bottom are those of whichever of the two is nearer
+        # the camera; the target's own come from the prediction, inside the merged window's
+        vt = float(np.clip(view.win_point[2], win[2], win[3]))
+        vb = float(np.clip(view.win_point[3], vt, win[3]))
+        if d < 0:
+            if ul <= 0.5:
+                return None
+            return np.array([ul, ul + w, vt, vb])
+        if image_width is not None and ur >= image_width - 0.5:
+            return None
+        return np.array([ur - w, ur, vt, vb])
 
     # --- estimation ---------------------------------------------------------------------------
     def estimate(self, tgt: Target, xy_pred: np.ndarray, used: dict[str, int], frame: dict[str, CameraBoxes], unreliable_areas: list[str]):

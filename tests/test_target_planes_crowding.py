@@ -21,20 +21,40 @@ def test_crowded_views_are_those_where_estimated_windows_overlap():
     b = Target(1, np.array([1.6, 1.0]), {}, confirmed=True)
     preds = {0: a.xy, 1: b.xy}
     views = {0: {"c1": view(100, 120), "c2": view(200, 220)}, 1: {"c1": view(110, 130), "c2": view(240, 260)}}
-    assert tp._crowded([a, b], preds, views) == {0: {"c1"}, 1: {"c1"}}
-    # crowded in every view that sees both: no camera separates them, the rule stays out
+    assert tp._crowded([a, b], preds, views) == ({0: {"c1"}, 1: {"c1"}}, {0: {"c1": [1]}, 1: {"c1": [0]}})
+    # crowded in every view that sees both: no camera separates them, the rule stays out (they
+    # are still each other's neighbours for splitting merged windows)
     views[1]["c2"] = view(205, 225)
-    assert tp._crowded([a, b], preds, views) == {0: set(), 1: set()}
+    assert tp._crowded([a, b], preds, views) == ({0: set(), 1: set()}, {0: {"c1": [1], "c2": [1]}, 1: {"c1": [0], "c2": [0]}})
     # nearer than a body width on the floor: one person seen twice, not a crowd
     preds[1] = np.array([1.2, 1.0])
     views[1]["c2"] = view(240, 260)
-    assert tp._crowded([a, b], preds, views) == {0: set(), 1: set()}
+    assert tp._crowded([a, b], preds, views) == ({0: set(), 1: set()}, {0: {}, 1: {}})
 
 
-def test_merged_windows_beside_a_tracked_look_alike_are_left_out():
+def test_a_merged_window_is_split_at_the_targets_outer_edge():
+    """Two people side by side in one window: the target's part is the merged window's edge on
+    its side plus its estimated width; no split where they are in line, where a centre is
+    outside the window or where the target's edge is cut by the image border."""
+    upd = TargetUpdater(TargetPlanes.Config(), {})
+    merged = np.array([100.0, 150.0, 40.0, 160.0])
+    left, right = view(100, 130), view(118, 150)  # target on the left, neighbour on the right
+    assert np.allclose(upd.split_window(left, right, merged, 320.0), [100, 130, 50, 150])
+    assert np.allclose(upd.split_window(right, left, merged, 320.0), [118, 150, 50, 150])
+    assert upd.split_window(view(101, 131), view(103, 133), merged, 320.0) is None  # in line
+    assert upd.split_window(left, view(190, 220), merged, 320.0) is None  # neighbour not in the window
+    assert upd.split_window(right, left, merged, 150.0) is None  # right edge at the image border
+    assert upd.split_window(view(0, 30), view(18, 50), np.array([0.0, 50.0, 40.0, 160.0]), 320.0) is None  # left edge at the border
+    assert upd.split_window(left, right, np.array([100.0, 180.0, 40.0, 160.0]), 320.0) is None  # wider than the two: not them
+    # rows: the target's estimated rows inside the merged window's
+    assert np.allclose(upd.split_window(CameraView(np.array([100, 130, 30.0, 150]), None, None), right, merged, 320.0), [100, 130, 40, 150])
+
+
+def test_merged_windows_beside_a_tracked_look_alike_are_split_or_left_out():
     """A look-alike 0.7 m beside the target, the same velocity; where their windows overlap the
-    camera reports one merged window. The target is held, and cameras are left out as crowded
-    only where the windows merge."""
+    camera reports one merged window. The target is held; where the windows merge, the target's
+    part of the window is split off (or, with ``split_merged=False``, the camera is left out as
+    crowded)."""
     cams = four_cameras()
     times = np.round(np.arange(0, 8.0, 0.1), 6)
     tgt = line_path([1.0, 2.0], [7.0, 2.5], times)
@@ -46,7 +66,12 @@ def test_merged_windows_beside_a_tracked_look_alike_are_left_out():
         err = np.hypot(res.tracks.x - tgt[k, 0], res.tracks.y - tgt[k, 1])
         assert np.sqrt(np.mean(err**2)) < 0.05
         crowded = (res.status.reason == "crowded").sum()
-        assert (crowded > 10) if merge else (crowded == 0)
+        split = (res.status.reason == "split").sum()
+        assert (crowded + split > 10) if merge else (crowded + split == 0)
+        if merge:  # the merged windows' target parts are used: more cameras per frame than without splitting
+            plain = TargetPlanes(initial_xy=list(tgt[0]), split_merged=False).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+            assert split > 10 and (plain.status.reason == "crowded").sum() > 10
+            assert res.tracks.n_cameras.mean() > plain.tracks.n_cameras.mean() + 0.2
 
 
 class _StubUpdater:

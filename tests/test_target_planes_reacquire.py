@@ -68,3 +68,33 @@ def test_velocity_prior_holds_the_component_one_camera_cannot_see():
     assert np.linalg.norm(held - V_true) < 0.7 * np.linalg.norm(free - V_true)
     # without a prior the weighted solution is the paper's plain least squares
     np.testing.assert_allclose(geo.velocity_from_flows([c.P], [X], [noisy], [3.0]), free, atol=1e-9)
+
+
+def test_a_stopped_target_is_not_handed_a_mover_walking_past():
+    """Two cameras' crossing planes near a target that vanished from every view (it stopped):
+    windows moving far faster than someone starting from rest do not join it (section 3.4.2's
+    velocity gate on the hand-back); windows moving as predicted do."""
+    from estimators.target_planes import TargetPlanes
+    from estimators.tp_frames import CameraBoxes
+    from estimators.tp_tracker import LOST, TRACKING, CameraState, Target, TargetUpdater
+    from estimators import tp_geometry as geo
+    from tests.test_target_planes import four_cameras
+
+    cams = four_cameras()
+    Ps = {c.name: c.P for c in cams}
+    tp = TargetPlanes(initial_xy=[0, 0])
+    upd = TargetUpdater(tp.config, Ps)
+    xy = np.array([4.0, 3.0])
+    for speed, joins in ((0.0, True), (1.0, False)):
+        tg = Target(0, xy.copy(), {c: CameraState(LOST) for c in Ps}, sigma=0.5, sigma_v=0.1)
+        tg.vel_known, tg.mode = True, "predicted"
+        views = {0: upd.views(tg, xy)}
+        frame, support = {}, {}
+        for c in ("sw", "se"):
+            w = geo.cylinder_window(Ps[c], xy, tp.config.height, tp.config.radius)
+            J = geo.flow_jacobian(Ps[c], np.array([xy[0], xy[1], 0.9]))
+            flow = J @ np.array([speed, 0.0, 0.0])
+            frame[c] = CameraBoxes(np.array([7], object), np.array([0.5 * (w[0] + w[1])]), np.array([w]), np.array([flow]))
+            support[c] = 0
+        assert tp._reacquire([tg], {0: xy}, xy, support, frame, upd, views)  # near the target: never a new person
+        assert all((tg.cams[c].status == TRACKING) == joins for c in support)
