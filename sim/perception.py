@@ -183,7 +183,10 @@ def person_blobs(rgb: np.ndarray, background: np.ndarray, app: Appearance, param
     for k in range(n):
         if stats[k, 4] < min_area:
             continue
-        ys, xs = np.nonzero(labels == k + 1)
+        x0, y0, w, h = (int(a) for a in stats[k, :4])  # search the component's box only
+        ys, xs = np.nonzero(labels[y0:y0 + h, x0:x0 + w] == k + 1)
+        ys += y0
+        xs += x0
         v = colour_votes(rgb[ys, xs], app, params)
         if votes is not None:
             votes[ys, xs] = v
