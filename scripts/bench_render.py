@@ -105,16 +105,16 @@ def main(argv=None) -> int:
           f"{os.cpu_count()} CPUs")
     load0 = os.getloadavg()
     runs: dict[str, list[float]] = {"rgb": [], "rgbseg": [], "pipe": [], "pipe_inline": []}
-    stages: dict = {}
+    stages: dict = {"pipe": {}, "pipe_inline": {}}
     for _ in range(max(1, args.repeat)):
         dt, n = bare(world, scene, traj, False, args.warmup)
         runs["rgb"].append(dt)
         runs["rgbseg"].append(bare(world, scene, traj, True, args.warmup)[0])
-        dt, tm = pipeline(world, scene, traj, True, args.warmup)
-        if not runs["pipe"] or dt < min(runs["pipe"]):
-            stages = tm
-        runs["pipe"].append(dt)
-        runs["pipe_inline"].append(pipeline(world, scene, traj, False, args.warmup)[0])
+        for key, overlap in (("pipe", True), ("pipe_inline", False)):
+            dt, tm = pipeline(world, scene, traj, overlap, args.warmup)
+            if not runs[key] or dt < min(runs[key]):
+                stages[key] = tm
+            runs[key].append(dt)
     load1 = os.getloadavg()
     best = {k: min(v) for k, v in runs.items()}
     t_rgb, t_rgbseg, t_pipe, t_inline = best["rgb"], best["rgbseg"], best["pipe"], best["pipe_inline"]
@@ -130,11 +130,16 @@ def main(argv=None) -> int:
     line("full pipeline (inline, one thread)", "pipe_inline")
     print(f"ratio pipeline / bare RGB              : {t_pipe / t_rgb:5.2f}  (target <= 1.5; inline {t_inline / t_rgb:.2f})")
     print(f"ratio pipeline / bare RGB + segment    : {t_pipe / t_rgbseg:5.2f}  (inline {t_inline / t_rgbseg:.2f})")
-    print("pipeline stages of the best overlapped run (s, ms/frame; perception, labels and video run in")
-    print("the worker thread concurrently with pose/render/segment; wait = renderer idle for the worker):")
-    for k, v in stages.items():
-        print(f"  {k:28s} {v:7.2f}  {1000 * v / n:6.2f}")
-    print(f"  {'other (backgrounds, tables)':28s} {t_pipe - sum(v for k, v in stages.items() if k in ('pose', 'render', 'segment', 'wait')):7.2f}")
+    print("pipeline time by stage, best runs (s; ms/frame). Overlapped: perception, labels and video run in")
+    print("the worker thread concurrently with pose/render/segment; wait = the renderer waiting for the worker.")
+    print(f"  {'stage':28s} {'overlapped':>16s} {'inline':>16s}")
+    for k in stages["pipe"]:
+        a, b = stages["pipe"][k], stages["pipe_inline"].get(k, 0.0)
+        print(f"  {k:28s} {a:7.2f} {1000 * a / n:7.2f}  {b:7.2f} {1000 * b / n:7.2f}")
+    main_thread = ("pose", "render", "segment", "wait")
+    o_a = t_pipe - sum(v for k, v in stages["pipe"].items() if k in main_thread)
+    o_b = t_inline - sum(stages["pipe_inline"].values())
+    print(f"  {'other (backgrounds, tables)':28s} {o_a:7.2f} {1000 * o_a / n:7.2f}  {o_b:7.2f} {1000 * o_b / n:7.2f}")
 
     if args.generate > 0:
         from sim.simulate import simulate
