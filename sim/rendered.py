@@ -42,7 +42,7 @@ from scenes.camera import Camera
 from sim.perception import (Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings,
                             fixed_camera)
 from sim.perception_flow import FlowTracker
-from sim.render import SceneRenderer, VideoSink
+from sim.render import SceneRenderer, SegmentationThread, VideoSink
 
 VISIBLE_FRACTION = 0.5
 
@@ -200,6 +200,7 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     renderer = SceneRenderer(model, person_of_geom, shadows=scene.render.shadows)
     rows = {k: [] for k in ("bearings", "boxes", "floor_detections", "visibility", "labels")}
     pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="perception") if overlap else None
+    segmenter = SegmentationThread(renderer) if overlap else None
     pending: deque = deque()
     try:
         _pose(world, traj, 0)
@@ -213,6 +214,8 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
         all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
 
         def process(cam, t, rgb, seg, poses):
+            if not isinstance(seg, np.ndarray):
+                seg = seg.result()  # the segmentation thread's Future
             t2 = time.perf_counter()
             _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows)
             t3 = time.perf_counter()
@@ -237,14 +240,18 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
             for c, t in due:
                 cam = cams[c.name]
                 t0 = time.perf_counter()
+                if segmenter is not None:  # drawn in its own thread while the RGB render runs
+                    seg = segmenter.submit(data, cam_ids[cam.name], cam.width, cam.height)
+                t1 = time.perf_counter()
                 r = renderer.renderer(cam.width, cam.height)
                 r.update_scene(data, camera=cam_ids[cam.name])
                 rgb = r.render()
-                t1 = time.perf_counter()
-                seg = renderer.segment(data, cam_ids[cam.name], cam.width, cam.height)
                 t2 = time.perf_counter()
-                tm["render"] += t1 - t0
-                tm["segment"] += t2 - t1
+                if segmenter is None:
+                    seg = renderer.segment(data, cam_ids[cam.name], cam.width, cam.height)
+                t3 = time.perf_counter()
+                tm["segment"] += (t1 - t0) + (t3 - t2)
+                tm["render"] += t2 - t1
                 if pool is None:
                     process(cam, t, rgb, seg, poses)
                     continue
@@ -262,6 +269,8 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
             for f in pending:
                 f.cancel()
             pool.shutdown(wait=True)
+        if segmenter is not None:
+            segmenter.close()
         renderer.close()
         if sink is not None:
             sink.close()
