@@ -11,6 +11,12 @@ horizontal -> bearings (u, width, colour label); overhead -> floor detections (r
 oblique -> boxes from the optical-flow tracker, plus bearings from the same background-difference
 blobs as a horizontal camera (u of each person blob, colour label).
 
+Threads (``observe(overlap=True)``, the default): the main thread poses the world and draws the
+RGB renders, ``sim.render.SegmentationThread`` draws the segmentation renders alongside, and one
+worker thread runs perception, labels and MP4 writing on each frame in order (the stateful
+detectors see the same sequence), so the tables are identical to the one-thread run. On the
+2-core machine this is 1.2-1.3x faster end to end than one thread (``scripts/bench_render.py``).
+
 Labels (truth, never given to estimators), per camera frame and person:
   pixels            visible pixels of the person in the segmentation render;
   visible_fraction  pixels / A, where A is the pixel area the person would cover if nothing
