@@ -11,6 +11,7 @@ MuJoCo cameras look along -z with +y up; ``mujoco_xyaxes`` converts once, here.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -42,6 +43,8 @@ def yaw_pitch_towards(position, target) -> tuple[float, float]:
 class Camera:
     """A calibrated pinhole camera: what a user of a real network would have measured.
 
+    The camera is immutable; K, R, t, P are computed once on first use (cached).
+
     ``kind`` is one of ``horizontal`` (wall-mounted, optical axis parallel to the floor;
     Rahimi), ``overhead`` (ceiling, looking down; Teixeira) or ``oblique`` (any pose;
     Tsutsui). ``fps`` is the frame rate in Hz. ``privacy`` marks an overhead motion camera
@@ -65,32 +68,32 @@ class Camera:
     color: tuple[float, float, float] = field(default=(0.2, 0.2, 0.2))
 
     # --- intrinsics / extrinsics -------------------------------------------------
-    @property
+    @cached_property
     def focal(self) -> float:
         """Focal length in pixels: f = 0.5 H / tan(fovy / 2)."""
         return 0.5 * self.height / np.tan(0.5 * self.fovy)
 
-    @property
+    @cached_property
     def K(self) -> np.ndarray:
         f = self.focal
         return np.array([[f, 0.0, self.width / 2.0], [0.0, f, self.height / 2.0], [0.0, 0.0, 1.0]])
 
-    @property
+    @cached_property
     def R(self) -> np.ndarray:
         """World-to-camera rotation (OpenCV camera frame)."""
         return rotation_from_yaw_pitch(self.yaw, self.pitch)
 
-    @property
+    @cached_property
     def t(self) -> np.ndarray:
         """World-to-camera translation: X_cam = R X_world + t."""
         return -self.R @ np.asarray(self.position, float)
 
-    @property
+    @cached_property
     def P(self) -> np.ndarray:
         """3x4 projection matrix P = K [R | t]."""
         return self.K @ np.hstack([self.R, self.t[:, None]])
 
-    @property
+    @cached_property
     def fovx(self) -> float:
         """Horizontal field of view, radians."""
         return 2.0 * np.arctan(0.5 * self.width / self.focal)

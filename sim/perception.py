@@ -28,43 +28,12 @@ Detectors:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from scenes.camera import Camera
-
-
-@dataclass(frozen=True)
-class FixedCamera(Camera):
-    """A ``Camera`` whose derived matrices (focal, K, R, t, P) are computed once.
-
-    ``Camera`` recomputes R from yaw and pitch (trigonometry and cross products) on every
-    access; per-frame perception and labelling read it thousands of times for a camera that never
-    moves. The cached values are the ones ``Camera``'s properties return (same code, computed
-    once), stored read-only, so every result is bit-identical.
-    """
-
-    def __post_init__(self):
-        for name in ("focal", "K", "R", "t", "P"):
-            v = getattr(Camera, name).fget(self)
-            if isinstance(v, np.ndarray):
-                v.setflags(write=False)
-            object.__setattr__(self, "_" + name, v)
-
-    focal = property(lambda self: self._focal)
-    K = property(lambda self: self._K)
-    R = property(lambda self: self._R)
-    t = property(lambda self: self._t)
-    P = property(lambda self: self._P)
-
-
-def fixed_camera(cam: Camera) -> FixedCamera:
-    """The same camera with its matrices cached (``FixedCamera``)."""
-    if isinstance(cam, FixedCamera):
-        return cam
-    return FixedCamera(**{f.name: getattr(cam, f.name) for f in fields(Camera)})
 
 
 @dataclass(frozen=True)
@@ -356,7 +325,6 @@ class OverheadDetector:
 
     def __init__(self, cam: Camera, background: np.ndarray, app: Appearance, person: PersonModel,
                  params: PerceptionParams = PerceptionParams()):
-        cam = fixed_camera(cam)  # R and K are read per blob: computed once
         self.cam, self.background, self.app, self.person, self.params = cam, background, app, person, params
         self.gate = None
         if cam.privacy:

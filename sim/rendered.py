@@ -45,8 +45,7 @@ import numpy as np
 import pandas as pd
 
 from scenes.camera import Camera
-from sim.perception import (Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings,
-                            fixed_camera)
+from sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
 from sim.perception_flow import FlowTracker
 from sim.render import SceneRenderer, SegmentationThread, VideoSink
 
@@ -201,7 +200,6 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     params = PerceptionParams()
     pm = person_model(scene, model, person_geoms)
     schedule = camera_schedule(scene, traj)
-    cams = {c.name: fixed_camera(c) for c in scene.cameras}  # K, R computed once per camera
     sink = VideoSink(save_frames) if save_frames else None
     renderer = SceneRenderer(model, person_of_geom, shadows=scene.render.shadows)
     rows = {k: [] for k in ("bearings", "boxes", "floor_detections", "visibility", "labels")}
@@ -213,9 +211,9 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
         all_person_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
         backgrounds = {c.name: renderer.background(data, cam_ids[c.name], c.width, c.height, all_person_geoms)
                        for c in scene.cameras}
-        overhead = {c.name: OverheadDetector(cams[c.name], backgrounds[c.name], app, pm, params)
+        overhead = {c.name: OverheadDetector(c, backgrounds[c.name], app, pm, params)
                     for c in scene.cameras if c.kind == "overhead"}
-        flow = {c.name: FlowTracker(c.width, c.height, camera=cams[c.name]) for c in scene.cameras if c.kind == "oblique"}
+        flow = {c.name: FlowTracker(c.width, c.height, camera=c) for c in scene.cameras if c.kind == "oblique"}
         masks = {(c.width, c.height): np.zeros((c.height, c.width), np.uint8) for c in scene.cameras}
         all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
 
@@ -244,7 +242,7 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
             poses = GeomPoses(xpos, xmat)
             tm["pose"] += time.perf_counter() - t0
             for c, t in due:
-                cam = cams[c.name]
+                cam = c
                 t0 = time.perf_counter()
                 if segmenter is not None:  # drawn in its own thread while the RGB render runs
                     seg = segmenter.submit(data, cam_ids[cam.name], cam.width, cam.height)
