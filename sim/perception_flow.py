@@ -57,6 +57,8 @@ import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from scenes.camera import Camera
+
 
 # This detector's window errors against the projected truth on rendered ``occlusion_lab`` (320x240,
 # 10 fps; seed 0, 35 s; windows on walking people; robust standard deviations 1.4826 MAD), in the
@@ -124,14 +126,10 @@ class FlowTracker:
     width: int
     height: int
     params: FlowParams = field(default_factory=FlowParams)
-    camera: object = None
+    camera: Camera | None = None  # calibrated camera for the person-size prior (None: no prior)
     windows: list[Window] = field(default_factory=list)
     _prev: np.ndarray | None = None
     _next_id: int = 0
-
-    def __post_init__(self):
-        if self.camera is not None and not isinstance(self.camera, Pinhole):
-            self.camera = Pinhole.of(self.camera)
 
     def __call__(self, rgb: np.ndarray) -> list[Window]:
         p = self.params
@@ -233,34 +231,6 @@ def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     area = lambda x: (x[:, 2] - x[:, 0]) * (x[:, 3] - x[:, 1])  # noqa: E731
     union = area(a)[:, None] + area(b)[None, :] - inter
     return np.where(union > 0, inter / np.maximum(union, 1e-9), 0.0)
-
-
-@dataclass(frozen=True)
-class Pinhole:
-    """A calibrated camera reduced to its 3x4 matrix P = K [R | t], for the per-frame prior:
-    ``project`` x ~ P [X; 1] (depth = third coordinate), ``backproject_to_plane`` X = C + s d
-    with d = M^-1 [u, v, 1] (M = P[:, :3]) and C = -M^-1 p4 the camera centre."""
-
-    P: np.ndarray
-    M_inv: np.ndarray
-    C: np.ndarray
-
-    @staticmethod
-    def of(camera) -> "Pinhole":
-        P = np.asarray(camera.P, float)
-        M_inv = np.linalg.inv(P[:, :3])
-        return Pinhole(P, M_inv, -M_inv @ P[:, 3])
-
-    def project(self, points) -> tuple[np.ndarray, np.ndarray]:
-        x = np.asarray(points, float) @ self.P[:, :3].T + self.P[:, 3]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return x[..., :2] / x[..., 2:3], x[..., 2]
-
-    def backproject_to_plane(self, uv, z_plane: float) -> np.ndarray:
-        d = self.M_inv @ np.array([uv[0], uv[1], 1.0])
-        if abs(d[2]) < 1e-12 or (z_plane - self.C[2]) / d[2] <= 0:
-            return np.full(3, np.nan)
-        return self.C + (z_plane - self.C[2]) / d[2] * d
 
 
 def expected_person_window(camera, u: float, v_top: float, height: float, radius: float) -> np.ndarray | None:
