@@ -113,6 +113,15 @@ def xy_of(X):
     return X[0::4], X[2::4]
 
 
+def draw_run(ax, cal, xy_true, r, title: str) -> None:
+    """Room, true path (green) and estimate (red) of one run, titled with its RMSE."""
+    draw_room(ax, cal)
+    ax.plot(xy_true[:, 0], xy_true[:, 1], "g-", lw=1)
+    ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5)
+    e = np.sqrt(np.nanmean((r.X[0::4] - xy_true[:, 0]) ** 2 + (r.X[2::4] - xy_true[:, 1]) ** 2))
+    ax.set_title(f"{title}: RMSE {e:.2f} m", fontsize=8)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs/img")
@@ -203,11 +212,7 @@ def main(argv=None) -> int:
             _, cal_s, xy_s, r = run(hall, seed, 60.0, q_pos=Q[0], q_vel=Q[1])
         except ValueError:
             continue
-        draw_room(ax, cal_s)
-        ax.plot(xy_s[:, 0], xy_s[:, 1], "g-", lw=1)
-        ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5)
-        e = np.sqrt(np.nanmean((r.X[0::4] - xy_s[:, 0]) ** 2 + (r.X[2::4] - xy_s[:, 1]) ** 2))
-        ax.set_title(f"seed {seed}: RMSE {e:.2f} m", fontsize=8)
+        draw_run(ax, cal_s, xy_s, r, f"seed {seed}")
     fig.tight_layout()
     fig.savefig(f"{args.out}/rahimi_fig4_runs.png", dpi=110)
     # Fig. 7: office floor
@@ -215,11 +220,7 @@ def main(argv=None) -> int:
     fig, axs = plt.subplots(1, 2, figsize=(11, 3.4))
     for ax, walls in zip(axs, (False, True)):
         _, cal_o, xy_o, r = run(office, 0, 60.0, q_pos=Q[0], q_vel=Q[1], walls=walls)
-        draw_room(ax, cal_o)
-        ax.plot(xy_o[:, 0], xy_o[:, 1], "g-", lw=1)
-        ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5)
-        e = np.sqrt(np.nanmean((r.X[0::4] - xy_o[:, 0]) ** 2 + (r.X[2::4] - xy_o[:, 1]) ** 2))
-        ax.set_title(f"office_floor, walls={walls}: RMSE {e:.2f} m", fontsize=8)
+        draw_run(ax, cal_o, xy_o, r, f"office_floor, walls={walls}")
     fig.tight_layout()
     fig.savefig(f"{args.out}/rahimi_fig7_office.png", dpi=110)
     print("wrote", sorted(os.listdir(args.out)))
