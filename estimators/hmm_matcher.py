@@ -37,8 +37,12 @@ Pipeline (one call of ``estimate``):
    fraction of a frame that is new information).
 4. **Carrying evidence across segment breaks** (beyond the paper; ``carried_evidence``): a
    segment started by a cut of a live track inherits a mixture of Bayes factors over its own
-   old segment (weight 1 - p_swap, the tracker's swap probability) and the live neighbours cut
-   with it; a segment born after a gap inherits saturating posterior log-odds,
+   old segment (weight 1 - p_swap, the tracker's swap probability) and the old segment of its
+   swap mate, the track of its closest approach cut in the same frame (weight p_swap;
+   ``swap_partner``; without a mate, the live neighbours cut with it that continuity links):
+       Lambda(n, i) = log[(1 - p_swap) exp T(old_n, i) + p_swap exp T(old_mate, i)],
+   so the lead of n over its mate is at most log((1 - p_swap) / p_swap) until their own motion
+   after the cut differs (two people standing still add the same evidence to both); a segment born after a gap inherits saturating posterior log-odds,
        Lambda(n, i) = logit(sum_e rho(n|e) pi(e, i) + rho_new q0) - logit(q0),
    with the ended segments shared out among births (``_carried_posterior``). ``carry=
    "likelihood"`` is the first version (a Bayes-factor mixture at every birth). With privacy
@@ -49,7 +53,10 @@ Pipeline (one call of ``estimate``):
    zero-score "no phone" column per segment, so a pair below Omega_min is never chosen and people
    without phones stay unassigned. A claim is kept only when its score leads the phone's other
    tracks by ``margin_min`` nats: a phone whose evidence does not single out one track (two
-   people moving alike, or a possible swap) is not claimed.
+   people moving alike, or a possible swap) is not claimed. The swap mate of the claiming
+   segment stays a rival after it vanishes, with its score frozen at its last frame
+   (``hold_rival``): a privacy camera misses a person standing still, and that is no evidence
+   that the phone is on the one who walked on.
 
 Output tracks: ``t, track_id, x, y, vx, vy, phone_id``; ``track_id`` is the phone id while a phone
 is assigned (segments joined into one identified track, as in Fig. 7c), else the phone its
@@ -123,6 +130,24 @@ def output_track_ids(frame: np.ndarray, track: np.ndarray, assigned: np.ndarray,
     return out
 
 
+def swap_mates(segs: Segments) -> dict[int, int]:
+    """For each segment started by a cut, the segment started in the same frame on the track its
+    old segment came closest to (``Segments.partner``): the track it may have been swapped with."""
+    if not segs.continues:
+        return {}
+    seg = segs.rows["segment"].to_numpy()
+    seg_track = np.full(segs.n_segments, -1, np.int64)
+    seg_track[seg] = segs.rows["track"].to_numpy()
+    start = segs.info["start_frame"].to_numpy()
+    by_key = {(int(start[n]), int(seg_track[n])): n for n in segs.continues}
+    out = {}
+    for n in segs.continues:
+        m = by_key.get((int(start[n]), segs.partner.get(n, -2)))
+        if m is not None and m != n:
+            out[n] = m
+    return out
+
+
 @register
 class HMMMatcher(Estimator):
     """Teixeira et al. 2010: lazy tracker + per-track MAP recursion + Hungarian ID assignment."""
@@ -162,6 +187,9 @@ class HMMMatcher(Estimator):
         margin_min: float = 4.0  # least lead (nats) of a claimed pair over its phone's other tracks: after a
         # cut that may have swapped two tracks (p_swap), the lead is log((1 - p_swap) / p_swap)
         margin_rows: bool = False  # also over its track's other phones
+        swap_partner: bool = True  # a cut segment's swap alternative is the track it came closest to
+        # (cut in the same frame), with the tracker's p_swap, whether or not continuity links them
+        hold_rival: bool = True  # that track contests the claim (frozen score) after it vanishes
         carry: str = "posterior"  # how evidence crosses segment breaks: "posterior" (probabilities
         # shared out among the births, saturating) or "likelihood" (the first version: a mixture
         # of Bayes factors)
@@ -263,7 +291,13 @@ class HMMMatcher(Estimator):
             ll = gait.loglik(phones.g)
             per_frame = self.config.evidence_weight * (ll[..., 0] - np.logaddexp(ll[..., 0], ll[..., 1]) + np.log(2.0))
             still = np.concatenate([np.zeros((1, P)), np.cumsum(per_frame, axis=0)])
-        total = own + self.carried_evidence(segs, own, still)[rows["segment"].to_numpy()]
+        seg = rows["segment"].to_numpy()
+        total = own + self.carried_evidence(segs, own, still)[seg]
+        rivals = swap_mates(segs) if cfg.swap_partner and cfg.hold_rival else {}
+        if rivals:
+            last_row = np.full(segs.n_segments, -1)
+            last_row[seg] = np.arange(N)
+            end_frame = segs.info["end_frame"].to_numpy()
         # eq. 21 with Omega_min, frame by frame: maximise sum(LLR - log Omega_min) over pairs,
         # with one zero-score "no phone" column per row, so a pair below Omega_min is never taken
         frame = rows["frame"].to_numpy()
@@ -288,6 +322,14 @@ class HMMMatcher(Estimator):
                 Sr = S[ri].copy(); Sr[np.arange(len(ri)), ci] = -np.inf
                 Sc = S[:, ci].copy(); Sc[ri, np.arange(len(ri))] = -np.inf
                 alt = Sc.max(axis=0, initial=-np.inf)  # "no claim" is already beaten: score > 0
+                if rivals:
+                    # the other track of the claimed segment's ambiguity still contests the phone
+                    # after it vanished (a privacy camera misses it standing): with its score frozen
+                    # at its last frame, as nothing seen since tells the two apart
+                    for a, (r, c) in enumerate(zip(ri, ci)):
+                        m = rivals.get(int(seg[r0 + r]), -1)
+                        if m >= 0 and end_frame[m] < k:
+                            alt[a] = max(alt[a], score_all[last_row[m], c])
                 if cfg.margin_rows:
                     alt = np.maximum(alt, Sr.max(axis=1, initial=-np.inf))
                 keep = S[ri, ci] - alt >= cfg.margin_min
@@ -407,6 +449,7 @@ class HMMMatcher(Estimator):
         for n in births:
             groups.setdefault(int(start[n]), []).append(n)
         pi_cache: dict[int, np.ndarray] = {}
+        mates = swap_mates(segs) if self.config.swap_partner else {}
 
         def t_end(e: int) -> np.ndarray:
             return own[last_row[e]] + lam[e]
@@ -453,6 +496,16 @@ class HMMMatcher(Estimator):
             pis = np.stack([pi_end(e) for e in es])  # (E, P)
             live = np.array([reason[e] == "proximity" for e in es])
             for a, n in enumerate(ns):
+                mate = mates.get(n)
+                if mate is not None:
+                    # the swap alternative is the track of the closest approach, cut with it: the
+                    # phone is on n's old segment unless the two were swapped (p_swap), and frames
+                    # where both stood still (equal evidence for both) cannot change that lead
+                    s_old, p_swap = segs.continues[n]
+                    p_swap = min(max(p_swap, eps), 1.0 - eps)
+                    terms = np.stack([t_end(s_old) + np.log1p(-p_swap), t_end(segs.continues[mate][0]) + np.log(p_swap)])
+                    lam[n] = np.logaddexp(terms[0], terms[1])
+                    continue
                 if n in segs.continues:
                     # a cut of a live track: its evidence goes on with it, mixed (as Bayes factors)
                     # with that of the live neighbours it may have been swapped with; the share of

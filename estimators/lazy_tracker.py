@@ -88,6 +88,8 @@ class Segments:
     detections (noise sigma per axis, each compared with a prediction about as uncertain) are
     swapped when the difference of the noises along their separation exceeds d, and that
     difference has std 2 sigma.
+    partner: per segment in ``continues``, the filtered-track number of the track it came
+    closest to (d_min) during its old segment: the track it may have been swapped with.
     frame_times: (F,) time of every camera frame (s).
     """
 
@@ -96,6 +98,7 @@ class Segments:
     predecessors: dict[int, list[tuple[int, float]]] = field(default_factory=dict)
     frame_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     continues: dict[int, tuple[int, float]] = field(default_factory=dict)
+    partner: dict[int, int] = field(default_factory=dict)
 
     @property
     def n_segments(self) -> int:
@@ -143,7 +146,9 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
     n_tracks = 0
     pending = np.zeros(0, bool)  # a cut decided while the track was not seen, applied when it is
     dmin = np.zeros(0)  # closest approach of each track's current segment to any other track, m
+    dpart = np.zeros(0, np.int64)  # filtered-track number of the track at that closest approach
     continues: dict[int, tuple[int, float]] = {}
+    partner: dict[int, int] = {}
     linked = np.zeros((0, 0), bool)
     gate2, enter2, exit2, dup2 = cfg.gate_m**2, cfg.r_enter**2, cfg.r_exit**2, cfg.duplicate_m**2
 
@@ -241,7 +246,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 end_segment(a, "missed", X[a, 7])
                 cut |= linked[a] & alive  # a track vanishing next to others: static ambiguity
             keep = np.flatnonzero(alive)
-            X, seg, cut, dmin, trk = X[keep], seg[keep], cut[keep], dmin[keep], trk[keep]
+            X, seg, cut, dmin, trk, dpart = X[keep], seg[keep], cut[keep], dmin[keep], trk[keep], dpart[keep]
             linked = linked[np.ix_(keep, keep)]
         # start tracks for unmatched detections
         births: list[int] = []
@@ -259,6 +264,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 seg = np.concatenate([seg, np.array(births, np.int64)])
                 cut = np.concatenate([cut, np.zeros(n_new, bool)])
                 dmin = np.concatenate([dmin, np.full(n_new, np.inf)])
+                dpart = np.concatenate([dpart, np.full(n_new, -1, np.int64)])
                 trk = np.concatenate([trk, n_tracks + np.arange(n_new)])
                 n_tracks += n_new
                 nl = len(X)
@@ -274,7 +280,10 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
             new_linked = np.where(linked, d2 <= exit2, d2 < enter2)
             np.fill_diagonal(new_linked, False)
             np.fill_diagonal(d2, np.inf)
-            dmin = np.minimum(dmin, np.sqrt(d2.min(axis=1)))
+            dnow = np.sqrt(d2.min(axis=1))
+            closer = dnow < dmin
+            dpart = np.where(closer, trk[d2.argmin(axis=1)], dpart)
+            dmin = np.where(closer, dnow, dmin)
             changed = new_linked != linked
             if changed.any():
                 if n_new:  # newborn tracks start a fresh segment anyway: only their partners are cut
@@ -291,7 +300,9 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
                 old = int(seg[a])
                 seg[a] = new_segment(k)
                 continues[int(seg[a])] = (old, float(norm.cdf(-dmin[a] / (2.0 * np.sqrt(R)))))
+                partner[int(seg[a])] = int(dpart[a])
                 dmin[a] = np.inf
+                dpart[a] = -1
                 births.append(int(seg[a]))
         else:
             pending = np.zeros(nl, bool)
@@ -330,7 +341,7 @@ def track_segments(frame_times: np.ndarray, frame_idx: np.ndarray, x: np.ndarray
         "end_vx": last["vx"].to_numpy(float), "end_vy": last["vy"].to_numpy(float), "end_reason": end_reason,
     })
     return Segments(rows=rows, info=info, predecessors=predecessors, frame_times=np.asarray(frame_times, float),
-                    continues=continues)
+                    continues=continues, partner=partner)
 
 
 def fuse_pairs(z: np.ndarray, close: np.ndarray) -> np.ndarray:

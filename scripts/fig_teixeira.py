@@ -189,6 +189,7 @@ def main(argv=None) -> int:
     ap.add_argument("--setups", default="ideal,regular,privacy")
     ap.add_argument("--counts", default="1-10", help="numbers of people: '1-10' or '5,10'")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 per data point (default 10)")
+    ap.add_argument("--seed0", type=int, default=0, help="first seed (default 0; development seeds: 100)")
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--phoneless", action="store_true", help="also run with one third of the people without a phone")
     ap.add_argument("--only-phoneless", action="store_true", help="only the phoneless runs")
@@ -216,9 +217,9 @@ def main(argv=None) -> int:
     setups = args.setups.split(",")
     jobs = []
     if not args.only_phoneless:
-        jobs += [(s, n, seed, args.duration, False, params) for s in setups for n in counts for seed in range(args.seeds)]
+        jobs += [(s, n, seed, args.duration, False, params) for s in setups for n in counts for seed in range(args.seed0, args.seed0 + args.seeds)]
     if args.phoneless or args.only_phoneless:
-        jobs += [(s, n, seed, args.duration, True, params) for s in setups for n in counts if n >= 3 for seed in range(args.seeds)]
+        jobs += [(s, n, seed, args.duration, True, params) for s in setups for n in counts if n >= 3 for seed in range(args.seed0, args.seed0 + args.seeds)]
     df = run_all(jobs, args.jobs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -227,3 +227,59 @@ def test_output_track_ids_follow_the_phone_and_the_filtered_track():
     assert list(ids) == ["anon0", "anon1", "phX", "anon1", "phX", "anon1", "anon0", "phX"]
     ids = output_track_ids(frame[:6], track[:6], np.array([-1, -1, 0, -1, -1, -1]), ["phX"])
     assert list(ids[4:]) == ["phX", "anon1"]  # unclaimed, keeps its last phone's label
+
+
+def _two_standing_tracks(p_swap: float, mate_vanishes: bool):
+    """Segments by hand: tracks 0 and 1 (segments 0, 1) in frames 0-19, both cut at frame 20
+    (segments 2, 3, each the other's swap partner, ``p_swap``), then both stand still to frame 39
+    (segment 3 vanishes after frame 29 if ``mate_vanishes``). Segment 0 carries 30 nats for
+    phone 0, segment 1 -10; after the cut nothing tells them apart (own evidence 0). Continuity
+    links each new segment to its own old segment only (the two stood 0.6 m apart)."""
+    from estimators.lazy_tracker import Segments
+
+    rows = []
+    for k in range(40):
+        rows.append((k, 0 if k < 20 else 2, 0))
+        if k < 20 or not mate_vanishes or k < 30:
+            rows.append((k, 1 if k < 20 else 3, 1))
+    r = pd.DataFrame(rows, columns=["frame", "segment", "track"])
+    last = r.groupby("segment")["frame"].max()
+    info = pd.DataFrame({"start_frame": [0, 0, 20, 20], "end_frame": last.reindex(range(4)).to_numpy(),
+                         "end_reason": ["proximity", "proximity", "end", "missed" if mate_vanishes else "end"]})
+    w = 1.77
+    preds = {2: [(0, w)], 3: [(1, w)]}
+    segs = Segments(rows=r, info=info, predecessors=preds, frame_times=np.arange(40) / 20.0,
+                    continues={2: (0, p_swap), 3: (1, p_swap)}, partner={2: 1, 3: 0})
+    own = np.zeros((len(r), 1))
+    own[r["segment"].to_numpy() == 0, 0] = np.linspace(0, 30, 20)
+    own[r["segment"].to_numpy() == 1, 0] = np.linspace(0, -10, 20)
+    return segs, own
+
+
+@pytest.mark.parametrize("vanishes", [False, True])
+def test_claim_is_held_after_a_possible_swap_while_both_stand(monkeypatch, vanishes):
+    # seed 1 of the phoneless study: a phone carrier and a phoneless person stand close, the
+    # tracker may have swapped them (p_swap = 0.2), continuity does not link the two (they are
+    # 0.6 m apart), and standing still gives no evidence either way: no claim until they move
+    from estimators.hmm_matcher import PhoneFeatures
+
+    segs, own = _two_standing_tracks(0.2, mate_vanishes=vanishes)
+    phones = PhoneFeatures(["phone0"], np.zeros((40, 1)), np.zeros((40, 1)))
+    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g: own)
+    seg = segs.rows["segment"].to_numpy()
+    gait = GaitModel.__new__(GaitModel)
+    held = HMMMatcher().match(segs, phones, gait)
+    assert (held[seg == 0] == 0).any()  # before the cut the phone is claimed
+    assert (held[seg >= 2] == -1).all()  # after it, not (lead log(0.8 / 0.2) = 1.4 < margin_min)
+    if vanishes:
+        # without the frozen rival, the mate vanishing (a privacy camera misses it standing)
+        # would hand the phone to the track that is left
+        plain = HMMMatcher(hold_rival=False).match(segs, phones, gait)
+        assert (plain[(seg == 2) & (segs.rows["frame"].to_numpy() >= 30)] == 0).all()
+    old = HMMMatcher(swap_partner=False).match(segs, phones, gait)
+    assert (old[seg == 2] == 0).all()  # the former rule: the mate's share is lost, the claim made
+    # a small p_swap does not hold the claim back
+    segs, own = _two_standing_tracks(0.005, mate_vanishes=vanishes)
+    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g: own)
+    sure = HMMMatcher().match(segs, phones, gait)
+    assert (sure[segs.rows["segment"].to_numpy() == 2] == 0).all()

@@ -111,6 +111,8 @@ def test_cut_keeps_the_filtered_track_and_prices_a_swap_by_the_closest_approach(
         assert rows.loc[rows["segment"] == old, "track"].iloc[0] == rows.loc[rows["segment"] == n, "track"].iloc[0]
         # Phi(-0.3 / 0.2) = 0.067: the filtered tracks come a little closer or farther than 0.3 m
         assert 0.02 < p_swap < 0.2, p_swap
+        # the track it may have been swapped with is the other one, cut in the same frame
+        assert segs.partner[int(n)] == (set(rows["track"]) - {rows.loc[rows["segment"] == n, "track"].iloc[0]}).pop()
     # on entry nobody was closer than r_enter yet: a swap is all but impossible
     first_cut = segs.info.index[segs.info["start_frame"] == sorted(set(segs.info["start_frame"]))[1]]
     assert all(segs.continues[int(n)][1] < 0.01 for n in first_cut)
