@@ -28,16 +28,14 @@ import numpy as np
 from estimators import get
 from scenes.loader import load_scene
 from scripts.experiment_qp import truth_on_grid
+from scripts.topdown import draw_floorplan
 
 Q = (1e-4, 0.1)
 
 
 def draw_room(ax, cal):
     fp = cal.floorplan
-    o = np.vstack([fp.outline, fp.outline[:1]])
-    ax.plot(o[:, 0], o[:, 1], "k-", lw=2)
-    for w in fp.walls:
-        ax.plot([w.start[0], w.end[0]], [w.start[1], w.end[1]], "k-", lw=2)
+    draw_floorplan(ax, fp)
     for name, cam in cal.cameras.items():
         p = cam.position[:2]
         for s in (-1, 1):

@@ -21,6 +21,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(__file__))
 from experiment_tsutsui import TARGET, run  # noqa: E402
 
+from scripts.topdown import draw_floorplan  # noqa: E402
+
 STATUS_COLOURS = {"tracking": "#2ca02c", "unreliable": "#ff7f0e", "lost": "#d62728"}
 
 
@@ -44,11 +46,7 @@ def main(argv=None) -> int:
 
     fig = plt.figure(figsize=(12, 6.5))
     ax = fig.add_axes([0.06, 0.08, 0.45, 0.8])
-    outline = np.vstack([fp.outline, fp.outline[:1]])
-    ax.plot(outline[:, 0], outline[:, 1], "k-", lw=1.5)
-    for o in fp.obstacles:
-        c = np.vstack([o.corners(), o.corners()[:1]])
-        ax.fill(c[:, 0], c[:, 1], color="0.75")
+    draw_floorplan(ax, fp)
     for pid, g in ppl.groupby("person_id"):
         if pid == TARGET:
             ax.plot(g.x, g.y, "k-", lw=1.0, label="target (truth)")
