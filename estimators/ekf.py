@@ -133,7 +133,7 @@ def floor_covered(cameras: dict[str, Camera], xy) -> bool:
     x, y = float(xy[0]), float(xy[1])
     for c in cameras.values():
         if c.region is not None:
-            if c.region[0] <= x < c.region[2] and c.region[1] <= y < c.region[3]:
+            if c.in_region((x, y)):
                 return True
         elif c.in_fov(np.array([x, y, 0.0])):
             return True

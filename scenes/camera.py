@@ -156,6 +156,15 @@ class Camera:
         u = self.bearing_u(xy)
         return (forward > 1e-6) & (u >= 0) & (u < self.width)
 
+    def in_region(self, xy) -> np.ndarray:
+        """True where floor points (..., 2) lie in the camera's ``region`` tile
+        (xmin <= x < xmax, ymin <= y < ymax); everywhere when it has none."""
+        xy = np.asarray(xy, float)
+        if self.region is None:
+            return np.ones(xy.shape[:-1], bool)
+        x0, y0, x1, y1 = self.region
+        return (xy[..., 0] >= x0) & (xy[..., 0] < x1) & (xy[..., 1] >= y0) & (xy[..., 1] < y1)
+
     def backproject_to_plane(self, uv, z_plane: float) -> np.ndarray:
         """Intersect the rays through pixels (..., 2) with the horizontal plane z = z_plane.
 

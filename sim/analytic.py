@@ -249,9 +249,7 @@ def observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, Cam
                 speed = np.hypot(traj.vel[p_idx, g.steps[f_idx], 0], traj.vel[p_idx, g.steps[f_idx], 1])
                 keep = speed >= s.still_speed
             xy = noise.floor_position(rng, traj.pos[p_idx, g.steps[f_idx], :2], s, cam.quantum if cam.privacy else 0.0)
-            if cam.region is not None:
-                x0, y0, x1, y1 = cam.region
-                keep &= (xy[:, 0] >= x0) & (xy[:, 0] < x1) & (xy[:, 1] >= y0) & (xy[:, 1] < y1)
+            keep &= cam.in_region(xy)
             if keep.any():
                 out["floor_detections"].append(pd.DataFrame({"t": t[keep], "camera": cam.name, "x": xy[keep, 0], "y": xy[keep, 1]}))
     tables = {}

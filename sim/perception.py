@@ -307,13 +307,6 @@ def floor_from_blob(cam: Camera, xs: np.ndarray, ys: np.ndarray, person: PersonM
     return float(c[0]), float(c[1])
 
 
-def in_region(cam: Camera, xy) -> bool:
-    if cam.region is None:
-        return True
-    x0, y0, x1, y1 = cam.region
-    return x0 <= xy[0] < x1 and y0 <= xy[1] < y1
-
-
 class OverheadDetector:
     """Floor detections of one overhead camera.
 
@@ -343,7 +336,7 @@ class OverheadDetector:
         out = []
         for b in blobs:
             xy = floor_from_blob(cam, b.xs, b.ys, self.person, p.border_px)
-            if xy is None or not in_region(cam, xy):
+            if xy is None or not cam.in_region(xy[:2]):
                 continue
             if self.gate is not None and cam.quantum > 0:
                 xy = (cam.quantum * round(xy[0] / cam.quantum), cam.quantum * round(xy[1] / cam.quantum))
