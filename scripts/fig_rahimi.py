@@ -111,12 +111,17 @@ def xy_of(X):
     return X[0::4], X[2::4]
 
 
+def path_rmse(X, xy_true) -> float:
+    """Position RMSE (m) of a state vector X ([x, vx, y, vy] per step) against the true path."""
+    return float(np.sqrt(np.nanmean((X[0::4] - xy_true[:, 0]) ** 2 + (X[2::4] - xy_true[:, 1]) ** 2)))
+
+
 def draw_run(ax, cal, xy_true, r, title: str) -> None:
     """Room, true path (green) and estimate (red) of one run, titled with its RMSE."""
     draw_room(ax, cal)
     ax.plot(xy_true[:, 0], xy_true[:, 1], "g-", lw=1)
     ax.plot(*xy_of(r.X), "r.-", ms=2, lw=0.5)
-    e = np.sqrt(np.nanmean((r.X[0::4] - xy_true[:, 0]) ** 2 + (r.X[2::4] - xy_true[:, 1]) ** 2))
+    e = path_rmse(r.X, xy_true)
     ax.set_title(f"{title}: RMSE {e:.2f} m", fontsize=8)
 
 
@@ -155,7 +160,7 @@ def main(argv=None) -> int:
         if bad:
             kb = np.array([k for k, _ in bad])
             ax.plot(r.X[4 * kb], r.X[4 * kb + 2], "x", color="m", ms=5, label="behind its camera")
-        e = np.sqrt(np.nanmean((r.X[0::4] - xy5[:, 0]) ** 2 + (r.X[2::4] - xy5[:, 1]) ** 2))
+        e = path_rmse(r.X, xy5)
         ax.set_title(f"seed {s5}, {title}\nRMSE {e:.2f} m, {len(bad)} observed points behind their camera", fontsize=8)
         ax.legend(fontsize=6, loc="center")
     # zoom on the camera with the most points behind it
@@ -197,7 +202,7 @@ def main(argv=None) -> int:
         p = np.asarray(cal1.cameras[cam].position, float)[:2]
         d_true = np.linalg.norm(xy1[k1] - p, axis=1).mean()
         d_est = np.linalg.norm(np.c_[r1.X[4 * k1], r1.X[4 * k1 + 2]] - p, axis=1).mean()
-        e = np.sqrt(np.nanmean((r1.X[0::4] - xy1[:, 0]) ** 2 + (r1.X[2::4] - xy1[:, 1]) ** 2))
+        e = path_rmse(r1.X, xy1)
         ax.set_title(f"seed {seed}, bearings of {cam} only: RMSE {e:.2f} m\nmean distance from camera: "
                      f"true {d_true:.2f} m, estimated {d_est:.2f} m", fontsize=8)
         ax.legend(fontsize=6, loc="center")
