@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
-from sim.recording import Calibration, Observations, RecordingError
+from trackroom.recording import Calibration, Observations, RecordingError
 
 TRACK_COLUMNS = ["t", "track_id", "x", "y"]
 OPTIONAL_TRACK_COLUMNS = ["vx", "vy", "pxx", "pxy", "pyy", "phone_id"]

@@ -59,8 +59,8 @@ from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter, MerweScaledSigma
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
-from scenes.camera import Camera
-from sim.recording import Calibration, Observations
+from trackroom.scenes.camera import Camera
+from trackroom.recording import Calibration, Observations
 
 from .base import Estimator, EstimatorError, register
 

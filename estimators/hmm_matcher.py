@@ -71,7 +71,7 @@ import pandas as pd
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
-from sim.recording import Calibration, Observations
+from trackroom.recording import Calibration, Observations
 
 from .base import Estimator, EstimatorError, check_tracks, register
 from .gait import GaitModel, bobbing_feature, load_default, phone_heading

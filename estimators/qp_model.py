@@ -38,8 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from scenes.camera import Camera
-from scenes.spec import GaussMarkovParams
+from trackroom.scenes.camera import Camera
+from trackroom.scenes.spec import GaussMarkovParams
 
 NS = 4  # state size per step
 IX, IVX, IY, IVY = 0, 1, 2, 3

@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 import scipy.sparse as sp
 
-from scenes.spec import GaussMarkovParams
-from sim.recording import Calibration, Observations
+from trackroom.scenes.spec import GaussMarkovParams
+from trackroom.recording import Calibration, Observations
 
 from .base import Estimator, EstimatorError, check_tracks, register
 from .qp_model import DISCRETISATIONS, IVX, IVY, IX, IY, NS, Bearings, Prior

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from scenes.spec import Floorplan
+from trackroom.scenes.spec import Floorplan
 
 from .qp_model import IX, IY, NS
 

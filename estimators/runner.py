@@ -17,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-from sim.recording import Recording
+from trackroom.recording import Recording
 
 from . import get
 from .base import Estimator, EstimatorError, check_tracks, coerce_param

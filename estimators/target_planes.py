@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
-from sim.recording import Calibration, Observations
+from trackroom.recording import Calibration, Observations
 
 from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, register

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from sim.recording import Calibration, RecordingError
+from trackroom.recording import Calibration, RecordingError
 
 BOX_COLUMNS = ["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"]
 

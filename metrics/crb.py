@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from scenes.camera import Camera
+from trackroom.scenes.camera import Camera
 
 POS = (0, 2)  # x and y in the state [x, vx, y, vy]
 

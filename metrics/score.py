@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from sim.recording import Recording
+from trackroom.recording import Recording
 
 from .identity import IdentificationResult, IdResult, claims_phones, idf1, identification_accuracy
 from .mot import DEFAULT_GATE, EvalFrames, MotResult, clear_mot

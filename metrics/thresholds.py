@@ -39,7 +39,7 @@ class ThresholdError(ValueError):
 
 
 def default_path() -> Path:
-    return Path(str(resources.files("metrics") / "thresholds.csv"))
+    return Path(str(resources.files("trackroom.metrics") / "thresholds.csv"))
 
 
 def load_thresholds(path: str | Path | None = None) -> pd.DataFrame:
@@ -115,19 +115,3 @@ def failure_table(checked: pd.DataFrame) -> str:
         lines.append(f"{r.scene:<16}{r.sensing:<10}{r.estimator:<28}{r.metric:<14}{r.op + ' ' + format(r.bound, 'g'):>14}"
                      f"{r.value:>12.4g}  {r.note}")
     return "\n".join(lines)
-
-
-def ci_spec(thresholds: pd.DataFrame, scene: str, sensing: str, jobs: int = 1):
-    """The ``CompareSpec`` CI runs for one scene and sensing: the estimators with bounds there."""
-    from scripts.compare import CompareSpec, SceneRun, parse_estimator
-
-    rows = thresholds[(thresholds["scene"] == scene) & (thresholds["sensing"] == sensing)]
-    cfg = CI_RUNS.get(scene, CI_DEFAULT)
-    ests = []
-    for name in dict.fromkeys(rows["estimator"]):
-        e = parse_estimator(name)
-        ests.append(type(e)(e.name, e.params, label=name))
-    return CompareSpec(
-        scenes=[SceneRun(scene, tuple(cfg["overrides"]), label=scene)],
-        seeds=list(CI_SEEDS), estimators=ests, duration=float(cfg["duration"]), sensing=sensing, jobs=jobs,
-    )

@@ -70,7 +70,7 @@ class SceneError(ValueError):
 
 def bundled_scenes() -> list[str]:
     """Names of the scenes shipped with trackroom."""
-    return sorted(p.name[:-5] for p in resources.files("scenes").iterdir() if p.name.endswith(".toml"))
+    return sorted(p.name[:-5] for p in resources.files("trackroom.scenes").iterdir() if p.name.endswith(".toml"))
 
 
 def resolve_scene_path(name_or_path: str | Path) -> Path:
@@ -80,7 +80,7 @@ def resolve_scene_path(name_or_path: str | Path) -> Path:
         if not p.exists():
             raise SceneError(f"{p}: no such scene file")
         return p
-    candidate = Path(str(resources.files("scenes").joinpath(f"{name_or_path}.toml")))
+    candidate = Path(str(resources.files("trackroom.scenes").joinpath(f"{name_or_path}.toml")))
     if not candidate.exists():
         raise SceneError(
             f"{name_or_path}: not a scene file or a bundled scene (bundled: {', '.join(bundled_scenes())})"

@@ -25,9 +25,9 @@ for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
-from scenes.loader import load_scene
-from sim.simulate import simulate
-from sim.walkers import plan_trajectories
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.simulate import simulate
+from trackroom.sim.walkers import plan_trajectories
 
 
 def main(argv=None) -> int:

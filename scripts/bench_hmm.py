@@ -23,10 +23,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def bench(n: int, duration: float, repeats: int, seed: int = 0) -> dict:
-    from estimators.gait import load_default
-    from estimators.hmm_matcher import HMMMatcher, phone_features
-    from scenes.loader import load_scene
-    from sim.simulate import simulate
+    from trackroom.estimators.gait import load_default
+    from trackroom.estimators.hmm_matcher import HMMMatcher, phone_features
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
 
     rec = simulate(load_scene("overhead_lab", [f"walkers.count={n}"]), seed, duration)
     obs, cal = rec.observations, rec.calibration

@@ -16,9 +16,9 @@ import time
 import numpy as np
 import pandas as pd
 
-from estimators.qp_smoother import QPSmoother
-from scenes.loader import load_scene
-from sim.recording import Calibration, Observations
+from trackroom.estimators.qp_smoother import QPSmoother
+from trackroom.scenes.loader import load_scene
+from trackroom.recording import Calibration, Observations
 
 
 def loop_path(T: int, dt: float) -> np.ndarray:

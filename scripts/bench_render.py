@@ -31,11 +31,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from scenes.loader import load_scene  # noqa: E402
-from sim.render import SceneRenderer, SegmentationThread  # noqa: E402
-from sim.rendered import _pose, camera_schedule, check_cameras, observe, world_maps  # noqa: E402
-from sim.walkers import plan_trajectories  # noqa: E402
-from sim.world import build_world  # noqa: E402
+from trackroom.scenes.loader import load_scene  # noqa: E402
+from trackroom.sim.render import SceneRenderer, SegmentationThread  # noqa: E402
+from trackroom.sim.rendered import _pose, camera_schedule, check_cameras, observe, world_maps  # noqa: E402
+from trackroom.sim.walkers import plan_trajectories  # noqa: E402
+from trackroom.sim.world import build_world  # noqa: E402
 
 
 def bare(world, scene, traj, segment: bool, warmup: int, threaded: bool = False) -> tuple[float, int]:
@@ -155,7 +155,7 @@ def main(argv=None) -> int:
     print(f"  {'other (backgrounds, tables)':28s} {o_a:7.2f} {1000 * o_a / n:7.2f}  {o_b:7.2f} {1000 * o_b / n:7.2f}")
 
     if args.generate > 0:
-        from sim.simulate import simulate
+        from trackroom.sim.simulate import simulate
 
         t0 = time.perf_counter()
         rec = simulate(scene, seed=args.seed, duration=args.generate, sensing="rendered")

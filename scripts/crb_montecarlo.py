@@ -35,12 +35,12 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from tqdm import tqdm
 
-from estimators.qp_model import IX, IY, NS, Bearings, Prior, process_covariance
-from estimators.qp_smoother import QPSmoother
-from metrics.crb import trajectory_crb
-from scenes.loader import load_scene
-from scenes.spec import GaussMarkovParams
-from sim.recording import Calibration
+from trackroom.estimators.qp_model import IX, IY, NS, Bearings, Prior, process_covariance
+from trackroom.estimators.qp_smoother import QPSmoother
+from trackroom.metrics.crb import trajectory_crb
+from trackroom.scenes.loader import load_scene
+from trackroom.scenes.spec import GaussMarkovParams
+from trackroom.recording import Calibration
 
 FIRST = (100.0, 10.0, 100.0, 10.0)
 

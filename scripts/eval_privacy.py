@@ -102,8 +102,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=8.0)
     ap.add_argument("--set", dest="overrides", action="append", default=[], help="scene override KEY=VALUE")
     args = ap.parse_args(argv)
-    from scenes.loader import load_scene
-    from sim.simulate import simulate
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
 
     rows = []
     for seed in args.seeds:

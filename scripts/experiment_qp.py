@@ -30,10 +30,10 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from estimators import get
-from metrics.crb import trajectory_crb
-from scenes.loader import load_scene
-from sim.recording import Observations
+from trackroom.estimators import get
+from trackroom.metrics.crb import trajectory_crb
+from trackroom.scenes.loader import load_scene
+from trackroom.recording import Observations
 
 FIRST = (100.0, 10.0, 100.0, 10.0)  # the estimator's default weak first-state prior
 
@@ -109,8 +109,8 @@ def oracle_linearised(xy: np.ndarray, vxy: np.ndarray, b: pd.DataFrame, k: np.nd
     measures what the bearing model's non-linearity costs the MAP, and RMSE(oracle) / sqrt(CRB)
     everything else: the walker's room conditioning and the selection of paths by their
     observation pattern (``scripts.crb_montecarlo``). Returns (T, 2) positions."""
-    from estimators.qp_model import IX, IY, NS, Bearings, Prior
-    from scenes.spec import GaussMarkovParams
+    from trackroom.estimators.qp_model import IX, IY, NS, Bearings, Prior
+    from trackroom.scenes.spec import GaussMarkovParams
     from scripts.crb_montecarlo import oracle
 
     T = len(xy)
@@ -128,7 +128,7 @@ ALL_VARIANTS = QP_VARIANTS + ("oracle", "ekf", "ekf_rts")
 
 def run_seed(seed: int, q: tuple[float, float], duration: float, overrides: tuple[str, ...] = (),
              which: tuple[str, ...] = ALL_VARIANTS) -> list[dict]:
-    from sim.simulate import simulate
+    from trackroom.sim.simulate import simulate
 
     scene = load_scene("bearing_hall", ['walkers.motion="gauss_markov"', f"walkers.process_noise=[{q[0]}, {q[1]}]",
                                         *overrides])

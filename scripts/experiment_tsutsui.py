@@ -36,12 +36,12 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
-from estimators.target_planes import TargetPlanes, TargetPlanesResult
-from metrics.score import evaluate
-from scenes.loader import load_scene
-from sim.perception_flow import RENDERED_WINDOW_NOISE
-from sim.recording import Recording, Truth
-from sim.simulate import simulate
+from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
+from trackroom.metrics.score import evaluate
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
+from trackroom.recording import Recording, Truth
+from trackroom.sim.simulate import simulate
 
 TARGET = "target"
 
@@ -208,7 +208,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object per run")
     a = ap.parse_args(argv)
     if a.recording:
-        from sim.dataset import read_recording
+        from trackroom.dataset import read_recording
 
         runs = [(None, None, read_recording(d)) for d in a.recording.split(",")]
         if a.window_errors:

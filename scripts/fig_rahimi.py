@@ -25,10 +25,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from estimators import get
-from scenes.loader import load_scene
+from trackroom.estimators import get
+from trackroom.scenes.loader import load_scene
 from scripts.experiment_qp import truth_on_grid
-from scripts.topdown import draw_floorplan
+from trackroom.topdown import draw_floorplan
 
 Q = (1e-4, 0.1)
 
@@ -51,7 +51,7 @@ def draw_room(ax, cal):
 
 def run(scene, seed, duration, only_camera=None, **kw):
     """Simulate, then solve one walker's trajectory; only_camera="most": that camera's bearings only."""
-    from sim.simulate import simulate
+    from trackroom.sim.simulate import simulate
 
     rec = simulate(scene, seed, duration)
     w = rec.meta["walkers"][0]

@@ -64,10 +64,10 @@ def phoneless_claimed(ev) -> tuple[float, float, int]:
 
 def one_run(job: tuple) -> dict:
     setup, n, seed, duration, phoneless, params = job
-    from estimators.hmm_matcher import HMMMatcher
-    from metrics.score import evaluate
-    from scenes.loader import load_scene
-    from sim.simulate import simulate
+    from trackroom.estimators.hmm_matcher import HMMMatcher
+    from trackroom.metrics.score import evaluate
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
 
     over = SETUPS[setup] + [f"walkers.count={n}"] + ([f"walkers.phoneless={n // 3}"] if phoneless else [])
     rec = simulate(load_scene("overhead_lab", over), seed, duration)
@@ -199,8 +199,8 @@ def main(argv=None) -> int:
     ap.add_argument("--replot", metavar="CSV", help="only redraw the figures and tables from a per-run CSV")
     ap.add_argument("--set", dest="params", action="append", default=[], metavar="K=V", help="matcher parameter")
     args = ap.parse_args(argv)
-    from estimators.base import coerce_param
-    from estimators.hmm_matcher import HMMMatcher
+    from trackroom.estimators.base import coerce_param
+    from trackroom.estimators.hmm_matcher import HMMMatcher
 
     if args.replot:
         df = pd.read_csv(args.replot)

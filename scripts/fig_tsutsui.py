@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(__file__))
 from experiment_tsutsui import TARGET, run  # noqa: E402
 
-from scripts.topdown import draw_floorplan  # noqa: E402
+from trackroom.topdown import draw_floorplan  # noqa: E402
 
 STATUS_COLOURS = {"tracking": "#2ca02c", "unreliable": "#ff7f0e", "lost": "#d62728"}
 
@@ -36,7 +36,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     saved = None
     if a.recording:
-        from sim.dataset import read_recording
+        from trackroom.dataset import read_recording
 
         saved = read_recording(a.recording)
     rec, res, m = run(a.sensing, a.duration, a.seed, recording=saved)

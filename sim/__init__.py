@@ -1,4 +1,5 @@
 """Simulation: the MuJoCo world, walkers, sensing, recordings and dataset I/O.
 
-Importing ``sim`` does not import MuJoCo; ``sim.recording`` (the contract) is safe for estimators.
+Importing ``trackroom.sim`` does not import MuJoCo. The recording contract lives in
+``trackroom.recording`` and ``trackroom.dataset`` (no simulator needed).
 """

@@ -38,8 +38,8 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from scenes.camera import Camera
-from scenes.spec import Scene
+from trackroom.scenes.camera import Camera
+from trackroom.scenes.spec import Scene
 
 from . import noise
 from .walkers import Trajectories

@@ -13,7 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim.render import read_video
+from trackroom.sim.render import read_video
 
 TILES = 12
 COLUMNS = 4
@@ -21,7 +21,7 @@ COLUMNS = 4
 
 def contact_sheets(recording_dir, out_dir, tiles: int = TILES) -> list[Path]:
     """Write ``<out_dir>/frames_<camera>.png`` for every camera with a saved video."""
-    from sim.dataset import read_recording
+    from trackroom.dataset import read_recording
 
     recording_dir, out_dir = Path(recording_dir), Path(out_dir)
     rec = read_recording(recording_dir)

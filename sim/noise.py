@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.spec import SensorSpec
+from trackroom.scenes.spec import SensorSpec
 
 
 def imu(rng: np.random.Generator, acc: np.ndarray, gyro: np.ndarray, mag: np.ndarray, s: SensorSpec):

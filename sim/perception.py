@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from scenes.camera import Camera
+from trackroom.scenes.camera import Camera
 
 
 @dataclass(frozen=True)
@@ -321,7 +321,7 @@ class OverheadDetector:
         self.cam, self.background, self.app, self.person, self.params = cam, background, app, person, params
         self.gate = None
         if cam.privacy:
-            from sim.perception_privacy import MotionGate  # imports this module: imported late
+            from trackroom.sim.perception_privacy import MotionGate  # imports this module: imported late
 
             self.gate = MotionGate(cam, background, app, params)
 

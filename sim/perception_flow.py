@@ -57,7 +57,7 @@ import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from scenes.camera import Camera
+from trackroom.scenes.camera import Camera
 
 
 # This detector's window errors against the projected truth on rendered ``occlusion_lab`` (320x240,

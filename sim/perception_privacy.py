@@ -42,8 +42,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from scenes.camera import Camera
-from sim.perception import Appearance, PerceptionParams, PersonBlob, foreground
+from trackroom.scenes.camera import Camera
+from trackroom.sim.perception import Appearance, PerceptionParams, PersonBlob, foreground
 
 _NEIGHBOURS = np.ones((3, 3), np.uint8)
 

@@ -44,10 +44,10 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from scenes.camera import Camera
-from sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
-from sim.perception_flow import FlowTracker
-from sim.render import SceneRenderer, SegmentationThread, VideoSink
+from trackroom.scenes.camera import Camera
+from trackroom.sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
+from trackroom.sim.perception_flow import FlowTracker
+from trackroom.sim.render import SceneRenderer, SegmentationThread, VideoSink
 
 VISIBLE_FRACTION = 0.5
 

@@ -19,39 +19,18 @@ seed therefore give bit-identical tables, and e.g. adding a camera does not chan
 from __future__ import annotations
 
 import dataclasses
-import functools
 import importlib
-import platform
-from importlib import metadata
 
 import numpy as np
 import pandas as pd
 
-from scenes.spec import Scene
+from trackroom.scenes.spec import Scene
 
 from . import analytic, imu
-from .recording import SENSING_MODES, Calibration, Observations, Recording, Truth
+from trackroom.provenance import versions
+from trackroom.recording import SENSING_MODES, Calibration, Observations, Recording, Truth
 from .walkers import GM_DISCRETISATION, Trajectories, plan_trajectories
 from .world import build_world
-
-VERSIONED = ("trackroom", "mujoco", "numpy", "scipy", "pandas", "pyarrow")
-
-
-@functools.cache
-def _versions() -> tuple:
-    out = {"python": platform.python_version()}
-    for name in VERSIONED:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            pass
-    return tuple(out.items())
-
-
-def package_versions() -> dict[str, str]:
-    """Python and package versions for the metadata (read once per process: ~6 ms)."""
-    return dict(_versions())
-
 
 def phone_ids(scene: Scene) -> list[str]:
     """``phone{i}`` for walker i with a phone, "" without."""
@@ -116,7 +95,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
     else:
         try:
-            rendered = importlib.import_module("sim.rendered")
+            rendered = importlib.import_module("trackroom.sim.rendered")
         except ModuleNotFoundError as e:
             raise RuntimeError("sensing='rendered' needs sim/rendered.py (the rendering pipeline), which is not installed") from e
         obs, extra = rendered.observe(world, scene, traj, render_rng, save_frames)
@@ -141,11 +120,11 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
             }
             for i, w in enumerate(scene.walkers)
         ],
-        "versions": package_versions(),
+        "versions": versions(),
     }
     noise = dataclasses.asdict(scene.sensors)
     if sensing == "rendered":
         # the rendered boxes come from the flow detector: declare its measured window noise
-        noise.update(importlib.import_module("sim.perception_flow").RENDERED_WINDOW_NOISE)
+        noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
     calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=noise)
     return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta)

@@ -75,7 +75,7 @@ from scipy.ndimage import gaussian_filter1d, map_coordinates
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from scenes.spec import GaussMarkovParams, Scene, WalkerSpec
+from trackroom.scenes.spec import GaussMarkovParams, Scene, WalkerSpec
 
 GRID = 0.1  # planning grid, m
 MARGIN = 0.15  # extra clearance beyond the body radius when planning, m

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from scenes.spec import Scene
+from trackroom.scenes.spec import Scene
 
 PHONE_HEIGHT = 1.0  # m above the floor
 PERSON_GROUP = 2  # geom group of people (visible by default)

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from scenes.loader import load_scene
-from sim.recording import Calibration, Observations
+from trackroom.scenes.loader import load_scene
+from trackroom.recording import Calibration, Observations
 
 
 def hall_calibration(scene: str = "bearing_hall") -> Calibration:

@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scenes.loader import parse_scene
-from sim.recording import OBSERVATION_COLUMNS, TRUTH_COLUMNS, check_table
-from sim.simulate import simulate
+from trackroom.scenes.loader import parse_scene
+from trackroom.recording import OBSERVATION_COLUMNS, TRUTH_COLUMNS, check_table
+from trackroom.sim.simulate import simulate
 
 # A 10 m x 6 m room: a horizontal camera on the west wall looking east, a wall segment in the
 # middle hiding "hidden" (behind it), "open" in plain view, and "shadowed" behind "open".

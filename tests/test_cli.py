@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
-from scripts.cli import main
+from trackroom.cli import main
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "scripts.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([sys.executable, "-m", "trackroom", *args], capture_output=True, text=True, timeout=300)
 
 
 @pytest.mark.parametrize(

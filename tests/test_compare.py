@@ -6,9 +6,9 @@ import dataclasses
 import pandas as pd
 import pytest
 
-from estimators.base import REGISTRY, Estimator, register
-from metrics.aggregate import mean_interval, summarise, summary_markdown
-from scripts.compare import (CompareError, CompareSpec, EstimatorRun, SceneRun, parse_estimator, parse_seeds,
+from trackroom.estimators.base import REGISTRY, Estimator, register
+from trackroom.metrics.aggregate import mean_interval, summarise, summary_markdown
+from trackroom.compare import (CompareError, CompareSpec, EstimatorRun, SceneRun, parse_estimator, parse_seeds,
                              run_comparison, spec_from_toml, split_top, write_outputs)
 
 
@@ -103,7 +103,7 @@ def test_mean_interval_and_summary():
 
 
 def test_compare_command(tmp_path, capsys):
-    from scripts.cli import main
+    from trackroom.cli import main
 
     out = tmp_path / "cmp"
     rc = main(["compare", "--scenes", "overhead_lab", "--set", "walkers.count=1", "--seeds", "0",

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.crb import bearing_jacobians, information_matrix, rmse_over_crb, trajectory_crb
-from scenes.loader import load_scene
+from trackroom.metrics.crb import bearing_jacobians, information_matrix, rmse_over_crb, trajectory_crb
+from trackroom.scenes.loader import load_scene
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def test_bound_equals_dense_inverse(cams, q):
 
 def test_hand_case_one_step_two_orthogonal_cameras():
     """One step, no dynamics: the bound is the inverse of the two bearing informations."""
-    from scenes.camera import Camera
+    from trackroom.scenes.camera import Camera
 
     cam_x = Camera("a", "horizontal", np.array([0.0, 0.0, 1.0]), 0.0, 0.0, np.radians(60), 320, 240, 4.0)
     cam_y = Camera("b", "horizontal", np.array([5.0, -5.0, 1.0]), np.pi / 2, 0.0, np.radians(60), 320, 240, 4.0)
@@ -58,8 +58,8 @@ def test_truth_linearised_smoother_is_exact_on_a_noiseless_constant_velocity_wal
     """The oracle of scripts.crb_montecarlo (the yardstick splitting RMSE / sqrt(CRB)): a
     constant-velocity path has zero prior residual, so with noiseless bearings and a first-state
     prior centred on its start it is returned exactly; bearing noise moves it."""
-    from estimators.qp_model import Bearings, Prior
-    from scenes.spec import GaussMarkovParams
+    from trackroom.estimators.qp_model import Bearings, Prior
+    from trackroom.scenes.spec import GaussMarkovParams
     from scripts.crb_montecarlo import oracle
 
     sc = load_scene("bearing_hall")

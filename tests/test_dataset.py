@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scenes import load_scene
-from sim.dataset import read_recording, write_recording
-from sim.recording import Calibration, Observations, Recording, RecordingError, Truth
+from trackroom.scenes import load_scene
+from trackroom.dataset import read_recording, write_recording
+from trackroom.recording import Calibration, Observations, Recording, RecordingError, Truth
 
 
 def small_recording(seed=0) -> Recording:

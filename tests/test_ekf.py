@@ -5,10 +5,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from estimators.base import EstimatorError
-from estimators.ekf import EKF, BearingModel, cv_model
-from scenes import load_scene
-from sim.recording import Calibration, Observations
+from trackroom.estimators.base import EstimatorError
+from trackroom.estimators.ekf import EKF, BearingModel, cv_model
+from trackroom.scenes import load_scene
+from trackroom.recording import Calibration, Observations
 
 
 def overhead_input(paths: dict[str, np.ndarray], sigma=0.05, duration=4.0, seed=0):

@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from estimators.gait import GaitModel, bobbing_feature, fit_gait, phone_heading
-from scripts.cli import main
-from sim.dataset import write_recording
+from trackroom.estimators.gait import GaitModel, bobbing_feature, fit_gait, phone_heading
+from trackroom.cli import main
+from trackroom.dataset import write_recording
 from tests.test_hmm_matcher import MEETING, synthetic_recording
 
 

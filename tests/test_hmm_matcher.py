@@ -15,12 +15,12 @@ import pandas as pd
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
-from estimators.base import EstimatorError
-from estimators.gait import GaitModel
-from estimators.hmm_matcher import HMMMatcher
-from metrics.score import evaluate
-from scenes.loader import load_scene
-from sim.recording import Calibration, Observations, Recording, Truth
+from trackroom.estimators.base import EstimatorError
+from trackroom.estimators.gait import GaitModel
+from trackroom.estimators.hmm_matcher import HMMMatcher
+from trackroom.metrics.score import evaluate
+from trackroom.scenes.loader import load_scene
+from trackroom.recording import Calibration, Observations, Recording, Truth
 
 G = 9.81
 FIELD = (0.0, -0.5, 0.0)
@@ -206,7 +206,7 @@ def test_bad_input_is_named(tmp_path):
 
 def test_gait_model_separates_walking_from_standing():
     rec = synthetic_recording(MEETING, {"A": "phA", "B": "phB"}, 12.0)
-    from estimators.gait import bobbing_feature, load_default
+    from trackroom.estimators.gait import bobbing_feature, load_default
 
     imu = rec.observations["imu"].query("phone_id == 'phB'")
     tq = np.array([1.5, 9.0])  # B walking at 1.5 s, standing at 9 s
@@ -216,7 +216,7 @@ def test_gait_model_separates_walking_from_standing():
 
 
 def test_output_track_ids_follow_the_phone_and_the_filtered_track():
-    from estimators.hmm_matcher import output_track_ids
+    from trackroom.estimators.hmm_matcher import output_track_ids
 
     # frames 0-3, filtered tracks 0 and 1; track 0 claims phone 0 in frames 1-2 only, then in
     # frame 3 track 1 claims phone 0 (track 0 must give the label up)
@@ -235,7 +235,7 @@ def _two_standing_tracks(p_swap: float, mate_vanishes: bool):
     (segment 3 vanishes after frame 29 if ``mate_vanishes``). Segment 0 carries 30 nats for
     phone 0, segment 1 -10; after the cut nothing tells them apart (own evidence 0). Continuity
     links each new segment to its own old segment only (the two stood 0.6 m apart)."""
-    from estimators.lazy_tracker import Segments
+    from trackroom.estimators.lazy_tracker import Segments
 
     rows = []
     for k in range(40):
@@ -261,7 +261,7 @@ def test_claim_is_held_after_a_possible_swap_while_both_stand(monkeypatch, vanis
     # seed 1 of the phoneless study: a phone carrier and a phoneless person stand close, the
     # tracker may have swapped them (p_swap = 0.2), continuity does not link the two (they are
     # 0.6 m apart), and standing still gives no evidence either way: no claim until they move
-    from estimators.hmm_matcher import PhoneFeatures
+    from trackroom.estimators.hmm_matcher import PhoneFeatures
 
     segs, own = _two_standing_tracks(0.2, mate_vanishes=vanishes)
     phones = PhoneFeatures(["phone0"], np.zeros((40, 1)), np.zeros((40, 1)))

@@ -8,10 +8,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
-from scenes.loader import load_scene
-from sim import imu
-from sim.walkers import plan_trajectories
-from sim.world import build_world
+from trackroom.scenes.loader import load_scene
+from trackroom.sim import imu
+from trackroom.sim.walkers import plan_trajectories
+from trackroom.sim.world import build_world
 
 G = np.array([0.0, 0.0, -9.81])
 

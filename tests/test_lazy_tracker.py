@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.lazy_tracker import TrackerConfig, track_segments, window_velocity
+from trackroom.estimators.lazy_tracker import TrackerConfig, track_segments, window_velocity
 
 FPS = 20.0
 

@@ -5,9 +5,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from metrics.identity import co_occurrence, idf1, identification_accuracy
-from metrics.mot import EvalFrames, clear_mot, gated_assignment
-from metrics.position import error_stats, position_errors
+from trackroom.metrics.identity import co_occurrence, idf1, identification_accuracy
+from trackroom.metrics.mot import EvalFrames, clear_mot, gated_assignment
+from trackroom.metrics.position import error_stats, position_errors
 
 
 def frames_from(truth_rows, track_rows, n_frames):

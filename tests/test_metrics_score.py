@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from metrics.score import build_frames, evaluate, evaluation_frames, score, tracks_at
-from scenes import load_scene
-from sim.recording import Calibration, Observations, Recording, Truth
+from trackroom.metrics.score import build_frames, evaluate, evaluation_frames, score, tracks_at
+from trackroom.scenes import load_scene
+from trackroom.recording import Calibration, Observations, Recording, Truth
 
 
 def tiny_recording(duration=1.0) -> Recording:
@@ -93,9 +93,9 @@ def test_build_frames_needs_cameras():
 
 
 def test_estimate_and_score_commands(tmp_path, capsys):
-    from scripts.cli import main
-    from sim.dataset import write_recording
-    from sim.simulate import simulate
+    from trackroom.cli import main
+    from trackroom.dataset import write_recording
+    from trackroom.sim.simulate import simulate
 
     rec = simulate(load_scene("overhead_lab", ["walkers.count=2"]), 3, 4.0)
     folder = write_recording(rec, tmp_path / "rec")

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from metrics.identity import idf1
-from metrics.mot import EvalFrames, clear_mot, pairwise_distances
+from trackroom.metrics.identity import idf1
+from trackroom.metrics.mot import EvalFrames, clear_mot, pairwise_distances
 
 mm = pytest.importorskip("motmetrics")
 

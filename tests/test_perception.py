@@ -15,11 +15,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pytest
 
-from scenes.loader import load_scene
+from trackroom.scenes.loader import load_scene
 from scripts.eval_privacy import score
-from sim.rendered import observe
-from sim.walkers import plan_trajectories
-from sim.world import build_world
+from trackroom.sim.rendered import observe
+from trackroom.sim.walkers import plan_trajectories
+from trackroom.sim.world import build_world
 
 GATE_M = 0.5  # a floor detection within this distance of a person detects them
 
@@ -134,8 +134,8 @@ def test_privacy_camera_sees_walkers_and_misses_people_standing_still():
 def test_privacy_motion_gate_ignores_ownership_changes():
     """Hand-made frames: a blue person standing still gets changed pixels only from a red person
     crossing its edge; the red person moves. Only red is reported as moving."""
-    from sim.perception import Appearance, PerceptionParams, PersonBlob, colour_votes
-    from sim.perception_privacy import own_motion
+    from trackroom.sim.perception import Appearance, PerceptionParams, PersonBlob, colour_votes
+    from trackroom.sim.perception_privacy import own_motion
 
     app = Appearance(("red", "blue"), np.array([[0.8, 0.1, 0.1], [0.1, 0.1, 0.8]]))
     params = PerceptionParams()

@@ -5,11 +5,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from estimators import get
-from estimators.base import EstimatorError
-from estimators.qp_model import Bearings, Prior, process_covariance
-from estimators.qp_smoother import QPSmoother
-from scenes.spec import GaussMarkovParams
+from trackroom.estimators import get
+from trackroom.estimators.base import EstimatorError
+from trackroom.estimators.qp_model import Bearings, Prior, process_covariance
+from trackroom.estimators.qp_smoother import QPSmoother
+from trackroom.scenes.spec import GaussMarkovParams
 
 from .qp_fixtures import bearings_of, hall_calibration, observations, straight_walk
 
@@ -144,7 +144,7 @@ def test_ray_limit_stops_an_observed_point_at_the_first_wall():
     """cam1 (office_floor, at (5, 0.06) looking +y) sees a person straight ahead: the person lies
     on x = 5 between the camera and the corridor wall at y = 4 (thickness 0.1, margin 0.1), so
     the row is -y >= -(4 - 0.05 - 0.1) by hand."""
-    from estimators.qp_walls import ray_limits
+    from trackroom.estimators.qp_walls import ray_limits
 
     cal = hall_calibration("office_floor")
     cam = cal.cameras["cam1"]

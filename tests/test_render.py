@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenes.camera import Camera
-from sim.render import SceneRenderer, VideoSink, read_video
+from trackroom.scenes.camera import Camera
+from trackroom.sim.render import SceneRenderer, VideoSink, read_video
 
 
 class TinyWorld:
@@ -158,10 +158,10 @@ def test_overlapped_pipeline_equals_inline():
     cameras: the stateful motion gate must see the frames in order)."""
     import pandas as pd
 
-    from scenes.loader import load_scene
-    from sim.rendered import observe
-    from sim.walkers import plan_trajectories
-    from sim.world import build_world
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.rendered import observe
+    from trackroom.sim.walkers import plan_trajectories
+    from trackroom.sim.world import build_world
 
     scene = load_scene("overhead_lab", ["cameras.*.privacy=true"])
     traj = plan_trajectories(scene, 1.0, np.random.default_rng(3))

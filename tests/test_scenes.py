@@ -8,8 +8,8 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from scenes import SceneError, bundled_scenes, load_scene, parse_scene
-from scenes.camera import Camera
+from trackroom.scenes import SceneError, bundled_scenes, load_scene, parse_scene
+from trackroom.scenes.camera import Camera
 
 MINIMAL = """
 [scene]
@@ -151,5 +151,5 @@ def test_bearing_cameras_do_not_overlap(name):
 
 def test_scene_files_have_only_known_sections():
     for name in bundled_scenes():
-        raw = tomllib.loads(resources.files("scenes").joinpath(f"{name}.toml").read_text())
+        raw = tomllib.loads(resources.files("trackroom.scenes").joinpath(f"{name}.toml").read_text())
         parse_scene(raw, name)  # validates every key

@@ -5,12 +5,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from estimators import tp_geometry as geo
-from estimators.base import EstimatorError
-from estimators.target_planes import TargetPlanes
-from scenes.camera import Camera, yaw_pitch_towards
-from scenes.spec import Floorplan
-from sim.recording import Calibration, Observations
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.base import EstimatorError
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.scenes.camera import Camera, yaw_pitch_towards
+from trackroom.scenes.spec import Floorplan
+from trackroom.recording import Calibration, Observations
 
 H, R = 1.75, 0.2
 

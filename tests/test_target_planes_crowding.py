@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.target_planes import TargetPlanes
-from estimators.tp_tracker import TRACKING, UNRELIABLE, CameraState, CameraView, Target, TargetUpdater, _focal
-from sim.recording import Observations
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators.tp_tracker import TRACKING, UNRELIABLE, CameraState, CameraView, Target, TargetUpdater, _focal
+from trackroom.recording import Observations
 from tests.test_target_planes import calib, four_cameras, line_path, synth_boxes
 
 

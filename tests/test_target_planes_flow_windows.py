@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes.loader import load_scene
-from sim.perception_flow import FlowTracker, current_box, expected_person_window
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.perception_flow import FlowTracker, current_box, expected_person_window
 
 W, H = 320, 240
 

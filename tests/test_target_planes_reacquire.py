@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from estimators import tp_geometry as geo
-from estimators.target_planes import TargetPlanes
-from sim.recording import Observations
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.recording import Observations
 from tests.test_target_planes import calib, four_cameras, line_path, synth_boxes
 
 
@@ -74,10 +74,10 @@ def test_a_stopped_target_is_not_handed_a_mover_walking_past():
     """Two cameras' crossing planes near a target that vanished from every view (it stopped):
     windows moving far faster than someone starting from rest do not join it (section 3.4.2's
     velocity gate on the hand-back); windows moving as predicted do."""
-    from estimators.target_planes import TargetPlanes
-    from estimators.tp_frames import CameraBoxes
-    from estimators.tp_tracker import LOST, TRACKING, CameraState, Target, TargetUpdater
-    from estimators import tp_geometry as geo
+    from trackroom.estimators.target_planes import TargetPlanes
+    from trackroom.estimators.tp_frames import CameraBoxes
+    from trackroom.estimators.tp_tracker import LOST, TRACKING, CameraState, Target, TargetUpdater
+    from trackroom.estimators import tp_geometry as geo
     from tests.test_target_planes import four_cameras
 
     cams = four_cameras()

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.loader import load_scene
-from sim.simulate import simulate
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.simulate import simulate
 
 STANDING = "{motion='standing', start=[3.4, 4.0]}"
 WALKER = "{motion='waypoints', waypoints=[[1.0, 4.0], [3.0, 6.3]], speed=[1.0, 1.0]}"
@@ -38,8 +38,8 @@ def test_rendered_recordings_declare_the_flow_detectors_noise():
     """A rendered recording's calibration carries the flow detector's measured window noise
     (its own keys: the horizontal cameras' ``bearing_sigma_px`` is left alone), and the
     estimator picks it up; analytic recordings fall back to the bearing noise and eq. 8's 1."""
-    from estimators.target_planes import TargetPlanes
-    from sim.perception_flow import RENDERED_WINDOW_NOISE
+    from trackroom.estimators.target_planes import TargetPlanes
+    from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
 
     scene = load_scene("occlusion_lab")
     rec = simulate(scene, seed=0, duration=0.2, sensing="rendered")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from metrics.thresholds import ThresholdError, check_thresholds, ci_spec, failure_table, load_thresholds
-from scripts.compare import run_comparison
+from trackroom.metrics.thresholds import ThresholdError, check_thresholds, failure_table, load_thresholds
+from trackroom.compare import ci_spec, run_comparison
 
 THRESHOLDS = load_thresholds()
 GROUPS = sorted(set(zip(THRESHOLDS["scene"], THRESHOLDS["sensing"])))

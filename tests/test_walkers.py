@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes.loader import bundled_scenes, load_scene
-from scenes.spec import GaussMarkovParams
-from sim import walkers
-from sim.walkers import DEFAULT_WALKER_GM, follow_path, plan_trajectories
+from trackroom.scenes.loader import bundled_scenes, load_scene
+from trackroom.scenes.spec import GaussMarkovParams
+from trackroom.sim import walkers
+from trackroom.sim.walkers import DEFAULT_WALKER_GM, follow_path, plan_trajectories
 
 
 @pytest.mark.parametrize("name", bundled_scenes())

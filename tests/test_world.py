@@ -9,9 +9,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenes.loader import load_scene
-from sim.walkers import plan_trajectories
-from sim.world import build_world
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.walkers import plan_trajectories
+from trackroom.sim.world import build_world
 
 SCENES_BY_KIND = {"horizontal": "bearing_hall", "overhead": "overhead_lab", "oblique": "occlusion_lab"}
 
@@ -55,7 +55,7 @@ def test_camera_model_matches_rendered_marker(kind):
     """A rendered check of the same: a 3 cm sphere 1 m away placed on the ray of a fractional pixel
     (u, v) of each camera shows up in MuJoCo's segmentation render with its pixel centroid within
     0.5 px of Camera.project (the compiled cameras are the calibrated ones, no syncing needed)."""
-    from sim.rendered import check_cameras
+    from trackroom.sim.rendered import check_cameras
 
     scene = load_scene(SCENES_BY_KIND[kind])
     world = build_world(scene)
@@ -121,7 +121,7 @@ def test_magnetometer_gives_heading():
 
 
 def test_export_xml_command(tmp_path):
-    from scripts.cli import main
+    from trackroom.cli import main
 
     out = tmp_path / "hall.xml"
     assert main(["export-xml", "bearing_hall", "--out", str(out), "--set", "walkers.count=2"]) == 0

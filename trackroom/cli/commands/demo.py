@@ -32,15 +32,15 @@ def run(args) -> int:
 
     import pandas as pd
 
-    from estimators import available
-    from estimators.runner import run_estimator
-    from metrics.aggregate import summary_markdown
-    from metrics.score import evaluate
-    from scenes import load_scene
-    from scenes.loader import bundled_scenes
-    from scripts.cli import CommandError
-    from scripts.commands.generate import generate_to, summary_line
-    from scripts.topdown import plot_recording
+    from trackroom.estimators import available
+    from trackroom.estimators.runner import run_estimator
+    from trackroom.metrics.aggregate import summary_markdown
+    from trackroom.metrics.score import evaluate
+    from trackroom.scenes import load_scene
+    from trackroom.scenes.loader import bundled_scenes
+    from trackroom.errors import CommandError
+    from trackroom.cli.commands.generate import generate_to, summary_line
+    from trackroom.topdown import plot_recording
 
     if args.duration is not None and not args.duration > 0:
         raise CommandError(f"--duration must be positive, got {args.duration}")

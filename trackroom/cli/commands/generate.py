@@ -21,8 +21,8 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from scenes import load_scene
-    from scripts.cli import CommandError
+    from trackroom.scenes import load_scene
+    from trackroom.errors import CommandError
 
     if args.duration <= 0:
         raise CommandError(f"--duration must be positive, got {args.duration}")
@@ -40,9 +40,9 @@ def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=Fa
     import tempfile
     from pathlib import Path
 
-    from scripts.cli import CommandError
-    from sim.dataset import write_recording
-    from sim.simulate import simulate
+    from trackroom.errors import CommandError
+    from trackroom.dataset import write_recording
+    from trackroom.sim.simulate import simulate
 
     if Path(out).exists() and not force:
         raise CommandError(f"{out}: output folder exists (use --force to replace it)")

@@ -25,12 +25,12 @@ def add_arguments(p) -> None:
 def load_tracks(path):
     import pandas as pd
 
-    from estimators.base import check_tracks
+    from trackroom.estimators.base import check_tracks
 
     try:
         df = pd.read_csv(path, dtype={"phone_id": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        from scripts.cli import CommandError
+        from trackroom.errors import CommandError
 
         raise CommandError(f"{path}: not a readable CSV: {e}") from None
     if "phone_id" in df.columns:
@@ -46,10 +46,10 @@ def run(args) -> int:
     import json
     import math
 
-    from metrics.identity import claims_phones
-    from metrics.score import evaluate
-    from scripts.cli import CommandError
-    from sim.dataset import read_recording
+    from trackroom.metrics.identity import claims_phones
+    from trackroom.metrics.score import evaluate
+    from trackroom.errors import CommandError
+    from trackroom.dataset import read_recording
 
     if not args.gate > 0:
         raise CommandError(f"--gate must be a positive distance in metres, got {args.gate}")

@@ -15,12 +15,12 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from scripts.cli import CommandError
-    from scripts.topdown import plot_recording, plot_scene
+    from trackroom.errors import CommandError
+    from trackroom.topdown import plot_recording, plot_scene
 
     target = Path(args.target)
     if (target / "manifest.json").exists():
-        from sim.dataset import read_recording
+        from trackroom.dataset import read_recording
 
         rec = read_recording(target)
         out = Path(args.out) if args.out else target / "topdown.png"
@@ -29,7 +29,7 @@ def run(args) -> int:
         if args.frames:
             if not (target / "frames").is_dir():
                 raise CommandError(f"{target}: no saved frames (generate with --sensing rendered --save-frames)")
-            from sim.contact_sheet import contact_sheets
+            from trackroom.sim.contact_sheet import contact_sheets
 
             for png in contact_sheets(target, out.parent):
                 print(f"wrote {png}")
@@ -38,7 +38,7 @@ def run(args) -> int:
         raise CommandError(f"{target}: not a trackroom recording (no manifest.json)")
     if args.frames:
         raise CommandError("--frames needs a recording folder")
-    from scenes import load_scene
+    from trackroom.scenes import load_scene
 
     scene = load_scene(args.target, args.overrides)
     out = Path(args.out) if args.out else Path(f"{scene.name}.png")

@@ -16,9 +16,9 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from estimators.runner import run_estimator
-    from scripts.cli import CommandError
-    from sim.dataset import read_recording
+    from trackroom.estimators.runner import run_estimator
+    from trackroom.errors import CommandError
+    from trackroom.dataset import read_recording
 
     rec = read_recording(args.recording)
     result = run_estimator(rec, args.estimator, args.param)

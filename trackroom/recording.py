@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from scenes.camera import Camera
-from scenes.spec import Floorplan
+from trackroom.scenes.camera import Camera
+from trackroom.scenes.spec import Floorplan
 
 OBSERVATION_COLUMNS: dict[str, list[str]] = {
     "bearings": ["t", "camera", "u", "label"],

@@ -23,8 +23,8 @@ def add_arguments(p) -> None:
 
 def training_samples(rec, window_s: float, rate: float):
     """(features, walking labels, heading errors while walking, speeds while walking) of one recording."""
-    from estimators.gait import bobbing_feature, phone_heading
-    from sim.recording import RecordingError
+    from trackroom.estimators.gait import bobbing_feature, phone_heading
+    from trackroom.recording import RecordingError
 
     imu = rec.observations["imu"]
     people = rec.truth.people
@@ -60,9 +60,9 @@ def training_samples(rec, window_s: float, rate: float):
 
 
 def run(args) -> int:
-    from estimators.gait import fit_gait
-    from scripts.cli import CommandError
-    from sim.dataset import read_recording
+    from trackroom.estimators.gait import fit_gait
+    from trackroom.errors import CommandError
+    from trackroom.dataset import read_recording
 
     if args.window <= 0 or args.rate <= 0:
         raise CommandError("--window and --rate must be positive")

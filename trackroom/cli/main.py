@@ -1,6 +1,6 @@
 """The ``trackroom`` command line.
 
-Each sub-command is a module in ``scripts/commands/`` with ``NAME``, ``HELP``,
+Each sub-command is a module in ``trackroom/cli/commands/`` with ``NAME``, ``HELP``,
 ``add_arguments(parser)`` and ``run(args) -> int``; adding a command is adding a module.
 Expected failures (bad scene files, bad recordings, bad arguments) exit with status 2 and one
 clear line on stderr, never a traceback.
@@ -19,24 +19,33 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering on the CPU; set 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
-from scripts.errors import CommandError  # noqa: E402  (re-exported: commands raise it)
+from trackroom.errors import CommandError  # noqa: E402  (re-exported: commands raise it)
 
 
 def _expected_errors() -> tuple[type[BaseException], ...]:
-    from estimators.base import EstimatorError
-    from scenes.loader import SceneError
-    from sim.recording import RecordingError
+    from trackroom.estimators.base import EstimatorError
+    from trackroom.scenes.loader import SceneError
+    from trackroom.recording import RecordingError
 
     return (CommandError, SceneError, RecordingError, EstimatorError, FileNotFoundError, FileExistsError)
 
 
+def _version_line() -> str:
+    from trackroom.provenance import versions
+
+    v = versions()
+    commit = f" (git {v['git_commit'][:12]}{'+dirty' if v['git_commit'].endswith('+dirty') else ''})" if v.get("git_commit") else ""
+    return f"trackroom {v['trackroom']}{commit}"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    import scripts.commands as pkg
+    import trackroom.cli.commands as pkg
 
     parser = argparse.ArgumentParser(prog="trackroom", description="Tracking testbed: scenes, simulation, estimators, metrics.")
+    parser.add_argument("--version", action="version", version=_version_line())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
-        mod = importlib.import_module(f"scripts.commands.{info.name}")
+        mod = importlib.import_module(f"{pkg.__name__}.{info.name}")
         if not hasattr(mod, "NAME"):
             continue
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)

@@ -94,7 +94,7 @@ class CompareSpec:
     recordings: str | None = None  # cache folder for recordings (None: simulate every time)
 
     def validate(self) -> "CompareSpec":
-        from estimators import get
+        from trackroom.estimators import get
 
         if not self.scenes:
             raise CompareError("no scenes to compare")
@@ -114,11 +114,11 @@ class CompareSpec:
             dup = sorted({k for k in keys if keys.count(k) > 1})
             if dup:
                 raise CompareError(f"{what} label(s) {dup} appear twice: give each a distinct label")
-        from estimators.runner import parse_params
+        from trackroom.estimators.runner import parse_params
 
         for e in self.estimators:
             parse_params(get(e.name), dict(e.params))  # unknown estimators or parameters fail now
-        from scenes import load_scene
+        from trackroom.scenes import load_scene
 
         for s in self.scenes:
             load_scene(s.name, list(s.overrides))  # bad scenes or overrides fail now, not in a worker
@@ -167,8 +167,8 @@ def split_top(text: str) -> list[str]:
 
 def parse_estimator(text: str) -> EstimatorRun:
     """``ekf`` or ``ekf[smooth=true;filter=ukf]`` (values parsed as TOML, else text)."""
-    from estimators import get
-    from estimators.base import coerce_param
+    from trackroom.estimators import get
+    from trackroom.estimators.base import coerce_param
 
     name, _, rest = text.partition("[")
     name = name.strip()
@@ -187,7 +187,7 @@ def parse_estimator(text: str) -> EstimatorRun:
 
 
 def all_estimators() -> list[EstimatorRun]:
-    from estimators import available
+    from trackroom.estimators import available
 
     return [EstimatorRun(n) for n in available()]
 
@@ -239,9 +239,9 @@ def recording_folder(root: str | Path, scene: SceneRun, seed: int, duration: flo
 
 def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cache: str | None):
     """Read the cached recording, or simulate it (and write it to the cache)."""
-    from scenes import load_scene
-    from sim.dataset import read_recording, write_recording
-    from sim.simulate import simulate
+    from trackroom.scenes import load_scene
+    from trackroom.dataset import read_recording, write_recording
+    from trackroom.sim.simulate import simulate
 
     folder = recording_folder(cache, scene, seed, duration, sensing) if cache else None
     if folder is not None and (folder / "manifest.json").exists():
@@ -260,8 +260,8 @@ def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cac
 
 def run_job(scene: SceneRun, seed: int, spec: CompareSpec) -> tuple[list[dict], pd.DataFrame]:
     """One recording, every estimator: score rows and per-frame error series."""
-    from estimators.runner import run_estimator
-    from metrics.score import evaluate
+    from trackroom.estimators.runner import run_estimator
+    from trackroom.metrics.score import evaluate
 
     rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings)
     rows, series = [], []
@@ -328,7 +328,7 @@ def run_comparison(spec: CompareSpec, progress: bool = True) -> Comparison:
 # ----------------------------------------------------------------------------- outputs
 def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True) -> dict[str, Path]:
     """results.csv, per_frame.csv, summary.md and the plots; returns their paths by name."""
-    from metrics.aggregate import summary_markdown
+    from trackroom.metrics.aggregate import summary_markdown
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -364,7 +364,7 @@ def _pyplot():
 
 def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict[str, Path]:
     """One figure per metric: a panel per scene, a bar (mean, 95% interval) and dots (seeds) per estimator."""
-    from metrics.aggregate import mean_interval
+    from trackroom.metrics.aggregate import mean_interval
 
     plt = _pyplot()
     ok = results[results["status"] == "ok"] if "status" in results else results
@@ -415,3 +415,19 @@ def plot_error_over_time(per_frame: pd.DataFrame, path: Path) -> Path:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+def ci_spec(thresholds: pd.DataFrame, scene: str, sensing: str, jobs: int = 1):
+    """The ``CompareSpec`` CI runs for one scene and sensing: the estimators with bounds there."""
+    from trackroom.metrics.thresholds import CI_DEFAULT, CI_RUNS, CI_SEEDS
+
+    rows = thresholds[(thresholds["scene"] == scene) & (thresholds["sensing"] == sensing)]
+    cfg = CI_RUNS.get(scene, CI_DEFAULT)
+    ests = []
+    for name in dict.fromkeys(rows["estimator"]):
+        e = parse_estimator(name)
+        ests.append(type(e)(e.name, e.params, label=name))
+    return CompareSpec(
+        scenes=[SceneRun(scene, tuple(cfg["overrides"]), label=scene)],
+        seeds=list(CI_SEEDS), estimators=ests, duration=float(cfg["duration"]), sensing=sensing, jobs=jobs,
+    )

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from scenes.camera import Camera
-from scenes.spec import Floorplan
+from trackroom.scenes.camera import Camera
+from trackroom.scenes.spec import Floorplan
 
 from .recording import (
     OBSERVATION_COLUMNS,

@@ -11,8 +11,8 @@ import matplotlib.patches  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from scenes.camera import Camera  # noqa: E402
-from scenes.spec import Floorplan  # noqa: E402
+from trackroom.scenes.camera import Camera  # noqa: E402
+from trackroom.scenes.spec import Floorplan  # noqa: E402
 
 KIND_COLOURS = {"horizontal": "tab:blue", "overhead": "tab:purple", "oblique": "tab:green"}
 

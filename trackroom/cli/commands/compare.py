@@ -6,7 +6,7 @@ HELP = "compare estimators over scenes and seeds (from a TOML file or options): 
 
 
 def add_arguments(p) -> None:
-    p.add_argument("config", nargs="?", help="comparison TOML file (see scripts/compare.py); options below override it")
+    p.add_argument("config", nargs="?", help="comparison TOML file (see trackroom/compare.py); options below override it")
     p.add_argument("--scenes", help="comma-separated bundled scene names or TOML paths")
     p.add_argument("--seeds", help="e.g. 0-4 or 0,3,5 (default 0)")
     p.add_argument("--estimators", help="comma-separated names, with parameters as name[k=v;k=v]; 'all' (default): every registered one")
@@ -25,9 +25,9 @@ def add_arguments(p) -> None:
 def build_spec(args):
     from pathlib import Path
 
-    from scripts.compare import (CompareSpec, SceneRun, all_estimators, parse_estimator, parse_seeds, spec_from_toml,
+    from trackroom.compare import (CompareSpec, SceneRun, all_estimators, parse_estimator, parse_seeds, spec_from_toml,
                                  split_top)
-    from scripts.cli import CommandError
+    from trackroom.errors import CommandError
 
     if args.config:
         spec = spec_from_toml(args.config)
@@ -54,8 +54,8 @@ def build_spec(args):
 
 
 def run(args) -> int:
-    from scripts.cli import CommandError
-    from scripts.compare import CompareError, run_comparison, write_outputs
+    from trackroom.errors import CommandError
+    from trackroom.compare import CompareError, run_comparison, write_outputs
 
     try:
         spec = build_spec(args).validate()

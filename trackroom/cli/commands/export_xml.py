@@ -15,8 +15,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from scenes.loader import load_scene
-    from sim.world import build_world
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.world import build_world
 
     scene = load_scene(args.scene, args.overrides)
     xml = build_world(scene).to_xml()
