@@ -1,6 +1,7 @@
 """The scene language: a TOML file parsed into a validated ``Scene``.
 
-File layout (every key is checked; unknown keys are errors)::
+File layout (every key is checked; unknown keys are errors; ``KEYS`` below lists them and
+docs/scenes.md documents each with its type, default and unit)::
 
     [scene]      name, description
     [room]       outline = [[x, y], ...], wall_height, wall_thickness
@@ -14,7 +15,7 @@ File layout (every key is checked; unknown keys are errors)::
     [walkers]    count, motion, speed = [min, max], pause = [min, max], pause_probability,
                  height, radius, phoneless, process_noise = [q_pos, q_vel], bob_amplitude
     [[walkers.people]]  name, motion, waypoints, loop, start, speed, pause, pause_probability,
-                 phone, height, radius, color
+                 phone, height, radius, color, process_noise, bob_amplitude
 
 ``walkers.count`` walkers are made: the first from ``walkers.people`` (in order), the rest from
 the ``[walkers]`` template. The last ``phoneless`` walkers carry no phone.
@@ -62,6 +63,29 @@ PALETTE: tuple[tuple[str, tuple[float, float, float]], ...] = (
     ("lime", (0.60, 1.00, 0.30)),
     ("pink", (1.00, 0.65, 0.75)),
 )
+
+
+# Every key the scene language accepts, by table ("" = the file's top level; ``walls``,
+# ``obstacles``, ``cameras`` and ``walkers.people`` are arrays of tables). The validator rejects
+# any other key; docs/scenes.md documents each one (tests/test_docs.py checks both directions).
+KEYS: dict[str, frozenset[str]] = {
+    "": frozenset({"scene", "room", "walls", "obstacles", "cameras", "sensors", "render", "walkers"}),
+    "scene": frozenset({"name", "description"}),
+    "room": frozenset({"outline", "wall_height", "wall_thickness"}),
+    "walls": frozenset({"start", "end", "thickness", "height"}),
+    "obstacles": frozenset({"name", "center", "size", "yaw_deg"}),
+    "cameras": frozenset(
+        {"name", "kind", "position", "yaw_deg", "pitch_deg", "look_at", "fovy_deg", "resolution", "fps", "privacy", "region"}
+    ),
+    "sensors": frozenset(SensorSpec.__dataclass_fields__),
+    "render": frozenset({"shadows"}),
+    "walkers": frozenset(
+        {"count", "motion", "speed", "pause", "pause_probability", "height", "radius", "phoneless", "process_noise", "bob_amplitude", "people"}
+    ),
+    "walkers.people": frozenset(
+        {"name", "motion", "waypoints", "loop", "start", "speed", "pause", "pause_probability", "phone", "height", "radius", "color", "process_noise", "bob_amplitude"}
+    ),
+}
 
 
 class SceneError(ValueError):
@@ -226,13 +250,11 @@ class _Validator:
 
     # -- sections
     def scene(self, raw: dict) -> Scene:
-        self.table(
-            raw, "", {"scene", "room", "walls", "obstacles", "cameras", "sensors", "render", "walkers"}, {"scene", "room"}
-        )
-        meta = self.table(raw["scene"], "scene", {"name", "description"}, {"name"})
+        self.table(raw, "", KEYS[""], {"scene", "room"})
+        meta = self.table(raw["scene"], "scene", KEYS["scene"], {"name"})
         floorplan = self.floorplan(raw)
         sensors = self.sensors(raw.get("sensors", {}))
-        render = self.table(raw.get("render", {}), "render", {"shadows"})
+        render = self.table(raw.get("render", {}), "render", KEYS["render"])
         cameras = self.cameras(raw.get("cameras", []), floorplan, sensors)
         walkers = self.walkers(raw.get("walkers", {}), floorplan)
         return Scene(
@@ -248,7 +270,7 @@ class _Validator:
         )
 
     def floorplan(self, raw: dict) -> Floorplan:
-        room = self.table(raw["room"], "room", {"outline", "wall_height", "wall_thickness"}, {"outline"})
+        room = self.table(raw["room"], "room", KEYS["room"], {"outline"})
         outline = np.asarray(self.points(room, "outline", "room", min_len=3))
         area = 0.5 * np.sum(outline[:, 0] * np.roll(outline[:, 1], -1) - np.roll(outline[:, 0], -1) * outline[:, 1])
         if abs(area) < 1e-6:
@@ -258,7 +280,7 @@ class _Validator:
         walls = []
         for i, w in enumerate(raw.get("walls", [])):
             where = f"walls[{i}]"
-            self.table(w, where, {"start", "end", "thickness", "height"}, {"start", "end"})
+            self.table(w, where, KEYS["walls"], {"start", "end"})
             a, b = self.vector(w, "start", where, 2), self.vector(w, "end", where, 2)
             if np.hypot(b[0] - a[0], b[1] - a[1]) < 1e-6:
                 self.fail(where, "start and end are the same point")
@@ -266,7 +288,7 @@ class _Validator:
         obstacles = []
         for i, o in enumerate(raw.get("obstacles", [])):
             where = f"obstacles[{i}]"
-            self.table(o, where, {"name", "center", "size", "yaw_deg"}, {"center", "size"})
+            self.table(o, where, KEYS["obstacles"], {"center", "size"})
             size = self.vector(o, "size", where, 3)
             if min(size) <= 0:
                 self.fail(f"{where}.size", f"every side must be positive, got {list(size)}")
@@ -278,7 +300,7 @@ class _Validator:
 
     def sensors(self, node) -> SensorSpec:
         d = SensorSpec()
-        allowed = set(SensorSpec.__dataclass_fields__)
+        allowed = KEYS["sensors"]
         self.table(node, "sensors", allowed)
         kw = {}
         for k in allowed:
@@ -298,10 +320,9 @@ class _Validator:
         if not isinstance(nodes, list):
             self.fail("cameras", "expected an array of tables [[cameras]]")
         out, names = [], set()
-        allowed = {"name", "kind", "position", "yaw_deg", "pitch_deg", "look_at", "fovy_deg", "resolution", "fps", "privacy", "region"}
         for i, c in enumerate(nodes):
             where = f"cameras[{i}]"
-            self.table(c, where, allowed, {"name", "kind", "position", "fovy_deg", "resolution", "fps"})
+            self.table(c, where, KEYS["cameras"], {"name", "kind", "position", "fovy_deg", "resolution", "fps"})
             name = self.string(c, "name", where)
             where = f"cameras[{i}] ({name})"
             if name in names:
@@ -352,8 +373,7 @@ class _Validator:
         return tuple(out)
 
     def walkers(self, node, floorplan: Floorplan) -> tuple[WalkerSpec, ...]:
-        template_keys = {"count", "motion", "speed", "pause", "pause_probability", "height", "radius", "phoneless", "process_noise", "bob_amplitude", "people"}
-        self.table(node, "walkers", template_keys)
+        self.table(node, "walkers", KEYS["walkers"])
         people = node.get("people", [])
         if not isinstance(people, list):
             self.fail("walkers.people", "expected an array of tables [[walkers.people]]")
@@ -365,13 +385,12 @@ class _Validator:
         phoneless = int(self.number(node, "phoneless", "walkers", 0, nonneg=True))
         if phoneless > count:
             self.fail("walkers.phoneless", f"{phoneless} phoneless walkers but only {count} walkers")
-        person_keys = {"name", "motion", "waypoints", "loop", "start", "speed", "pause", "pause_probability", "phone", "height", "radius", "color", "process_noise", "bob_amplitude"}
         colours = dict(PALETTE)
         out = []
         for i in range(count):
             p = people[i] if i < len(people) else {}
             where = f"walkers.people[{i}]" if i < len(people) else f"walkers (walker {i})"
-            self.table(p, where, person_keys)
+            self.table(p, where, KEYS["walkers.people"])
             merged = {k: v for k, v in node.items() if k not in ("count", "phoneless", "people")}
             merged.update(p)
             cname = self.string(merged, "color", where, default=PALETTE[i][0], choices=list(colours))
