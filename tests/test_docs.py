@@ -157,6 +157,101 @@ def test_format_doc_lists_every_column():
     assert not sorted(wanted - documented), f"columns not documented in docs/format.md: {sorted(wanted - documented)}"
 
 
+def format_doc_tables(text: str) -> dict[str, dict[str, str]]:
+    """docs/format.md's tables by the file named in their ``### `...` `` heading: {name: {column:
+    dtype or type}} (rows ``| `name` | dtype | ...``)."""
+    out = {}
+    for m in re.finditer(r"^##+ `([a-z_./<>]+)`.*?$(.*?)(?=^##|\Z)", text, flags=re.S | re.M):
+        out[m.group(1)] = dict(re.findall(r"^\| `([A-Za-z_0-9]+)` \|\s*([^|]*?)\s*\|", m.group(2), flags=re.M))
+    return out
+
+
+def _doc_dtype(series) -> str:
+    import pandas as pd
+
+    if pd.api.types.is_bool_dtype(series):
+        return "bool"
+    if pd.api.types.is_integer_dtype(series):
+        return "int64"
+    if pd.api.types.is_float_dtype(series):
+        return "float64"
+    return "string"
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    """Short recordings of every observation kind: analytic overhead_lab (with a phoneless
+    walker), occlusion_lab and bearing_hall, and a rendered occlusion_lab (boxes, labels)."""
+    from trackroom.dataset import write_recording
+    from trackroom.scenes import load_scene
+    from trackroom.sim.simulate import simulate
+
+    root = tmp_path_factory.mktemp("format")
+    runs = [("overhead_lab", ["walkers.count=2", "walkers.phoneless=1"], "analytic"),
+            ("occlusion_lab", [], "analytic"), ("bearing_hall", [], "analytic"), ("occlusion_lab", [], "rendered")]
+    out = []
+    for name, overrides, sensing in runs:
+        rec = simulate(load_scene(name, overrides), seed=0, duration=1.0, sensing=sensing)
+        out.append(write_recording(rec, root / f"{name}_{sensing}"))
+    return out
+
+
+def test_format_doc_matches_real_recordings(recordings):
+    """Every file, column (with its dtype), XML node, sensors.json key and manifest key of real
+    recordings is in docs/format.md, and nothing documented there is missing from them (columns
+    marked "rendered only" need only appear in rendered recordings)."""
+    import json
+
+    import cv2
+    import pandas as pd
+
+    text = (DOCS / "format.md").read_text()
+    tables = format_doc_tables(text)
+    problems, seen = [], {}
+    for folder in recordings:
+        manifest = json.loads((folder / "manifest.json").read_text())
+        rendered = manifest["sensing"] == "rendered"
+        for path in sorted(folder.rglob("*")):
+            rel = str(path.relative_to(folder))
+            if path.is_dir():
+                continue
+            generic = "calibration/<camera>.xml" if rel.endswith(".xml") else rel
+            if f"`{generic}`" not in text:
+                problems.append(f"{folder.name}: file {rel} is not documented")
+            if path.suffix == ".parquet":
+                df = pd.read_parquet(path)
+                doc = tables.get(rel, {})
+                for c in df.columns:
+                    if c not in doc:
+                        problems.append(f"{rel}: column {c} not documented")
+                    elif len(df) and doc[c] != _doc_dtype(df[c]):
+                        problems.append(f"{rel}: column {c} is {_doc_dtype(df[c])}, documented {doc[c]}")
+                for c in doc:
+                    seen.setdefault(rel, set()).add(c) if c in df.columns else None
+        for xml in sorted((folder / "calibration").glob("*.xml")):
+            fs = cv2.FileStorage(str(xml), cv2.FILE_STORAGE_READ)
+            nodes = set(fs.root().keys())
+            fs.release()
+            doc = set(tables["calibration/<camera>.xml"])
+            problems += [f"{xml.name}: node {n} not documented" for n in sorted(nodes - doc)]
+            problems += [f"{xml.name}: documented node {n} not written" for n in sorted(doc - nodes)]
+        noise = json.loads((folder / "calibration" / "sensors.json").read_text())
+        problems += [f"sensors.json: key {k} not documented" for k in sorted(set(noise) - set(tables["calibration/sensors.json"]))]
+        doc_manifest = set(tables["manifest.json"])
+        problems += [f"manifest.json: key {k} not documented" for k in sorted(set(manifest) - doc_manifest)]
+        problems += [f"manifest.json: documented key {k} not written" for k in sorted(doc_manifest - set(manifest))]
+        problems += [f"manifest.json meta: key {k} not documented" for k in sorted(manifest["meta"])
+                     if k not in tables["meta"] and f"`meta.{k}`" not in text]
+        gt = pd.read_csv(folder / "gt_world.csv")
+        if list(gt.columns) != list(tables["gt_world.csv"]):
+            problems.append(f"gt_world.csv columns {list(gt.columns)}, documented {list(tables['gt_world.csv'])}")
+    for rel, doc in tables.items():
+        if rel.endswith(".parquet"):
+            never = sorted(set(doc) - seen.get(rel, set()))
+            problems += [f"{rel}: documented column {c} appears in no recording" for c in never]
+    assert not problems, "\n".join(problems)
+
+
 @pytest.mark.parametrize("doc", ["format.md", "scenes.md", "api.md"])
 def test_readme_links_reference_docs(doc):
     assert f"](docs/{doc})" in (ROOT / "README.md").read_text()
