@@ -274,10 +274,14 @@ def spec_to_toml(spec: CompareSpec) -> str:
 
 # ----------------------------------------------------------------------------- running
 def recording_folder(root: str | Path, scene: SceneRun, seed: int, duration: float, sensing: str) -> Path:
-    """Cache path: one folder per scene, overrides, duration, sensing and seed."""
+    """Cache path: one folder per scene (name or file, and overrides), duration, sensing and seed.
+    What the scene holds is checked against the folder's manifest (``stale_reason``)."""
     key = json.dumps([scene.name, list(scene.overrides), duration, sensing])
     h = hashlib.sha1(key.encode()).hexdigest()[:10]
-    return Path(root) / f"{scene.name}_{sensing}_{duration:g}s_{h}_seed{seed}"
+    # a scene given as a file is named by its stem (its full path is in the hash)
+    stem = Path(scene.name).stem if scene.name.endswith(".toml") else scene.name
+    stem = re.sub(r"[^A-Za-z0-9._=-]+", "_", stem).strip("._") or "scene"
+    return Path(root) / f"{stem}_{sensing}_{duration:g}s_{h}_seed{seed}"
 
 
 def cache_key(scene, seed: int, duration: float, sensing: str) -> dict[str, Any]:
