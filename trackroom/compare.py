@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import shlex
@@ -123,8 +124,8 @@ class CompareSpec:
             raise CompareError("no seeds")
         if not self.estimators:
             raise CompareError("no estimators")
-        if not self.duration > 0:
-            raise CompareError(f"duration must be positive, got {self.duration}")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise CompareError(f"duration must be positive and finite (seconds), got {self.duration:g}")
         if self.sensing not in ("analytic", "rendered"):
             raise CompareError(f"sensing must be analytic or rendered, got {self.sensing!r}")
         if not self.gate > 0:

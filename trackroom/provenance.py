@@ -54,13 +54,13 @@ def git_commit() -> str | None:
 
 
 def command_line(argv: list[str]) -> list[str]:
-    """``["trackroom", *argv]`` with every absolute path (a word, or the value of ``--opt=PATH``)
-    made relative to the working directory, so records name no machine-specific folders."""
+    """``["trackroom", *argv]`` with every absolute path (a word, or the value of ``--opt=PATH`` or
+    ``key=PATH``) made relative to the working directory, so records name no machine's folders."""
     def rel(word: str) -> str:
         if os.path.isabs(word):
             return os.path.relpath(word)
         opt, eq, value = word.partition("=")
-        if eq and opt.startswith("-") and os.path.isabs(value):
+        if eq and os.path.isabs(value):
             return f"{opt}={os.path.relpath(value)}"
         return word
 
