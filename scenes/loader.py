@@ -22,11 +22,20 @@ the ``[walkers]`` template. The last ``phoneless`` walkers carry no phone.
 
 Overrides (``--set key=value``) are applied to the parsed TOML before validation; the key is
 a dotted path, list items by index or ``*`` for all (``cameras.*.privacy=true``).
+
+A loaded ``Scene`` keeps its ``source`` (the bundled scene's name, or the file's path relative to
+the working directory), its ``overrides`` and the parsed TOML after them (``raw``):
+``scene_toml`` writes that resolved scene back as TOML (it loads back to the same scene) and
+``scene_sha256`` hashes it canonically (recordings and the compare cache carry the hash).
 """
 from __future__ import annotations
 
 import copy
+import dataclasses
+import hashlib
+import json
 import math
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -112,23 +121,68 @@ def resolve_scene_path(name_or_path: str | Path) -> Path:
     return candidate
 
 
+def scene_source(name_or_path: str | Path) -> str:
+    """How a scene's origin is recorded: a bundled scene by its name, a file by its path relative
+    to the working directory (never an absolute path, so records move between machines)."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        return os.path.relpath(p)
+    return str(name_or_path)
+
+
 def load_scene(name_or_path: str | Path, overrides: list[str] | dict[str, Any] | None = None) -> Scene:
     """Read, override and validate a scene; raises ``SceneError`` with a clear message."""
     path = resolve_scene_path(name_or_path)
+    source = scene_source(name_or_path)
     try:
         raw = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{path}: not valid TOML: {e}") from None
-    return parse_scene(raw, source=str(path), overrides=overrides)
+        raise SceneError(f"{source}: not valid TOML: {e}") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SceneError(f"{source}: cannot be read: {e}") from None
+    return parse_scene(raw, source=source, overrides=overrides)
 
 
 def parse_scene(raw: dict, source: str = "<scene>", overrides=None) -> Scene:
     raw = copy.deepcopy(raw)
+    texts: list[str] = []
     if overrides:
-        items = overrides.items() if isinstance(overrides, dict) else (_split_override(source, o) for o in overrides)
+        if isinstance(overrides, dict):
+            items = list(overrides.items())
+            texts = [f"{k}={_toml_value(v)}" for k, v in items]
+        else:
+            texts = [str(o) for o in overrides]
+            items = [_split_override(source, o) for o in texts]
         for key, value in items:
             _apply_override(raw, key, value, source)
-    return _Validator(source).scene(raw)
+    scene = _Validator(source).scene(raw)
+    return dataclasses.replace(scene, overrides=tuple(texts))
+
+
+# ----------------------------------------------------------------------------- resolved scene
+def scene_toml(scene: Scene) -> str:
+    """The resolved scene (its TOML after overrides) as TOML text; ``load_scene`` on a file holding
+    it gives the same scene."""
+    import tomli_w
+
+    head = f"# Resolved scene: {scene.source or scene.name}"
+    if scene.overrides:
+        head += " with --set " + " --set ".join(scene.overrides)
+    return head + "\n" + tomli_w.dumps(scene.raw)
+
+
+def scene_sha256(scene: Scene) -> str:
+    """SHA-256 (hex) of the resolved scene in a canonical form: its TOML tables after overrides as
+    JSON with sorted keys and no spaces. Comments, key order and formatting of the file do not
+    change it; any value does."""
+    text = json.dumps(scene.raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _toml_value(v: Any) -> str:
+    import tomli_w
+
+    return tomli_w.dumps({"v": v}).split("=", 1)[1].strip()
 
 
 # ----------------------------------------------------------------------------- overrides

@@ -266,8 +266,9 @@ class Scene:
     walkers: tuple[WalkerSpec, ...]
     sensors: SensorSpec
     render: RenderSpec
-    source: str = ""  # the file it came from
+    source: str = ""  # where it came from: a bundled scene's name or a path relative to the working directory
     raw: dict = field(default_factory=dict, repr=False, compare=False)  # parsed TOML, after overrides
+    overrides: tuple[str, ...] = field(default=(), compare=False)  # the ``key=value`` overrides applied
 
     def camera(self, name: str) -> Camera:
         for c in self.cameras:

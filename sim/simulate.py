@@ -20,10 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import os
 
 import numpy as np
 import pandas as pd
 
+from trackroom.scenes.loader import scene_sha256, scene_toml
 from trackroom.scenes.spec import Scene
 
 from . import analytic, imu
@@ -53,6 +55,60 @@ def truth_people(scene: Scene, traj: Trajectories) -> pd.DataFrame:
     )
 
 
+# Peak memory per row while simulating (bytes): the table row plus the working arrays behind it
+# (trajectories, camera geometry, occlusion flags, pandas copies while sorting). Measured as peak
+# RSS growth per simulated second on the bundled scenes (overhead_lab with 10 walkers: 0.7 MB/s;
+# occlusion_lab: 0.6 MB/s, most of it the oblique cameras' window geometry), rounded up.
+BYTES_PER_PERSON_STEP = 300  # truth row + trajectory state, per person per sim_rate step
+BYTES_PER_IMU_SAMPLE = 300  # IMU row + the phone's sensor readings
+BYTES_PER_CAMERA_PERSON_FRAME = {"overhead": 400, "horizontal": 400, "oblique": 2000}
+BASE_BYTES = 64 * 2**20  # MuJoCo world, planner grids, interpreter
+
+
+def estimate_memory(scene: Scene, duration: float, sensing: str = "analytic") -> float:
+    """Peak memory (bytes) simulating ``scene`` for ``duration`` seconds needs, from its rates and
+    counts: rows (person x sim step, phone x IMU sample, camera frame x person) x bytes per row."""
+    people = len(scene.walkers)
+    phones = sum(bool(w.phone) for w in scene.walkers)
+    per_second = people * scene.sensors.sim_rate * BYTES_PER_PERSON_STEP + phones * scene.sensors.imu_rate * BYTES_PER_IMU_SAMPLE
+    per_second += sum(c.fps * people * BYTES_PER_CAMERA_PERSON_FRAME.get(c.kind, 2000) for c in scene.cameras)
+    return BASE_BYTES + float(duration) * per_second
+
+
+def available_memory() -> float | None:
+    """Memory available to a new process (bytes): ``MemAvailable`` of /proc/meminfo, else the free
+    physical pages; None where neither can be read."""
+    try:
+        for line in open("/proc/meminfo"):
+            if line.startswith("MemAvailable:"):
+                return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def memory_problem(scene: Scene, duration: float, sensing: str = "analytic", parallel: int = 1) -> str | None:
+    """Why simulating would exhaust memory (one line with the estimate), or None when it fits.
+    ``parallel``: how many such simulations run at once."""
+    need = estimate_memory(scene, duration, sensing) * max(1, parallel)
+    have = available_memory()
+    if have is None or need <= have:
+        return None
+    at_once = f" x {parallel} at once" if parallel > 1 else ""
+    return (f"about {_bytes_text(need)} of tables and working arrays for {duration:g} s of {scene.name}{at_once}; "
+            f"this machine has {_bytes_text(have)} available (shorten the duration or the scene)")
+
+
+def _bytes_text(n: float) -> str:
+    for unit, size in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n / 2**10:.3g} KiB"
+
+
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress: bool = False, save_frames=None) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
 
@@ -61,8 +117,8 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     """
     if sensing not in SENSING_MODES:
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
-    if not duration or duration <= 0:
-        raise ValueError(f"duration must be positive, got {duration}")
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive, finite number of seconds, got {duration}")
     rng = np.random.default_rng(seed)
     motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)
     cam_rngs = dict(zip([c.name for c in scene.cameras], cam_rng.spawn(len(scene.cameras))))
@@ -107,6 +163,8 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     meta = {
         "scene": scene.name,
         "source": scene.source,
+        "overrides": list(scene.overrides),
+        "scene_sha256": scene_sha256(scene),
         "seed": int(seed),
         "duration": float(duration),
         "sensing": sensing,
@@ -127,4 +185,5 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         # the rendered boxes come from the flow detector: declare its measured window noise
         noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
     calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=noise)
-    return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta)
+    return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta,
+                     scene_toml=scene_toml(scene))

@@ -27,15 +27,37 @@ TOML format (every key optional except scenes; command-line options override)::
 Outputs (``write_outputs``): ``results.csv`` (one row per scene, seed and estimator, skipped
 and failed runs included with the reason), ``per_frame.csv`` (error, misses, false positives
 and switches per evaluation frame), ``summary.md`` (mean and 95% interval per scene and
-estimator), ``metric_<name>.png`` (metric per estimator) and ``error_over_time.png``.
+estimator), ``metric_<name>.png`` (metric per estimator) and ``error_over_time.png``;
+``spec.toml`` (the resolved ``CompareSpec``, loadable by ``spec_from_toml``) and
+``provenance.json`` (command line, versions, git commit, start and end time, seeds, the scenes'
+hashes, how many runs were reused).
+
+The recordings cache (``recordings``): one folder per scene (name and overrides), duration,
+sensing and seed. Its manifest is checked against the cache key, ``cache_key``: the resolved
+scene's SHA-256, seed, duration, sensing mode and the trackroom version (not the git commit: it
+changes with every commit, documentation included, and "+dirty" does not change with further
+edits, so it would neither keep nor invalidate a cache reliably; bump the version when the
+simulation changes). A stale entry (key mismatch, unreadable or corrupt) is regenerated, with one
+line on stderr saying so.
+
+Finished runs (``runs_dir``, ``OUT/runs`` from the command line): each (scene, seed, estimator)
+run is stored as it finishes, written atomically: ``<scene>/seed<seed>/<estimator>.json`` (the
+result row and the run's key), ``.per_frame.parquet`` and ``.tracks.csv``. A run whose stored key
+matches (scene hash, seed, duration, sensing, gate, estimator and parameters, version) is reused,
+not re-run (``compare --resume``).
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import re
+import shlex
+import sys
 import time
 import tomllib
+from datetime import datetime, timezone
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from multiprocessing import get_context
@@ -102,8 +124,8 @@ class CompareSpec:
             raise CompareError("no seeds")
         if not self.estimators:
             raise CompareError("no estimators")
-        if not self.duration > 0:
-            raise CompareError(f"duration must be positive, got {self.duration}")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise CompareError(f"duration must be positive and finite (seconds), got {self.duration:g}")
         if self.sensing not in ("analytic", "rendered"):
             raise CompareError(f"sensing must be analytic or rendered, got {self.sensing!r}")
         if not self.gate > 0:
@@ -120,8 +142,14 @@ class CompareSpec:
             parse_params(get(e.name), dict(e.params))  # unknown estimators or parameters fail now
         from trackroom.scenes import load_scene
 
+        from trackroom.sim.simulate import memory_problem
+
+        parallel = min(self.jobs, len(self.scenes) * len(self.seeds), os.cpu_count() or 1)
         for s in self.scenes:
-            load_scene(s.name, list(s.overrides))  # bad scenes or overrides fail now, not in a worker
+            scene = load_scene(s.name, list(s.overrides))  # bad scenes or overrides fail now, not in a worker
+            problem = memory_problem(scene, self.duration, self.sensing, parallel)
+            if problem:
+                raise CompareError(f"{s.key}: {problem}")
         return self
 
 
@@ -216,7 +244,8 @@ def spec_from_toml(path: str | Path) -> CompareSpec:
         if isinstance(e, str):
             ests.append(parse_estimator(e))
         else:
-            ests.append(EstimatorRun(e["name"], tuple(sorted(e.get("params", {}).items())), e.get("label", "")))
+            # in the file's order, as on the command line (the order shows in the default label)
+            ests.append(EstimatorRun(e["name"], tuple(e.get("params", {}).items()), e.get("label", "")))
     return CompareSpec(
         scenes=scenes,
         seeds=parse_seeds(raw.get("seeds", [0])),
@@ -229,48 +258,188 @@ def spec_from_toml(path: str | Path) -> CompareSpec:
     )
 
 
+def spec_to_toml(spec: CompareSpec) -> str:
+    """The spec as a comparison TOML file; ``spec_from_toml`` reads it back to an equal spec."""
+    import tomli_w
+
+    doc: dict[str, Any] = {"duration": float(spec.duration), "sensing": spec.sensing, "seeds": [int(x) for x in spec.seeds],
+                           "gate": float(spec.gate), "jobs": int(spec.jobs)}
+    if spec.recordings:
+        doc["recordings"] = str(spec.recordings)
+    doc["scenes"] = [{"name": s.name, **({"label": s.label} if s.label else {}), **({"set": list(s.overrides)} if s.overrides else {})}
+                     for s in spec.scenes]
+    doc["estimators"] = [{"name": e.name, **({"label": e.label} if e.label else {}), **({"params": dict(e.params)} if e.params else {})}
+                         for e in spec.estimators]
+    return "# trackroom compare: the resolved comparison (trackroom compare spec.toml runs it again)\n" + tomli_w.dumps(doc)
+
+
 # ----------------------------------------------------------------------------- running
 def recording_folder(root: str | Path, scene: SceneRun, seed: int, duration: float, sensing: str) -> Path:
-    """Cache path: one folder per scene, overrides, duration, sensing and seed."""
+    """Cache path: one folder per scene (name or file, and overrides), duration, sensing and seed.
+    What the scene holds is checked against the folder's manifest (``stale_reason``)."""
     key = json.dumps([scene.name, list(scene.overrides), duration, sensing])
     h = hashlib.sha1(key.encode()).hexdigest()[:10]
-    return Path(root) / f"{scene.name}_{sensing}_{duration:g}s_{h}_seed{seed}"
+    # a scene given as a file is named by its stem (its full path is in the hash)
+    stem = Path(scene.name).stem if scene.name.endswith(".toml") else scene.name
+    stem = re.sub(r"[^A-Za-z0-9._=-]+", "_", stem).strip("._") or "scene"
+    return Path(root) / f"{stem}_{sensing}_{duration:g}s_{h}_seed{seed}"
 
 
-def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cache: str | None):
-    """Read the cached recording, or simulate it (and write it to the cache)."""
+def cache_key(scene, seed: int, duration: float, sensing: str) -> dict[str, Any]:
+    """What a cached recording must match: the resolved scene's hash, seed, duration, sensing mode
+    and the trackroom version (see the module docstring for why not the git commit)."""
+    from trackroom.provenance import versions
+    from trackroom.scenes.loader import scene_sha256
+
+    return {"scene_sha256": scene_sha256(scene), "seed": int(seed), "duration": float(duration), "sensing": sensing,
+            "trackroom_version": versions().get("trackroom")}
+
+
+def stale_reason(folder: Path, key: dict[str, Any]) -> str | None:
+    """Why the cached recording in ``folder`` cannot be used for ``key`` (None: it can)."""
+    from trackroom.dataset import read_manifest
+    from trackroom.recording import RecordingError
+
+    try:
+        manifest = read_manifest(folder)
+    except RecordingError as e:
+        return f"unreadable: {e}"
+    if manifest.get("scene_sha256") is None:
+        return "no scene hash: written by an older trackroom"
+    if manifest["scene_sha256"] != key["scene_sha256"]:
+        return "scene changed"
+    for field_, what in (("seed", "seed"), ("duration", "duration"), ("sensing", "sensing"), ("trackroom_version", "trackroom version")):
+        if manifest.get(field_) != key[field_]:
+            return f"{what} changed: {manifest.get(field_)} -> {key[field_]}"
+    return None
+
+
+def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cache: str | None, command: list[str] | None = None):
+    """Read the cached recording when its key matches, or simulate it (and write it to the cache);
+    returns (recording, simulation seconds, 0 when read)."""
     from trackroom.scenes import load_scene
     from trackroom.dataset import read_recording, write_recording
+    from trackroom.recording import RecordingError
     from trackroom.sim.simulate import simulate
 
+    resolved = load_scene(scene.name, list(scene.overrides))
     folder = recording_folder(cache, scene, seed, duration, sensing) if cache else None
-    if folder is not None and (folder / "manifest.json").exists():
-        return read_recording(folder), 0.0
+    if folder is not None and folder.exists():
+        reason = stale_reason(folder, cache_key(resolved, seed, duration, sensing))
+        if reason is None:
+            try:
+                return read_recording(folder), 0.0
+            except RecordingError as e:
+                reason = f"unreadable: {e}"
+        print(f"cache: {scene.key} seed {seed} is stale ({reason}), regenerating", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    rec = simulate(load_scene(scene.name, list(scene.overrides)), seed, duration, sensing)
+    rec = simulate(resolved, seed, duration, sensing)
     seconds = time.perf_counter() - t0
     if folder is not None:
         folder.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            write_recording(rec, folder)
-        except FileExistsError:
-            pass  # written meanwhile by another comparison: same content
+        write_recording(rec, folder, overwrite=True, command=command)  # atomic: a concurrent reader sees old or new
     return rec, seconds
 
 
-def run_job(scene: SceneRun, seed: int, spec: CompareSpec) -> tuple[list[dict], pd.DataFrame]:
-    """One recording, every estimator: score rows and per-frame error series."""
+def run_key(scene: SceneRun, scene_hash: str, seed: int, est: EstimatorRun, spec: CompareSpec) -> dict[str, Any]:
+    """What a stored run must match to be reused."""
+    from trackroom.provenance import versions
+
+    return {"scene": scene.key, "scene_name": scene.name, "overrides": list(scene.overrides), "scene_sha256": scene_hash,
+            "seed": int(seed), "duration": float(spec.duration), "sensing": spec.sensing, "gate": float(spec.gate),
+            "estimator": est.key, "estimator_name": est.name, "params": [[k, _jsonable(v)] for k, v in est.params],
+            "trackroom_version": versions().get("trackroom")}
+
+
+def _jsonable(v: Any) -> Any:
+    return v if isinstance(v, (bool, int, float, str)) or v is None else str(v)
+
+
+def run_paths(runs_dir: str | Path, scene: SceneRun, seed: int, est: EstimatorRun) -> dict[str, Path]:
+    """Where one finished run is stored: the row (json, written last), per-frame errors, tracks."""
+    base = Path(runs_dir) / _safe_name(scene.key) / f"seed{seed}" / _safe_name(est.key)
+    return {"row": base.with_name(base.name + ".json"), "per_frame": base.with_name(base.name + ".per_frame.parquet"),
+            "tracks": base.with_name(base.name + ".tracks.csv")}
+
+
+def _safe_name(key: str) -> str:
+    """A file name for a label: its plain characters and a short hash (labels may hold / [ ] ;)."""
+    plain = re.sub(r"[^A-Za-z0-9._=-]+", "_", key).strip("._")[:80] or "x"
+    return f"{plain}-{hashlib.sha1(key.encode()).hexdigest()[:8]}"
+
+
+def _load_run(paths: dict[str, Path], key: dict[str, Any]) -> tuple[dict, pd.DataFrame] | None:
+    """A stored run matching ``key``, or None (absent, different, unreadable)."""
+    try:
+        stored = json.loads(paths["row"].read_text())
+        if stored.get("key") != key:
+            return None
+        per_frame = pd.read_parquet(paths["per_frame"]) if stored.get("per_frame") else pd.DataFrame()
+        return stored["row"], per_frame
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _store_run(paths: dict[str, Path], key: dict[str, Any], row: dict, per_frame: pd.DataFrame, tracks) -> None:
+    """Write one finished run; the row file goes last, so it marks a complete run."""
+    paths["row"].parent.mkdir(parents=True, exist_ok=True)
+    if tracks is not None:
+        _atomic(paths["tracks"], lambda p: tracks.to_csv(p, index=False, float_format="%.6f"))
+    if len(per_frame):
+        _atomic(paths["per_frame"], lambda p: per_frame.to_parquet(p, index=False))
+    doc = {"key": key, "row": row, "per_frame": bool(len(per_frame))}
+    _atomic(paths["row"], lambda p: p.write_text(json.dumps(doc, indent=1, default=_json_default) + "\n"))
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    return str(o)
+
+
+def _atomic(path: Path, write) -> Path:
+    """``write(tmp)`` to a hidden sibling, then rename over ``path``: readers see old or new, never half."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path | None = None,
+            command: list[str] | None = None) -> tuple[list[dict], pd.DataFrame, int]:
+    """One recording, every estimator: score rows, per-frame error series and how many runs were
+    reused from ``runs_dir`` (where each finished run is also stored)."""
     from trackroom.estimators.runner import run_estimator
     from trackroom.metrics.score import evaluate
+    from trackroom.scenes import load_scene
+    from trackroom.scenes.loader import scene_sha256
 
-    rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings)
-    rows, series = [], []
+    scene_hash = scene_sha256(load_scene(scene.name, list(scene.overrides)))
+    rec = sim_s = None
+    rows, series, reused = [], [], 0
     for est in spec.estimators:
+        key = run_key(scene, scene_hash, seed, est, spec)
+        paths = run_paths(runs_dir, scene, seed, est) if runs_dir is not None else None
+        done = _load_run(paths, key) if paths is not None else None
+        if done is not None:
+            row, s = done
+            rows.append(row)
+            if len(s):
+                series.append(s)
+            reused += 1
+            continue
+        if rec is None:
+            rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings, command)
         base = {"scene": scene.key, "seed": seed, "sensing": spec.sensing, "estimator": est.key,
                 "duration": spec.duration, "overrides": ";".join(scene.overrides),
                 "params": ";".join(f"{k}={_text(v)}" for k, v in est.params), "sim_s": sim_s}
         r = run_estimator(rec, est.name, dict(est.params), errors="record")
         row = {**base, "status": r.status, "reason": r.reason, "runtime_s": r.seconds}
+        s = pd.DataFrame()
         if r.status == "ok":
             ev = evaluate(rec, r.tracks, spec.gate)
             row.update(ev.metrics())
@@ -279,9 +448,11 @@ def run_job(scene: SceneRun, seed: int, spec: CompareSpec) -> tuple[list[dict], 
             s.insert(0, "seed", seed)
             s.insert(0, "scene", scene.key)
             series.append(s)
+        if paths is not None:
+            _store_run(paths, key, row, s, r.tracks if r.status == "ok" else None)
         rows.append(row)
     per_frame = pd.concat(series, ignore_index=True) if series else pd.DataFrame()
-    return rows, per_frame
+    return rows, per_frame, reused
 
 
 def _job(args):
@@ -294,16 +465,24 @@ class Comparison:
     results: pd.DataFrame
     per_frame: pd.DataFrame = field(repr=False)
     seconds: float = 0.0
+    started: str = ""  # UTC, ISO 8601
+    reused: int = 0  # finished runs taken from runs_dir instead of run again
 
 
-def run_comparison(spec: CompareSpec, progress: bool = True) -> Comparison:
-    """Run every (scene, seed) job, in ``spec.jobs`` processes; rows in a fixed order."""
+def run_comparison(spec: CompareSpec, progress: bool = True, runs_dir: str | Path | None = None,
+                   command: list[str] | None = None) -> Comparison:
+    """Run every (scene, seed) job, in ``spec.jobs`` processes; rows in a fixed order.
+
+    ``runs_dir``: where each finished (scene, seed, estimator) run is stored, and reused from when
+    its key matches (see the module docstring). ``command``: recorded in cached recordings.
+    """
     from tqdm import tqdm
 
     spec.validate()
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     t0 = time.perf_counter()
-    jobs = [(s, seed, spec) for s in spec.scenes for seed in spec.seeds]
-    out: dict[int, tuple[list[dict], pd.DataFrame]] = {}
+    jobs = [(s, seed, spec, runs_dir, command) for s in spec.scenes for seed in spec.seeds]
+    out: dict[int, tuple[list[dict], pd.DataFrame, int]] = {}
     bar = tqdm(total=len(jobs), desc="compare", unit="rec", disable=not progress)
     if spec.jobs == 1 or len(jobs) == 1:
         for i, j in enumerate(jobs):
@@ -322,29 +501,63 @@ def run_comparison(spec: CompareSpec, progress: bool = True) -> Comparison:
     frames = [out[i][1] for i in range(len(jobs)) if len(out[i][1])]
     results = pd.DataFrame(rows)
     per_frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-    return Comparison(spec, results, per_frame, time.perf_counter() - t0)
+    reused = sum(out[i][2] for i in range(len(jobs)))
+    return Comparison(spec, results, per_frame, time.perf_counter() - t0, started, reused)
 
 
 # ----------------------------------------------------------------------------- outputs
-def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True) -> dict[str, Path]:
-    """results.csv, per_frame.csv, summary.md and the plots; returns their paths by name."""
+OUTPUT_FILES = ("results.csv", "per_frame.csv", "summary.md", "spec.toml", "provenance.json", "error_over_time.png")
+
+
+def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, command: list[str] | None = None) -> dict[str, Path]:
+    """results.csv, per_frame.csv, summary.md, spec.toml, provenance.json and the plots (each
+    written atomically); returns their paths by name. ``command``: the command line to record."""
     from trackroom.metrics.aggregate import summary_markdown
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = {"results": out / "results.csv", "per_frame": out / "per_frame.csv", "summary": out / "summary.md"}
-    comp.results.to_csv(paths["results"], index=False, float_format="%.6g")
-    comp.per_frame.to_csv(paths["per_frame"], index=False, float_format="%.6g")
+    paths = {"results": out / "results.csv", "per_frame": out / "per_frame.csv", "summary": out / "summary.md",
+             "spec": out / "spec.toml", "provenance": out / "provenance.json"}
+    _atomic(paths["results"], lambda p: comp.results.to_csv(p, index=False, float_format="%.6g"))
+    _atomic(paths["per_frame"], lambda p: comp.per_frame.to_csv(p, index=False, float_format="%.6g"))
     s = comp.spec
     head = (f"# Comparison\n\n{len(s.scenes)} scene(s) x {len(s.seeds)} seed(s) ({_seed_text(s.seeds)}) x "
             f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m. "
             f"Mean [95% interval over seeds].\n\n")
-    paths["summary"].write_text(head + summary_markdown(comp.results) + "\n")
+    _atomic(paths["summary"], lambda p: p.write_text(head + summary_markdown(comp.results) + "\n"))
+    _atomic(paths["spec"], lambda p: p.write_text(spec_to_toml(s)))
+    _atomic(paths["provenance"], lambda p: p.write_text(json.dumps(provenance_record(comp, command), indent=2) + "\n"))
     if plots:
         paths.update(plot_metrics(comp.results, out))
         if len(comp.per_frame):
             paths["error_over_time"] = plot_error_over_time(comp.per_frame, out / "error_over_time.png")
     return paths
+
+
+def provenance_record(comp: Comparison, command: list[str] | None = None) -> dict[str, Any]:
+    """Where a comparison's results came from: command line, versions, git commit, times, seeds,
+    the scenes' hashes and how many runs were reused."""
+    from trackroom.provenance import versions
+    from trackroom.scenes import load_scene
+    from trackroom.scenes.loader import scene_sha256
+
+    v = versions()
+    s = comp.spec
+    return {
+        "command": list(command) if command is not None else None,
+        "command_text": shlex.join(command) if command is not None else None,
+        "trackroom_version": v.get("trackroom"),
+        "git_commit": v.get("git_commit"),
+        "versions": v,
+        "started": comp.started,
+        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "seconds": round(comp.seconds, 3),
+        "seeds": [int(x) for x in s.seeds],
+        "scenes": [{"key": sc.key, "name": sc.name, "overrides": list(sc.overrides),
+                    "scene_sha256": scene_sha256(load_scene(sc.name, list(sc.overrides)))} for sc in s.scenes],
+        "estimators": [e.key for e in s.estimators],
+        "reused_runs": comp.reused,
+    }
 
 
 def _seed_text(seeds: list[int]) -> str:

@@ -6,6 +6,7 @@ code and the command that made it.
 from __future__ import annotations
 
 import functools
+import os
 import platform
 import subprocess
 from importlib import metadata
@@ -50,3 +51,17 @@ def git_commit() -> str | None:
         return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
     except (OSError, subprocess.SubprocessError):
         return None
+
+
+def command_line(argv: list[str]) -> list[str]:
+    """``["trackroom", *argv]`` with every absolute path (a word, or the value of ``--opt=PATH`` or
+    ``key=PATH``) made relative to the working directory, so records name no machine's folders."""
+    def rel(word: str) -> str:
+        if os.path.isabs(word):
+            return os.path.relpath(word)
+        opt, eq, value = word.partition("=")
+        if eq and os.path.isabs(value):
+            return f"{opt}={os.path.relpath(value)}"
+        return word
+
+    return ["trackroom", *(rel(str(w)) for w in argv)]

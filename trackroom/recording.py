@@ -122,12 +122,14 @@ class Truth:
 @dataclass
 class Recording:
     """One simulation run. ``meta`` holds the scene, seed, sensing mode, versions and the
-    walkers' motion-model parameters (e.g. the Gauss-Markov prior for matched-prior runs)."""
+    walkers' motion-model parameters (e.g. the Gauss-Markov prior for matched-prior runs);
+    ``scene_toml`` the resolved scene it was simulated from (TOML text), when known."""
 
     calibration: Calibration
     observations: Observations
     truth: Truth
     meta: dict[str, Any] = field(default_factory=dict)
+    scene_toml: str | None = field(default=None, repr=False)
 
     @property
     def scene(self) -> str:

@@ -3,7 +3,9 @@
 Each sub-command is a module in ``trackroom/cli/commands/`` with ``NAME``, ``HELP``,
 ``add_arguments(parser)`` and ``run(args) -> int``; adding a command is adding a module.
 Expected failures (bad scene files, bad recordings, bad arguments) exit with status 2 and one
-clear line on stderr, never a traceback.
+clear line on stderr, never a traceback. Output piped into a reader that stops early
+(``trackroom demo | head -1``) ends quietly, as a SIGPIPE would end a Unix tool (status 141).
+Commands find their own command line (absolute paths made relative) in ``args._command``.
 """
 from __future__ import annotations
 
@@ -55,13 +57,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from trackroom.provenance import command_line
+
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
+    args._command = command_line(argv)
     try:
-        return int(args._run(args) or 0)
+        rc = int(args._run(args) or 0)
+        sys.stdout.flush()  # here, not at exit, so a closed pipe is caught below
+        return rc
+    except BrokenPipeError:
+        # The reader of our stdout went away (`| head`). Point stdout at /dev/null so the
+        # interpreter's final flush cannot raise again, and end quietly (Python docs, "Note on SIGPIPE").
+        _silence_stdout()
+        return 141
     except _expected_errors() as e:
         msg = str(e) if not isinstance(e, (FileNotFoundError, FileExistsError)) else f"{e.strerror}: {e.filename}"
         print(f"trackroom {args.command}: error: {msg}", file=sys.stderr)
@@ -69,6 +82,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def _silence_stdout() -> None:
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass  # stdout is not a real file (e.g. captured in tests): nothing will flush to a pipe
 
 
 if __name__ == "__main__":

@@ -1,4 +1,10 @@
-"""trackroom compare: scenes x seeds x estimators -> results.csv, summary.md and plots."""
+"""trackroom compare: scenes x seeds x estimators -> results.csv, summary.md and plots.
+
+Beside its results it writes ``spec.toml`` (the resolved comparison) and ``provenance.json``
+(command line, versions, times). An existing ``--out`` is refused unless ``--force`` (replace its
+results; the recordings cache stays, checked entry by entry) or ``--resume`` (reuse the finished
+runs stored in OUT/runs; without a TOML file or --scenes it reruns OUT/spec.toml).
+"""
 from __future__ import annotations
 
 NAME = "compare"
@@ -18,7 +24,10 @@ def add_arguments(p) -> None:
     p.add_argument("--jobs", type=int, help="parallel processes (default 1)")
     p.add_argument("--recordings", help="recordings cache folder (default OUT/recordings)")
     p.add_argument("--no-cache", action="store_true", help="simulate every recording, keep none")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder (refused if it exists, unless --force or --resume)")
+    p.add_argument("--force", action="store_true", help="replace the results in an existing --out")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted comparison in --out: finished runs that match are reused, not re-run")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -31,6 +40,8 @@ def build_spec(args):
 
     if args.config:
         spec = spec_from_toml(args.config)
+    elif args.resume and not args.scenes and (Path(args.out) / "spec.toml").is_file():
+        spec = spec_from_toml(Path(args.out) / "spec.toml")
     else:
         if not args.scenes:
             raise CommandError("give a comparison TOML file or --scenes")
@@ -54,16 +65,43 @@ def build_spec(args):
 
 
 def run(args) -> int:
-    from trackroom.errors import CommandError
-    from trackroom.compare import CompareError, run_comparison, write_outputs
+    from pathlib import Path
 
+    from trackroom.errors import CommandError
+    from trackroom.compare import OUTPUT_FILES, CompareError, _atomic, run_comparison, spec_to_toml, write_outputs
+
+    if args.force and args.resume:
+        raise CommandError("give --force (start again) or --resume (continue), not both")
     try:
         spec = build_spec(args).validate()
     except CompareError as e:
         raise CommandError(str(e)) from None
-    comp = run_comparison(spec, progress=not args.quiet)
-    paths = write_outputs(comp, args.out)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CommandError(f"{out}: exists and is not a folder")
+    if out.exists() and any(out.iterdir()) and not (args.force or args.resume):
+        raise CommandError(f"{out}: output folder exists (use --force to replace its results, or --resume to continue it)")
+    if args.force:
+        _remove_results(out, OUTPUT_FILES)
+    out.mkdir(parents=True, exist_ok=True)
+    command = getattr(args, "_command", None)
+    _atomic(out / "spec.toml", lambda p: p.write_text(spec_to_toml(spec)))  # first, so --resume finds it
+    comp = run_comparison(spec, progress=not args.quiet, runs_dir=out / "runs", command=command)
+    paths = write_outputs(comp, out, command=command)
     print(paths["summary"].read_text())
-    print(f"took {comp.seconds:.1f} s; wrote {', '.join(str(p) for p in paths.values())}")
+    reused = f"; reused {comp.reused} finished run(s)" if comp.reused else ""
+    print(f"took {comp.seconds:.1f} s{reused}; wrote {', '.join(str(p) for p in paths.values())}")
     errors = comp.results[comp.results["status"] == "error"]
     return 1 if len(errors) else 0
+
+
+def _remove_results(out, names) -> None:
+    """--force: remove an earlier comparison's results and stored runs (never other files, and not
+    the recordings cache, whose entries are checked one by one)."""
+    import shutil
+
+    for name in names:
+        (out / name).unlink(missing_ok=True)
+    for p in out.glob("metric_*.png"):
+        p.unlink()
+    shutil.rmtree(out / "runs", ignore_errors=True)

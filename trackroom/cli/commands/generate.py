@@ -1,6 +1,11 @@
-"""trackroom generate: simulate a scene and write a recording folder."""
+"""trackroom generate: simulate a scene and write a recording folder.
+
+The folder is written atomically (``trackroom.dataset.write_recording``); its manifest records the
+command line, every ``--set`` override, the resolved scene (``scene.toml``) and its hash.
+"""
 from __future__ import annotations
 
+import math
 import time
 
 NAME = "generate"
@@ -24,32 +29,50 @@ def run(args) -> int:
     from trackroom.scenes import load_scene
     from trackroom.errors import CommandError
 
-    if args.duration <= 0:
-        raise CommandError(f"--duration must be positive, got {args.duration}")
+    check_duration(args.duration)
     if args.save_frames and args.sensing != "rendered":
         raise CommandError("--save-frames needs --sensing rendered")
     scene = load_scene(args.scene, args.overrides)
     rec, seconds, out = generate_to(scene, args.seed, args.duration, args.sensing, args.out,
-                                    save_frames=args.save_frames, force=args.force, progress=not args.quiet)
+                                    save_frames=args.save_frames, force=args.force, progress=not args.quiet,
+                                    command=getattr(args, "_command", None))
     print(summary_line(rec, seconds, out))
     return 0
 
 
-def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=False, progress=False):
-    """Simulate and write; returns (recording, wall seconds, folder)."""
+def check_duration(duration: float, option: str = "--duration") -> None:
+    """A duration (s) must be a positive, finite number; else one CommandError line."""
+    from trackroom.errors import CommandError
+
+    if not (math.isfinite(duration) and duration > 0):
+        raise CommandError(f"{option} must be positive and finite (seconds), got {duration:g}")
+
+
+def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=False, progress=False, command=None):
+    """Simulate and write; returns (recording, wall seconds, folder). Refuses, before simulating, a
+    folder that exists (without ``force``) and a simulation that would exhaust memory."""
+    import shutil
     import tempfile
     from pathlib import Path
 
     from trackroom.errors import CommandError
     from trackroom.dataset import write_recording
-    from trackroom.sim.simulate import simulate
+    from trackroom.sim.simulate import memory_problem, simulate
 
+    check_duration(duration)
     if Path(out).exists() and not force:
         raise CommandError(f"{out}: output folder exists (use --force to replace it)")
+    problem = memory_problem(scene, duration, sensing)
+    if problem:
+        raise CommandError(problem)
     t0 = time.perf_counter()
     frames_dir = Path(tempfile.mkdtemp(prefix="trackroom-frames-")) if save_frames else None
-    rec = simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress, save_frames=frames_dir)
-    folder = write_recording(rec, out, overwrite=force, extra_dirs={"frames": frames_dir})
+    try:
+        rec = simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress, save_frames=frames_dir)
+        folder = write_recording(rec, out, overwrite=force, extra_dirs={"frames": frames_dir}, command=command)
+    finally:
+        if frames_dir is not None and frames_dir.exists():
+            shutil.rmtree(frames_dir, ignore_errors=True)  # moved into the recording, or left by a failure
     return rec, time.perf_counter() - t0, folder
 
 
