@@ -61,6 +61,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        if getattr(args, "plugin", None):
+            from trackroom.estimators import load_plugins
+
+            load_plugins(args.plugin)
         return int(args._run(args) or 0)
     except _expected_errors() as e:
         msg = str(e) if not isinstance(e, (FileNotFoundError, FileExistsError)) else f"{e.strerror}: {e.filename}"
