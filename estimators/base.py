@@ -85,6 +85,10 @@ class Estimator:
             raise EstimatorError(
                 f"{self.name}: unknown parameter(s) {unknown}; known: {sorted(fields)}"
             )
+        required = sorted(n for n, f in fields.items() if n not in params and f.default is dataclasses.MISSING
+                          and f.default_factory is dataclasses.MISSING)
+        if required:
+            raise EstimatorError(f"{self.name}: give parameter(s) {required} (they have no default)")
         self.config = self.Config(**{k: coerce_value(type(self), k, v) for k, v in params.items()})
 
     @classmethod

@@ -184,8 +184,9 @@ class TargetPlanes(Estimator):
             raise EstimatorError(f"{self.name}: no oblique cameras")
         if not cfg.multi_person and cfg.initial_xy is None and cfg.initial_window is None:
             raise EstimatorError(
-                f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] or "
-                "initial_window=[camera, u_left, u_right, v_top, v_bottom] (or multi_person=true)"
+                f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] (its floor position at the "
+                "first frame, m) or initial_window=[camera, u_left, u_right, v_top, v_bottom], or multi_person=true "
+                "to track every mover (on the command line: --param multi_person=true)"
             )
         Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
         frames = split_boxes(boxes, cams, cfg.flow_window)

@@ -108,3 +108,18 @@ def test_bad_param_on_the_command_line_exits_2_with_one_line(tmp_path):
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == ["trackroom estimate: error: ekf: parameter smooth: expected true or false, got 'maybe'"]
+
+
+def test_a_parameter_without_default_must_be_given():
+    from trackroom.estimators.base import Estimator
+
+    class NeedsK(Estimator):  # not registered: the constructor alone is under test
+        name = "needs_k"
+
+        @dataclasses.dataclass
+        class Config:
+            k: int
+
+    with pytest.raises(EstimatorError, match=r"needs_k: give parameter\(s\) \['k'\]"):
+        NeedsK()
+    assert NeedsK(k=3).config.k == 3
