@@ -62,7 +62,7 @@ from scipy.stats import chi2
 from trackroom.scenes.camera import Camera
 from trackroom.recording import Calibration, Observations
 
-from .base import Estimator, EstimatorError, register
+from .base import Estimator, EstimatorError, param, register
 
 H_FLOOR = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
 
@@ -211,22 +211,28 @@ class EKF(Estimator):
 
     @dataclasses.dataclass
     class Config:
-        filter: str = "ekf"  # "ekf" or "ukf"
-        accel_psd: float = 0.5  # q, m^2/s^3: accelerations below ~1 m/s^2 lasting ~1 s give q ~ a^2 tau
-        floor_sigma: float = -1.0  # floor detection noise, m (<0: the calibration's floor_sigma_m)
-        bearing_sigma: float = -1.0  # bearing noise, pixels (<0: the calibration's bearing_sigma_px)
-        body_height: float = 0.9  # height of the point oblique cameras' u refers to, m
-        gate_probability: float = 0.99  # chi^2 gate for GNN association
-        confirm_m: int = 3
-        confirm_n: int = 5
-        max_coast: float = 1.0  # s without an update before a track is deleted
-        max_coast_labelled: float = 10.0  # the same for a track holding an appearance label, s
-        spawn_probability: float = 0.9999  # no new track from a measurement inside this chi^2 gate of a track
-        merge_distance: float = 0.3  # m: of two tracks closer than this, the younger is deleted
-        init_speed_sigma: float = 1.0  # m/s, initial velocity uncertainty
-        use_labels: bool = True  # associate labelled bearings by label
-        measurements: str = "all"  # "all", "floor" or "bearings"
-        smooth: bool = False  # RTS smoothing pass
+        filter: str = param("ekf", '"ekf" (extended Kalman filter, analytic bearing Jacobian) or "ukf" (unscented)')
+        accel_psd: float = param(0.5, "q: white-acceleration power spectral density per axis, m^2/s^3 (accelerations "
+                                      "below ~1 m/s^2 lasting ~1 s give q ~ a^2 tau)")
+        floor_sigma: float = param(-1.0, "floor detection noise per axis, m; < 0: the calibration's floor_sigma_m")
+        bearing_sigma: float = param(-1.0, "bearing noise, px; < 0: the calibration's bearing_sigma_px")
+        body_height: float = param(0.9, "height of the body point an oblique camera's u refers to, m")
+        gate_probability: float = param(0.99, "chi^2 quantile of the association gate (2 dof floor, 1 dof "
+                                              "bearings), in (0, 1)")
+        confirm_m: int = param(3, "M of M-of-N initiation: hits that confirm a tentative track (1 <= M <= N)")
+        confirm_n: int = param(5, "N of M-of-N initiation: a tentative track's first N scans whose sensor covers "
+                                  "its predicted position")
+        max_coast: float = param(1.0, "a track without an update for this long is deleted, s")
+        max_coast_labelled: float = param(10.0, "the same for a track holding an appearance label (it may coast "
+                                                "between sparse cameras), s")
+        spawn_probability: float = param(0.9999, "no new track from a measurement inside this chi^2 quantile gate "
+                                                 "of an existing track, in (0, 1)")
+        merge_distance: float = param(0.3, "of two tracks closer than this, the younger is deleted, m")
+        init_speed_sigma: float = param(1.0, "initial velocity uncertainty of a new track (std per axis), m/s")
+        use_labels: bool = param(True, "associate labelled bearings by their appearance label (one track per label, "
+                                       "no gate)")
+        measurements: str = param("all", 'measurements used: "all", "floor" (floor detections) or "bearings"')
+        smooth: bool = param(False, "RTS (Rauch-Tung-Striebel) smoothing pass over each track (offline)")
 
     def _check_config(self) -> None:
         c = self.config

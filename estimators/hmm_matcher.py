@@ -73,7 +73,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.recording import Calibration, Observations
 
-from .base import Estimator, EstimatorError, check_tracks, register
+from .base import Estimator, EstimatorError, check_tracks, param, register
 from .gait import GaitModel, bobbing_feature, load_default, phone_heading
 from .lazy_tracker import Segments, TrackerConfig, frames_from_detections, track_segments
 
@@ -158,41 +158,42 @@ class HMMMatcher(Estimator):
 
     @dataclass
     class Config:
-        gait_model: str = ""  # path to a train-gait JSON; "" = the bundled estimators/gait_default.json
+        gait_model: str = param("", "file: path to a gait-model JSON written by `trackroom train-gait` (walking/"
+                                    'stopped classes, magnetometer concentration); "": the bundled gait_default.json')
         # lazy tracker
-        r_enter: float = 0.6  # m
-        r_exit: float = 1.0  # m (the band r_enter..r_exit exceeds ~3x the filtered distance noise)
-        gate_m: float = 1.0  # m
-        duplicate_m: float = -1.0  # m; <= 0: 3 sqrt(2) sigma (two cameras reporting one person at a tile border)
-        max_missed_s: float = 0.3  # s
-        accel_q: float = 2.0  # Kalman white-acceleration density, m^2/s^3
-        sigma_floor_m: float = 0.02  # lower bound on the detection noise used by the filter, m
-        velocity_window_s: float = 1.0  # window of the evidence velocity, s
+        r_enter: float = param(0.6, "proximity radius that starts an ambiguity (the tracker cuts segments), m")
+        r_exit: float = param(1.0, "radius beyond which the ambiguity ends (hysteresis; the band r_enter..r_exit "
+                                   "exceeds ~3x the filtered distance noise), m")
+        gate_m: float = param(1.0, "association gate of detections to tracks, m")
+        duplicate_m: float = param(-1.0, "detections of one frame from different cameras this close are one person, "
+                                         "m; <= 0: 3 sqrt(2) sigma (two cameras reporting one person at a tile border)")
+        max_missed_s: float = param(0.3, "a track missed longer than this ends, s")
+        accel_q: float = param(2.0, "Kalman white-acceleration spectral density of the lazy tracker, m^2/s^3")
+        sigma_floor_m: float = param(0.02, "lower bound on the detection noise the tracker's filter uses, m")
+        velocity_window_s: float = param(1.0, "window of the least-squares velocity used as camera evidence, s")
         # evidence
-        evidence_weight: float = 0.05  # tempering of per-frame log-likelihoods (0, 1]: 1 / frames per
-        # velocity window (1 s at 20 Hz), the fraction of a frame that is new information
-        switch_s: float = 3.0  # mean time between walking/stopped switches, s
-        stop_speed_sigma: float = 0.05  # speed spread of a standing person beyond estimation noise, m/s
-        kappa_max: float = 100.0  # cap on the camera heading concentration
-        heading_window_s: float = -1.0  # magnetometer averaging window, s; < 0: the velocity window, so
-        # that the phone's mean heading and the camera's mean velocity describe the same interval
-        newcomer_density: float = 0.01  # 1/m^2: prior weight of "a new person" at a segment birth
-        birth_sigma_m: float = 0.3  # continuity std between an ended segment and a new one at zero gap, m
-        gap_speed: float = -1.0  # growth of that std per second of gap, m/s; < 0: automatic (the
-        # privacy camera's still_speed when a privacy camera is present, as an unseen person there
-        # is standing, else a walking speed of 1 m/s)
+        evidence_weight: float = param(0.05, "tempering of per-frame log-likelihoods, in (0, 1]: 1 / frames per "
+                                             "velocity window (1 s at 20 Hz), the fraction of a frame that is new")
+        switch_s: float = param(3.0, "mean time between walking/stopped switches (HMM prior), s")
+        stop_speed_sigma: float = param(0.05, "speed spread of a standing person beyond estimation noise, m/s")
+        kappa_max: float = param(100.0, "cap on the camera heading's von Mises concentration")
+        heading_window_s: float = param(-1.0, "magnetometer averaging window, s; < 0: velocity_window_s, so the phone's "
+                                              "mean heading and the camera's mean velocity cover the same interval")
+        newcomer_density: float = param(0.01, 'prior weight of "a new person" at a segment birth, 1/m^2')
+        birth_sigma_m: float = param(0.3, "continuity std between an ended segment and a new one at zero gap, m")
+        gap_speed: float = param(-1.0, "growth of that std per second of gap, m/s; < 0: automatic (a privacy camera's "
+                                       "still_speed when there is one, else a walking speed of 1 m/s)")
         # assignment
-        llr_min: float = 8.0  # log Omega_min: least log-likelihood ratio for an assignment (chosen on
-        # development seeds 100-104, not the evaluation seeds 0-9)
-        margin_min: float = 4.0  # least lead (nats) of a claimed pair over its phone's other tracks: after a
-        # cut that may have swapped two tracks (p_swap), the lead is log((1 - p_swap) / p_swap)
-        margin_rows: bool = False  # also over its track's other phones
-        swap_partner: bool = True  # a cut segment's swap alternative is the track it came closest to
-        # (cut in the same frame), with the tracker's p_swap, whether or not continuity links them
-        hold_rival: bool = True  # that track contests the claim (frozen score) after it vanishes
-        carry: str = "posterior"  # how evidence crosses segment breaks: "posterior" (probabilities
-        # shared out among the births, saturating) or "likelihood" (the first version: a mixture
-        # of Bayes factors)
+        llr_min: float = param(8.0, "log Omega_min: least log-likelihood ratio for assigning a phone to a track "
+                                    "(chosen on development seeds 100-104, not the evaluation seeds 0-9)")
+        margin_min: float = param(4.0, "least lead, nats, of a claimed pair over its phone's other tracks (after a "
+                                       "possible swap, the lead is log((1 - p_swap) / p_swap))")
+        margin_rows: bool = param(False, "also require that lead over the track's other phones")
+        swap_partner: bool = param(True, "a cut segment's swap alternative is the track it came closest to (cut in the "
+                                         "same frame), with the tracker's p_swap")
+        hold_rival: bool = param(True, "that swap mate keeps contesting the claim (frozen score) after it vanishes")
+        carry: str = param("posterior", 'how evidence crosses segment breaks: "posterior" (probabilities shared out '
+                                        'among births, saturating) or "likelihood" (a mixture of Bayes factors)')
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         cfg = self.config

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from trackroom.scenes.spec import GaussMarkovParams
 from trackroom.recording import Calibration, Observations
 
-from .base import Estimator, EstimatorError, check_tracks, register
+from .base import Estimator, EstimatorError, check_tracks, param, register
 from .qp_model import DISCRETISATIONS, IVX, IVY, IX, IY, NS, Bearings, Prior
 from .qp_solver import SolveResult, SolverSettings, solve_map
 from .qp_walls import is_convex, make_box_constraints, outline_halfplanes, ray_limits
@@ -45,46 +45,38 @@ class QPSmoother(Estimator):
 
     @dataclasses.dataclass
     class Config:
-        """q_pos, q_vel: Gauss-Markov process noise per second (m^2/s, m^2/s^3); the defaults are
-        the paper's Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s step. discretisation: "exact"
-        (continuous-time, the same prior at any frame rate) or "paper" (diag(q_pos dt, q_vel dt));
-        see ``qp_model.process_covariance``. sigma_px: bearing noise (px;
-        None: the calibration's ``bearing_sigma_px``). constraints: field-of-view constraints
-        (eq. 9) with ``margin`` (m). walls: floor-plan constraints (``qp_walls``) with
-        ``wall_margin`` (m, clearance from the wall surface) and ``wall_reach`` (m); with walls,
-        see_walls also keeps every observed point between its camera and the first wall along
-        its bearing ray (``qp_walls.ray_limits``).
-        init: "paper" (unobserved points at the origin, observed ones ``init_depth`` m along the
-        observing camera's axis) or "ray" (observed points ``init_depth`` m along their bearing
-        ray, the rest interpolated). person_height: height (m) of the point whose bearing is
-        measured (matters for oblique cameras only). first_pos_sigma, first_vel_sigma: the weak
-        prior on the first state (m, m/s) about the room centre. span: "recording" (estimate every
-        frame of the recording) or "observed" (first to last observation of the label).
-        window_s > 0 runs the online version: windows of window_s seconds, every hop_s seconds,
-        each reporting the estimates lag_s seconds behind its end. eps: osqp tolerance.
-        """
+        """Gauss-Markov prior (the defaults are the paper's Sigma_nu = 1e-6 diag(1e-4, 1) per 0.5 s
+        step), bearing noise, constraints (eq. 9 field of view; walls with ``qp_walls``), the
+        initial trajectory, and the online (sliding-window) version. Each field's doc says more."""
 
-        q_pos: float = 2e-10
-        q_vel: float = 2e-6
-        discretisation: str = "exact"
-        sigma_px: float | None = None
-        constraints: bool = True
-        margin: float = 0.2
-        walls: bool = False
-        wall_margin: float = 0.1
-        wall_reach: float = 1.0
-        see_walls: bool = True
-        max_iter: int = 50
-        init: str = "paper"
-        init_depth: float = 1.0
-        person_height: float = 0.9
-        first_pos_sigma: float = 100.0
-        first_vel_sigma: float = 10.0
-        span: str = "recording"
-        window_s: float = 0.0
-        lag_s: float = 5.0
-        hop_s: float = 1.0
-        eps: float = 1e-5
+        q_pos: float = param(2e-10, "Gauss-Markov process noise of position per second, m^2/s")
+        q_vel: float = param(2e-6, "Gauss-Markov process noise of velocity per second, m^2/s^3")
+        discretisation: str = param("exact", '"exact" (continuous time: the same prior at any frame rate) or "paper" '
+                                             "(diag(q_pos dt, q_vel dt)); see qp_model.process_covariance")
+        sigma_px: float | None = param(None, "bearing noise, px; none: the calibration's bearing_sigma_px")
+        constraints: bool = param(True, "field-of-view constraints (eq. 9): every observed point in front of its camera")
+        margin: float = param(0.2, "field-of-view constraints: observed points at least this far in front of their "
+                                   "camera, m")
+        walls: bool = param(False, "floor-plan constraints: estimated points stay off walls and obstacles (qp_walls)")
+        wall_margin: float = param(0.1, "with walls: clearance from the wall surface, m")
+        wall_reach: float = param(1.0, "with walls: walls and obstacles within this distance of a point (at the current "
+                                        "iterate) constrain it, m")
+        see_walls: bool = param(True, "with walls: every observed point between its camera and the first wall along "
+                                      "its bearing ray (qp_walls.ray_limits)")
+        max_iter: int = param(50, "most Gauss-Newton iterations (one QP each)")
+        init: str = param("paper", '"paper" (unobserved points at the origin, observed ones init_depth along the '
+                                   'camera axis) or "ray" (observed points init_depth along their ray, rest interpolated)')
+        init_depth: float = param(1.0, "depth of the initial points in front of the observing camera, m")
+        person_height: float = param(0.9, "height of the point whose bearing is measured (oblique cameras only), m")
+        first_pos_sigma: float = param(100.0, "weak prior on the first position about the room centre (std), m")
+        first_vel_sigma: float = param(10.0, "weak prior on the first velocity (std), m/s")
+        span: str = param("recording", '"recording" (every frame of the recording) or "observed" (first to last '
+                                       "observation of the label)")
+        window_s: float = param(0.0, "> 0: the online version, windows of this length, s; 0: the whole recording "
+                                     "at once")
+        lag_s: float = param(5.0, "online: each window reports its estimates this long before its end, s")
+        hop_s: float = param(1.0, "online: a window every this many seconds, s")
+        eps: float = param(1e-5, "osqp tolerance (absolute and relative)")
 
     # ------------------------------------------------------------------------------------------
     def _validate(self) -> None:

@@ -20,7 +20,7 @@ import pandas as pd
 from trackroom.recording import Recording
 
 from . import get
-from .base import Estimator, EstimatorError, check_tracks, coerce_param
+from .base import Estimator, EstimatorError, check_tracks, coerce_param, coerce_value
 
 
 @dataclass
@@ -33,12 +33,12 @@ class RunResult:
 
 
 def parse_params(cls: type[Estimator], items: list[str] | dict[str, Any] | None) -> dict[str, Any]:
-    """``["k=v", ...]`` (command line; values parsed as TOML, else kept as text) or a dict, checked
-    against the estimator's Config."""
+    """``["k=v", ...]`` (command line) or a dict, parsed strictly by the types of the estimator's
+    Config fields (``coerce_param`` / ``coerce_value``); unknown names fail with the known ones."""
     if not items:
         return {}
     if isinstance(items, dict):
-        pairs = list(items.items())
+        pairs = [(k, coerce_value(cls, k, v)) for k, v in items.items()]
     else:
         pairs = []
         for item in items:

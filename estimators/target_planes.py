@@ -43,7 +43,7 @@ from scipy.optimize import linear_sum_assignment
 from trackroom.recording import Calibration, Observations
 
 from . import tp_geometry as geo
-from .base import Estimator, EstimatorError, check_tracks, register
+from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
 from .tp_initiate import propose
 from .tp_tracker import LOST, TRACKING, UNRELIABLE, CameraState, Target, TargetUpdater, width_ratio
@@ -69,52 +69,76 @@ class TargetPlanes(Estimator):
 
     @dataclasses.dataclass
     class Config:
-        initial_xy: list | None = None  # target's floor position at the first frame (m)
-        initial_window: list | None = None  # [camera, u_left, u_right, v_top, v_bottom] at the first frame
-        multi_person: bool = False  # track every mover (beyond the paper)
-        split_merged: bool = True  # a window holding the target and a tracked neighbour merged gives the target its side's part (TargetUpdater.split_window)
-        split_min_sep: float = 0.25  # ... when their predicted centres are this many estimated widths apart in the image
-        crowd_overlap: float | None = 0.25  # a camera where two targets' estimated windows overlap by this share of the narrower is left out for both (None: off)
-        jump_gate: bool = True  # an estimate farther from the prediction than the search radius leaves out the straying camera
-        exclude_neighbours: bool = True  # 4.1 literally: track ids once seen beside the target are never the target
-        track_others: bool = True  # single target: also track the other movers (4.1 taken to 3-D), so they hold their own windows
-        height: float = 1.8  # person model: cylinder height (m); the tallest person's, with their gait bob
-        radius: float = 0.2  # cylinder radius (m)
-        min_plane_angle_deg: float = 12.0  # planes closer than this to parallel are not intersected
-        width_ratio_threshold: float | None = None  # eq. 8; None: the calibration's ``box_width_ratio_threshold``, else the paper's 1
-        position_tol: float = 1.0  # section 4.3: |u - u_c| allowed, in estimated-window widths
-        search_margin: float = 0.5  # estimated window widened by this many widths when searching
-        overlap_gap: float = 0.0  # windows closer than this (widths) overlap (section 4.1)
-        neighbour_span: float = 1.0  # search areas beside the target, in widths (Fig. 8)
-        rejoin_width_ratio: float = 0.35  # an overlapped window is the target alone again below this eq. 8 value
-        flow_tol_px: float = 6.0  # image velocity similarity: |v - v_pred| <= tol + rel |v_pred| (px/s)
-        flow_tol_rel: float = 0.4
-        flow_height_fraction: float = 0.5  # height of the region's centroid, fraction of height
-        flow_window: int = 5  # frames of a camera track over which its flow is averaged
-        mover_flow_px: float = 8.0  # a window with less flow (px/s) is no mover
-        velocity_smoothing: float = 0.6  # weight of the new eq. 7 velocity against the previous one
-        velocity_prior_sigma: float = 0.3  # m/s: the previous velocity as a prior of the eq. 7 least squares (per frame)
-        flow_model_sigma: float = 3.0  # px/s: flow error beyond the calibrated noise (a region's mean flow vs its centre's motion)
-        max_speed: float = 3.0  # m/s
-        area_margin: float = 0.05  # allowance on target areas (m)
-        window_margin_px: float = 1.0  # allowance on windows (px), plus 3 sigma of the calibrated window noise
-        consistency_margin: float = 0.15  # a plane intersection may lie this far outside a camera's area (m)
-        intersect_areas: bool = True  # section 5: intersect the target areas of all tracking cameras
-        init_radius: float = 0.5  # uncertainty (m) of the hand-given initial position
-        sigma_planes: float = 0.25  # search radius (m) after a multi-camera estimate
-        sigma_growth: float = 0.5  # growth (m/s) of the search radius while no camera tracks
-        sigma_max: float = 1.5
-        lost_velocity_tau: float = 1.0  # s: while no camera tracks, V decays as exp(-t / tau) (a target that vanishes from every view at once has most likely stopped)
-        sigma_v_tracked: float = 0.1  # m/s: velocity uncertainty while a camera tracks (eq. 7 from mean flows)
-        accel_max: float = 1.0  # m/s^2: growth of the velocity uncertainty while no camera tracks (a walker stopping, starting or turning)
-        area_gate_max: float = 0.5  # m: at most this much of a single-camera area's extent widens the re-acquisition gate
-        confirm_single_frames: int = 3  # a re-acquisition no second camera can confirm must persist this many frames
-        init_min_cameras: int = 2  # multi-person: windows needed to start a target
-        confirm_frames: int = 5  # multi-person: frames tracked before a target is reported
-        max_lost_s: float = 3.0  # multi-person: a target no camera tracks this long is dropped
-        box_sigma_px: float | None = None  # window edge noise (px); None: the calibration's ``box_sigma_px``
-        box_u_sigma_px: float | None = None  # window centroid noise (px); None: the calibration's ``box_u_sigma_px``, else (analytic windows, whose u gets the bearing noise) ``bearing_sigma_px``
-        flow_sigma_px_s: float | None = None  # region-mean flow noise (px/s); None: the calibration's ``flow_sigma_px_s``
+        initial_xy: list[float] | None = param(None, "the target's floor position [x, y] at the first frame, m (the "
+                                                     "target is chosen by hand: this, initial_window or multi_person)")
+        initial_window: list | None = param(None, "the target's window at the first frame: [camera, u_left, u_right, "
+                                                  "v_top, v_bottom], camera name and px")
+        multi_person: bool = param(False, "track every mover at once (beyond the paper): no initial_xy or "
+                                          "initial_window needed")
+        split_merged: bool = param(True, "a window holding the target and a tracked neighbour merged gives the "
+                                         "target its side's part (TargetUpdater.split_window)")
+        split_min_sep: float = param(0.25, "split_merged applies when the two predicted centres are this far apart "
+                                           "in the image, estimated-window widths")
+        crowd_overlap: float | None = param(0.25, "a camera where two targets' estimated windows overlap by this share "
+                                                  "of the narrower is left out for both, fraction; none: off")
+        jump_gate: bool = param(True, "an estimate farther from the prediction than the search radius leaves out the "
+                                      "straying camera")
+        exclude_neighbours: bool = param(True, "section 4.1 literally: a camera track id once seen beside the target "
+                                               "is never the target")
+        track_others: bool = param(True, "single target: also track the other movers (4.1 taken to 3-D), so they "
+                                         "hold their own windows")
+        height: float = param(1.8, "person model: cylinder height, m (the tallest person's, with their gait bob)")
+        radius: float = param(0.2, "person model: cylinder radius, m")
+        min_plane_angle_deg: float = param(12.0, "target planes closer than this to parallel are not intersected, "
+                                                 "degrees")
+        width_ratio_threshold: float | None = param(None, "eq. 8 width-ratio threshold; none: the calibration's "
+                                                          "box_width_ratio_threshold, else the paper's 1")
+        position_tol: float = param(1.0, "section 4.3 position test: |u - u_c| allowed, estimated-window widths")
+        search_margin: float = param(0.5, "a lost camera's estimated window is widened by this when searching, "
+                                          "window widths")
+        overlap_gap: float = param(0.0, "windows closer than this overlap (section 4.1), window widths")
+        neighbour_span: float = param(1.0, "width of the search areas beside the target (Fig. 8), window widths")
+        rejoin_width_ratio: float = param(0.35, "an overlapped window is the target alone again below this eq. 8 "
+                                                "width ratio")
+        flow_tol_px: float = param(6.0, "image velocity similarity: |v - v_pred| <= flow_tol_px + flow_tol_rel "
+                                        "|v_pred| (+ 3 sigma of the flow noise), px/s")
+        flow_tol_rel: float = param(0.4, "relative part of that tolerance, fraction of |v_pred|")
+        flow_height_fraction: float = param(0.5, "height of the flow region's centroid, fraction of the person "
+                                                 "model's height")
+        flow_window: int = param(5, "frames of a camera track over which its flow is averaged")
+        mover_flow_px: float = param(8.0, "a window with less mean flow is no mover, px/s")
+        velocity_smoothing: float = param(0.6, "weight of the new eq. 7 velocity against the previous one, in [0, 1]")
+        velocity_prior_sigma: float = param(0.3, "the previous velocity as a prior of the eq. 7 least squares (per "
+                                                 "frame), m/s")
+        flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
+                                             "centre's motion), px/s")
+        max_speed: float = param(3.0, "largest speed of a person, m/s")
+        area_margin: float = param(0.05, "allowance on target areas, m")
+        window_margin_px: float = param(1.0, "allowance on windows, px (plus 3 sigma of the calibrated window noise)")
+        consistency_margin: float = param(0.15, "a plane intersection may lie this far outside a camera's target "
+                                                "area, m")
+        intersect_areas: bool = param(True, "section 5: intersect the target areas of all tracking cameras")
+        init_radius: float = param(0.5, "uncertainty of the hand-given initial position, m")
+        sigma_planes: float = param(0.25, "search radius after a multi-camera estimate, m")
+        sigma_growth: float = param(0.5, "growth of the search radius while no camera tracks, m/s")
+        sigma_max: float = param(1.5, "largest search radius while no camera tracks, m")
+        lost_velocity_tau: float = param(1.0, "while no camera tracks, the velocity decays as exp(-t / tau), s (a "
+                                              "target that vanishes from every view at once has most likely stopped)")
+        sigma_v_tracked: float = param(0.1, "velocity uncertainty while a camera tracks (eq. 7 from mean flows), m/s")
+        accel_max: float = param(1.0, "growth of the velocity uncertainty while no camera tracks (a walker stopping, "
+                                      "starting or turning), m/s^2")
+        area_gate_max: float = param(0.5, "at most this much of a single-camera area's extent widens the "
+                                          "re-acquisition gate, m")
+        confirm_single_frames: int = param(3, "a re-acquisition no second camera can confirm must persist this many "
+                                              "frames")
+        init_min_cameras: int = param(2, "multi-person: cameras whose windows agree before a target is started")
+        confirm_frames: int = param(5, "multi-person: frames tracked before a target is reported")
+        max_lost_s: float = param(3.0, "multi-person: a target no camera tracks for this long is dropped, s")
+        box_sigma_px: float | None = param(None, "window edge noise, px; none: the calibration's box_sigma_px, else 0")
+        box_u_sigma_px: float | None = param(None, "window centroid noise, px; none: the calibration's box_u_sigma_px, "
+                                                   "else (analytic windows) bearing_sigma_px")
+        flow_sigma_px_s: float | None = param(None, "region-mean flow noise, px/s; none: the calibration's "
+                                                    "flow_sigma_px_s, else window edge noise x fps")
 
     # ------------------------------------------------------------------------------------------
     def resolved_config(self, calibration: Calibration) -> "TargetPlanes.Config":
@@ -160,8 +184,9 @@ class TargetPlanes(Estimator):
             raise EstimatorError(f"{self.name}: no oblique cameras")
         if not cfg.multi_person and cfg.initial_xy is None and cfg.initial_window is None:
             raise EstimatorError(
-                f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] or "
-                "initial_window=[camera, u_left, u_right, v_top, v_bottom] (or multi_person=true)"
+                f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] (its floor position at the "
+                "first frame, m) or initial_window=[camera, u_left, u_right, v_top, v_bottom], or multi_person=true "
+                "to track every mover (on the command line: --param multi_person=true)"
             )
         Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
         frames = split_boxes(boxes, cams, cfg.flow_window)

@@ -12,6 +12,11 @@ The file has one row per bound, columns ``scene, sensing, estimator, metric, op,
 Lines starting with ``#`` are comments. Adding an estimator = appending its rows (with margin
 from what it measures over several seeds); a scene missing from ``CI_RUNS`` runs at
 ``CI_DEFAULT``. A bound on an estimator that does not apply to the scene, or fails, fails too.
+
+Users keep their own bounds in files of the same format (``trackroom check-thresholds
+--thresholds PATH``): ``merge_thresholds`` lays them over the bundled file, and a user row with
+the same scene, sensing, estimator, metric and op replaces the bundled one (a later file
+replaces an earlier one); other user rows are added.
 """
 from __future__ import annotations
 
@@ -69,6 +74,30 @@ def load_thresholds(path: str | Path | None = None) -> pd.DataFrame:
     if len(dup):
         raise ThresholdError(f"{p}: the same bound is given twice ({_where(dup)})")
     return df[COLUMNS].reset_index(drop=True)
+
+
+KEY = ["scene", "sensing", "estimator", "metric", "op"]
+
+
+def merge_thresholds(*tables: pd.DataFrame) -> pd.DataFrame:
+    """Thresholds tables laid over each other in order: a row of a later table replaces the row of
+    an earlier one with the same scene, sensing, estimator, metric and op; other rows are kept.
+    Replaced rows keep their place; new rows follow."""
+    frames = [t[COLUMNS] for t in tables if len(t)]
+    if not frames:
+        return pd.DataFrame(columns=COLUMNS)
+    merged = pd.concat(frames, ignore_index=True)
+    last = merged.drop_duplicates(KEY, keep="last").set_index(KEY)
+    first = merged.drop_duplicates(KEY, keep="first")
+    out = first[KEY].join(last, on=KEY)
+    return out[COLUMNS].reset_index(drop=True)
+
+
+def load_merged(paths=(), bundled: bool = True) -> pd.DataFrame:
+    """The bundled thresholds (unless ``bundled`` is false) with the users' files laid over them
+    (``merge_thresholds``); each file is validated by ``load_thresholds``."""
+    tables = ([load_thresholds()] if bundled else []) + [load_thresholds(p) for p in paths]
+    return merge_thresholds(*tables)
 
 
 def _where(rows: pd.DataFrame) -> str:

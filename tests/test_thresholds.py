@@ -60,3 +60,41 @@ def test_bad_threshold_files(tmp_path, text, problem):
     p.write_text("# a comment line\n" + text)
     with pytest.raises(ThresholdError, match=problem):
         load_thresholds(p)
+
+
+def test_user_thresholds_replace_bundled_rows_and_add_their_own(tmp_path):
+    from trackroom.metrics.thresholds import load_merged
+
+    user = tmp_path / "mine.csv"
+    user.write_text("scene,sensing,estimator,metric,op,bound\n"
+                    "overhead_lab,analytic,ekf,rmse,<=,0.5\n"          # replaces the bundled bound
+                    "overhead_lab,analytic,my_tracker,mota,>=,0.8\n")  # a bound of one's own
+    bundled = load_thresholds()
+    merged = load_merged([user])
+    key = ["scene", "sensing", "estimator", "metric", "op"]
+    assert len(merged) == len(bundled) + 1
+    assert not merged.duplicated(key).any()
+    ekf_rmse = merged[(merged["scene"] == "overhead_lab") & (merged["estimator"] == "ekf") & (merged["metric"] == "rmse")]
+    assert ekf_rmse["bound"].tolist() == [0.5]
+    assert merged.iloc[-1].to_dict() == {"scene": "overhead_lab", "sensing": "analytic", "estimator": "my_tracker",
+                                         "metric": "mota", "op": ">=", "bound": 0.8}
+    assert load_merged([user], bundled=False)["estimator"].tolist() == ["ekf", "my_tracker"]
+
+
+def test_check_thresholds_command_with_a_plugin(tmp_path):
+    """trackroom check-thresholds: a user's bounds on a plug-in estimator; exit 1 with the failure table."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    plugin = root / "docs" / "example_plugin" / "floor_nearest.py"
+    user = tmp_path / "mine.csv"
+    user.write_text("scene,sensing,estimator,metric,op,bound\n"
+                    "overhead_lab,analytic,floor_nearest,mota,>=,0.5\n"
+                    "overhead_lab,analytic,floor_nearest[gate_m=0.5],rmse,<=,0.0001\n")
+    r = subprocess.run([sys.executable, "-m", "trackroom", "check-thresholds", "--thresholds", str(user), "--no-bundled",
+                        "--plugin", str(plugin), "--quiet"], capture_output=True, text=True, cwd=root, timeout=300)
+    assert r.returncode == 1, r.stderr
+    assert "overhead_lab (analytic, 3 seeds, 20 s): 1 of 2 bounds met" in r.stdout
+    assert "1 accuracy threshold(s) not met" in r.stdout and "floor_nearest[gate_m=0.5]" in r.stdout

@@ -13,6 +13,8 @@ TOML format (every key optional except scenes; command-line options override)::
     seeds = "0-4"            # or [0, 1, 2]
     gate = 1.0               # CLEAR MOT / IDF1 gate, m
     jobs = 2
+    plugins = ["my_tracker", "extra/tracker.py"]   # estimator plug-ins: modules or .py files
+                                     # (files relative to this TOML file); workers import them too
     set = ["walkers.count=3"]        # scene overrides for every scene
     scenes = ["overhead_lab"]        # plain names, or tables:
     [[scenes]]
@@ -22,7 +24,7 @@ TOML format (every key optional except scenes; command-line options override)::
     [[estimators]]                   # or estimators = ["ekf", ...]; default: every registered one
     name = "ekf"
     label = "ekf_rts"                # default: name, or name[k=v;...] with params
-    params = { smooth = true }
+    params = { smooth = true }       # checked strictly against the estimator's Config types
 
 Outputs (``write_outputs``): ``results.csv`` (one row per scene, seed and estimator, skipped
 and failed runs included with the reason), ``per_frame.csv`` (error, misses, false positives
@@ -114,9 +116,13 @@ class CompareSpec:
     gate: float = 1.0
     jobs: int = 1
     recordings: str | None = None  # cache folder for recordings (None: simulate every time)
+    # estimator plug-ins (module names, absolute .py paths) every worker process imports
+    plugins: list[str] = field(default_factory=list)
 
     def validate(self) -> "CompareSpec":
-        from trackroom.estimators import get
+        from trackroom.estimators import get, load_plugins
+
+        load_plugins(self.plugins)
 
         if not self.scenes:
             raise CompareError("no scenes to compare")
@@ -194,7 +200,8 @@ def split_top(text: str) -> list[str]:
 
 
 def parse_estimator(text: str) -> EstimatorRun:
-    """``ekf`` or ``ekf[smooth=true;filter=ukf]`` (values parsed as TOML, else text)."""
+    """``ekf`` or ``ekf[smooth=true;filter=ukf]`` (``;`` or ``,`` between parameters; values parsed
+    strictly by the Config field's type, lists in brackets: ``target_planes[initial_xy=[1, 2]]``)."""
     from trackroom.estimators import get
     from trackroom.estimators.base import coerce_param
 
@@ -205,7 +212,7 @@ def parse_estimator(text: str) -> EstimatorRun:
         if not rest.endswith("]"):
             raise CompareError(f"bad estimator {text!r}: use name[key=value;...]")
         cls = get(name)
-        for item in rest[:-1].replace(",", ";").split(";"):
+        for item in split_top(rest[:-1].replace(";", ",")):
             if item.strip():
                 k, eq, v = item.partition("=")
                 if not eq:
@@ -228,10 +235,18 @@ def spec_from_toml(path: str | Path) -> CompareSpec:
         raise CompareError(f"{p}: no such comparison file") from None
     except tomllib.TOMLDecodeError as e:
         raise CompareError(f"{p}: not valid TOML: {e}") from None
-    known = {"duration", "sensing", "seeds", "gate", "jobs", "set", "scenes", "estimators", "recordings"}
+    known = {"duration", "sensing", "seeds", "gate", "jobs", "set", "scenes", "estimators", "recordings", "plugins"}
     unknown = sorted(set(raw) - known)
     if unknown:
         raise CompareError(f"{p}: unknown key(s) {unknown}; known: {sorted(known)}")
+    from trackroom.estimators import get, load_plugins, resolve_plugin
+    from trackroom.estimators.base import coerce_value
+
+    plugins = raw.get("plugins", [])
+    if not (isinstance(plugins, list) and all(isinstance(x, str) for x in plugins)):
+        raise CompareError(f"{p}: plugins must be a list of module names or .py paths, got {plugins!r}")
+    plugins = [resolve_plugin(x, p.parent) for x in plugins]
+    load_plugins(plugins)  # before the estimators are looked up
     common = tuple(raw.get("set", []))
     scenes = []
     for s in raw.get("scenes", []):
@@ -244,8 +259,15 @@ def spec_from_toml(path: str | Path) -> CompareSpec:
         if isinstance(e, str):
             ests.append(parse_estimator(e))
         else:
+            name, params = e.get("name"), e.get("params", {})
+            if not isinstance(name, str):
+                raise CompareError(f"{p}: every [[estimators]] table needs a name")
+            if not isinstance(params, dict):
+                raise CompareError(f"{p}: estimator {name}: params must be a table, got {params!r}")
+            cls = get(name)
             # in the file's order, as on the command line (the order shows in the default label)
-            ests.append(EstimatorRun(e["name"], tuple(e.get("params", {}).items()), e.get("label", "")))
+            ests.append(EstimatorRun(name, tuple((k, coerce_value(cls, k, v)) for k, v in params.items()),
+                                     e.get("label", "")))
     return CompareSpec(
         scenes=scenes,
         seeds=parse_seeds(raw.get("seeds", [0])),
@@ -255,6 +277,7 @@ def spec_from_toml(path: str | Path) -> CompareSpec:
         gate=float(raw.get("gate", 1.0)),
         jobs=int(raw.get("jobs", 1)),
         recordings=raw.get("recordings"),
+        plugins=plugins,
     )
 
 
@@ -266,6 +289,8 @@ def spec_to_toml(spec: CompareSpec) -> str:
                            "gate": float(spec.gate), "jobs": int(spec.jobs)}
     if spec.recordings:
         doc["recordings"] = str(spec.recordings)
+    if spec.plugins:
+        doc["plugins"] = list(spec.plugins)
     doc["scenes"] = [{"name": s.name, **({"label": s.label} if s.label else {}), **({"set": list(s.overrides)} if s.overrides else {})}
                      for s in spec.scenes]
     doc["estimators"] = [{"name": e.name, **({"label": e.label} if e.label else {}), **({"params": dict(e.params)} if e.params else {})}
@@ -413,11 +438,13 @@ def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path 
             command: list[str] | None = None) -> tuple[list[dict], pd.DataFrame, int]:
     """One recording, every estimator: score rows, per-frame error series and how many runs were
     reused from ``runs_dir`` (where each finished run is also stored)."""
+    from trackroom.estimators import load_plugins
     from trackroom.estimators.runner import run_estimator
     from trackroom.metrics.score import evaluate
     from trackroom.scenes import load_scene
     from trackroom.scenes.loader import scene_sha256
 
+    load_plugins(spec.plugins)  # a worker process started afresh knows only the bundled estimators
     scene_hash = scene_sha256(load_scene(scene.name, list(scene.overrides)))
     rec = sim_s = None
     rows, series, reused = [], [], 0
@@ -630,9 +657,13 @@ def plot_error_over_time(per_frame: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def ci_spec(thresholds: pd.DataFrame, scene: str, sensing: str, jobs: int = 1):
-    """The ``CompareSpec`` CI runs for one scene and sensing: the estimators with bounds there."""
+def ci_spec(thresholds: pd.DataFrame, scene: str, sensing: str, jobs: int = 1, plugins: list[str] | None = None):
+    """The ``CompareSpec`` CI runs for one scene and sensing: the estimators with bounds there
+    (``plugins``: the plug-ins that provide some of them)."""
+    from trackroom.estimators import load_plugins
     from trackroom.metrics.thresholds import CI_DEFAULT, CI_RUNS, CI_SEEDS
+
+    load_plugins(plugins)
 
     rows = thresholds[(thresholds["scene"] == scene) & (thresholds["sensing"] == sensing)]
     cfg = CI_RUNS.get(scene, CI_DEFAULT)
@@ -643,4 +674,5 @@ def ci_spec(thresholds: pd.DataFrame, scene: str, sensing: str, jobs: int = 1):
     return CompareSpec(
         scenes=[SceneRun(scene, tuple(cfg["overrides"]), label=scene)],
         seeds=list(CI_SEEDS), estimators=ests, duration=float(cfg["duration"]), sensing=sensing, jobs=jobs,
+        plugins=list(plugins or []),
     )

@@ -67,6 +67,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     args._command = command_line(argv)
     try:
+        if getattr(args, "plugin", None):
+            from trackroom.estimators import load_plugins
+
+            load_plugins(args.plugin)
         rc = int(args._run(args) or 0)
         sys.stdout.flush()  # here, not at exit, so a closed pipe is caught below
         return rc

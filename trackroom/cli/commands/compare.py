@@ -7,6 +7,8 @@ runs stored in OUT/runs; without a TOML file or --scenes it reruns OUT/spec.toml
 """
 from __future__ import annotations
 
+from trackroom.cli.commands import add_plugin_argument
+
 NAME = "compare"
 HELP = "compare estimators over scenes and seeds (from a TOML file or options): results.csv, summary.md, plots"
 
@@ -29,6 +31,7 @@ def add_arguments(p) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted comparison in --out: finished runs that match are reused, not re-run")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_plugin_argument(p)
 
 
 def build_spec(args):
@@ -37,6 +40,7 @@ def build_spec(args):
     from trackroom.compare import (CompareSpec, SceneRun, all_estimators, parse_estimator, parse_seeds, spec_from_toml,
                                  split_top)
     from trackroom.errors import CommandError
+    from trackroom.estimators import resolve_plugin
 
     if args.config:
         spec = spec_from_toml(args.config)
@@ -46,6 +50,8 @@ def build_spec(args):
         if not args.scenes:
             raise CommandError("give a comparison TOML file or --scenes")
         spec = CompareSpec(scenes=[], seeds=[0], estimators=all_estimators())
+    # worker processes import the plug-ins too: by module name or absolute file path
+    spec.plugins = list(dict.fromkeys(spec.plugins + [resolve_plugin(p) for p in args.plugin]))
     if args.scenes:
         spec.scenes = [SceneRun(s) for s in split_top(args.scenes)]
     if args.overrides:

@@ -13,6 +13,8 @@ import os
 import shutil
 from pathlib import Path
 
+from trackroom.cli.commands import add_plugin_argument
+
 # Simulated seconds per scene: bearing-only scenes need about a minute for the person to cross
 # several sparse views (Rahimi's office loop takes one minute); the others need less.
 DURATIONS = {"bearing_hall": 60.0, "office_floor": 60.0, "overhead_lab": 20.0, "occlusion_lab": 20.0}
@@ -30,6 +32,7 @@ def add_arguments(p) -> None:
     p.add_argument("--duration", type=float, help="simulated seconds per scene (default: 60 for the bearing-only scenes, 20 for the others)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scenes", help="comma-separated scene names (default: every bundled scene)")
+    add_plugin_argument(p)
 
 
 def run(args) -> int:
