@@ -124,7 +124,7 @@ def test_worker_process_started_afresh_imports_the_plugins(recording, own_regist
     spec = CompareSpec(scenes=[SceneRun(str(ROOT / "scenes" / "overhead_lab.toml"), ("walkers.count=2",))], seeds=[0],
                        estimators=[EstimatorRun("floor_nearest")], duration=3.0, plugins=[str(PLUGIN_FILE)])
     with get_context("spawn").Pool(1) as pool:
-        rows, _ = pool.apply(run_job, (spec.scenes[0], 0, spec))
+        rows, _, _ = pool.apply(run_job, (spec.scenes[0], 0, spec))
     assert rows[0]["estimator"] == "floor_nearest" and rows[0]["status"] == "ok", rows[0]
 
 
