@@ -130,9 +130,12 @@ def _split_override(source: str, text: str) -> tuple[str, Any]:
         raise SceneError(f"{source}: --set {text!r}: expected key=value")
     key, value = text.split("=", 1)
     try:
-        parsed = tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value  # a bare string
+        doc = tomllib.loads(f"v = {value}")
+    except (tomllib.TOMLDecodeError, RecursionError):
+        return key.strip(), value  # a bare string
+    if set(doc) != {"v"}:  # "1\nx = 2" would set x too, silently
+        raise SceneError(f"{source}: --set {text!r}: the value is more than one TOML value")
+    parsed = doc["v"]
     return key.strip(), parsed
 
 

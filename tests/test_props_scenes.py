@@ -458,6 +458,18 @@ def test_overrides_apply_or_fail_clearly(tmp_path_factory, data):
     outcome(_write(tmp_path_factory.mktemp("s"), to_toml(raw)), overrides)
 
 
+@settings(max_examples=examples(100))
+@given(data=st.data())
+def test_overrides_that_restate_values_change_nothing(tmp_path_factory, data):
+    """``--set path=<the value already there>`` (dotted paths, list indices) gives the same scene."""
+    raw = data.draw(valid_scenes())
+    leaves = [(p, v) for p, v in _paths(raw) if p and not isinstance(v, (dict, list)) or (p and isinstance(v, list) and not _is_aot(v))]
+    picked = data.draw(st.lists(st.sampled_from(leaves), min_size=1, max_size=4))
+    path = _write(tmp_path_factory.mktemp("s"), to_toml(raw))
+    scene = load_scene(path, [f"{'.'.join(map(str, p))}={_inline(v)}" for p, v in picked])
+    assert summary(scene) == summary(load_scene(path)) and scene.raw == raw
+
+
 # ----------------------------------------------------------------------------- regressions
 def test_regression_malformed_scene_file(tmp_path):
     """Issue 16: a malformed scene file ends in one SceneError naming the file."""
@@ -523,3 +535,18 @@ def test_regression_scene_file_not_utf8_or_a_folder(tmp_path):
     (tmp_path / "dir.toml").mkdir()
     with pytest.raises(SceneError, match="cannot be read"):
         load_scene(tmp_path / "dir.toml")
+
+
+def test_regression_deeply_nested_toml_and_override(tmp_path):
+    """Arrays nested 100000 deep ended in RecursionError (a file) or a traceback (a --set value)."""
+    deep = "[" * 100000 + "]" * 100000
+    with pytest.raises(SceneError, match="nested too deeply"):
+        load_scene(_write(tmp_path, to_toml(BASE) + f"\nx = {deep}\n"))
+    with pytest.raises(SceneError, match="unknown key"):  # the value is kept as a bare string
+        load_scene(_write(tmp_path, to_toml(BASE)), [f"x={deep}"])
+
+
+def test_regression_override_value_with_a_second_key(tmp_path):
+    """--set 'walkers.count=1\\nx = 2' applied the 1 and dropped the rest silently."""
+    with pytest.raises(SceneError, match="more than one TOML value"):
+        load_scene(_write(tmp_path, to_toml(BASE)), ["walkers.count=1\nx = 2"])

@@ -100,14 +100,14 @@ def _column_problem(name: str, s: pd.Series) -> str | None:
             return "has missing values (ids are strings; a phone-less person has \"\")"
         values = s.cat.categories if isinstance(s.dtype, pd.CategoricalDtype) else s
         if pd.api.types.infer_dtype(values, skipna=False) not in ("string", "empty"):
-            return f"must hold strings (ids), found {s.dtype} values such as {s.iloc[0]!r}"
+            return f"must hold strings (ids), found {s.dtype} values such as {repr(s.iloc[0])[:40]}"
     elif name in FLAG_COLUMNS:
         if s.isna().any():
             return "has missing values (flags are true or false)"
         if not (pd.api.types.is_bool_dtype(s) or (_is_number_column(s) and s.isin([0, 1]).all())):
             return f"must hold true/false, found {s.dtype}"
     elif not _is_number_column(s):
-        return f"must be numeric, found {s.dtype} values such as {s.iloc[0]!r}"
+        return f"must be numeric, found {s.dtype} values such as {repr(s.iloc[0])[:40]}"
     return None
 
 
