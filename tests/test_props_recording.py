@@ -16,7 +16,10 @@ import json
 import math
 import re
 import shutil
+import subprocess
+import sys
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -349,6 +352,19 @@ def test_regression_corrupt_parquet_with_hash_updated(copy):
     _rehash(copy, "imu.parquet")
     with pytest.raises(RecordingError, match=r"imu\.parquet: not a readable Parquet table"):
         read_recording(copy)
+
+
+def test_regression_corrupt_parquet_on_the_command_line(copy, tmp_path):
+    """The same through ``trackroom estimate``: one line on stderr, exit status 2, no traceback."""
+    data = bytearray((copy / "imu.parquet").read_bytes())
+    (copy / "imu.parquet").write_bytes(bytes(data[: len(data) // 2]))
+    _rehash(copy, "imu.parquet")
+    repo = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, "-m", "trackroom", "estimate", "--estimator", "ekf", "--out", str(tmp_path / "t.csv"), str(copy)],
+                       cwd=repo, capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"trackroom estimate: error: {copy / 'imu.parquet'}: not a readable Parquet table")
 
 
 def test_regression_empty_table(copy):

@@ -11,7 +11,10 @@ from __future__ import annotations
 import copy
 import json
 import math
+import subprocess
+import sys
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -476,6 +479,12 @@ def test_regression_malformed_scene_file(tmp_path):
     path = _write(tmp_path, '[scene]\nname = "x"\n[room\noutline = [[0, 0], [1, 0], [1, 1]]\n')
     with pytest.raises(SceneError, match=r"scene\.toml: not valid TOML"):
         load_scene(path)
+    # and on the command line: one line, exit status 2
+    r = subprocess.run([sys.executable, "-m", "trackroom", "show", str(path), "--out", str(tmp_path / "s.png")],
+                       cwd=Path(__file__).resolve().parents[1], capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"trackroom show: error: {path}: not valid TOML")
 
 
 BASE = {

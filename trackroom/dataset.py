@@ -356,7 +356,8 @@ def _read_parquet(path: Path, kind: str | None = None) -> pd.DataFrame:
         df = pd.read_parquet(path, engine="pyarrow")
     except (pa.ArrowException, OSError, ValueError, TypeError, NotImplementedError) as e:
         # truncated or corrupt files, schemas pandas cannot hold (pyarrow raises all of these)
-        raise RecordingError(f"{path}: not a readable Parquet table ({type(e).__name__}: {_first_line(e)})") from None
+        detail = _first_line(e).replace(str(path), path.name)
+        raise RecordingError(f"{path}: not a readable Parquet table ({type(e).__name__}: {detail})") from None
     if kind is not None:
         try:
             check_table(kind, df)
