@@ -27,6 +27,10 @@ A loaded ``Scene`` keeps its ``source`` (the bundled scene's name, or the file's
 the working directory), its ``overrides`` and the parsed TOML after them (``raw``):
 ``scene_toml`` writes that resolved scene back as TOML (it loads back to the same scene) and
 ``scene_sha256`` hashes it canonically (recordings and the compare cache carry the hash).
+
+Every number must be finite and at most ``LIMIT`` (1e6) in magnitude (larger is a typo, and would
+overflow the geometry); image sizes are whole pixels from 8 to ``MAX_PIXELS``. Camera and walker
+names become file names, table ids and MuJoCo names, so they match ``NAME_PATTERN``.
 """
 from __future__ import annotations
 
@@ -36,6 +40,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -97,6 +102,12 @@ KEYS: dict[str, frozenset[str]] = {
 }
 
 
+LIMIT = 1e6  # largest magnitude of any number in a scene file
+MAX_PIXELS = 16384  # largest image width or height
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+RESERVED_NAMES = {"world"}  # MuJoCo's world body
+
+
 class SceneError(ValueError):
     """A scene file that cannot be used; the message names the file, the field and the problem."""
 
@@ -134,17 +145,25 @@ def load_scene(name_or_path: str | Path, overrides: list[str] | dict[str, Any] |
     """Read, override and validate a scene; raises ``SceneError`` with a clear message."""
     path = resolve_scene_path(name_or_path)
     source = scene_source(name_or_path)
+    shown = str(name_or_path)  # messages name the scene as the user gave it; records use ``source``
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{source}: not valid TOML: {e}") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SceneError(f"{source}: cannot be read: {e}") from None
-    return parse_scene(raw, source=source, overrides=overrides)
+        raise SceneError(f"{shown}: not valid TOML: {e}") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{shown}: not valid TOML: not UTF-8 text (byte {e.start})") from None
+    except RecursionError:
+        raise SceneError(f"{shown}: not valid TOML: nested too deeply") from None
+    except OSError as e:
+        raise SceneError(f"{shown}: cannot be read: {e.strerror or e}") from None
+    return parse_scene(raw, source=source, overrides=overrides, shown=shown)
 
 
-def parse_scene(raw: dict, source: str = "<scene>", overrides=None) -> Scene:
+def parse_scene(raw: dict, source: str = "<scene>", overrides=None, shown: str | None = None) -> Scene:
+    """Apply ``overrides`` to the parsed TOML ``raw`` and validate it. ``source`` is recorded in the
+    Scene; errors name the scene as ``shown`` (default: ``source``)."""
     raw = copy.deepcopy(raw)
+    where = shown or source
     texts: list[str] = []
     if overrides:
         if isinstance(overrides, dict):
@@ -152,11 +171,11 @@ def parse_scene(raw: dict, source: str = "<scene>", overrides=None) -> Scene:
             texts = [f"{k}={_toml_value(v)}" for k, v in items]
         else:
             texts = [str(o) for o in overrides]
-            items = [_split_override(source, o) for o in texts]
+            items = [_split_override(where, o) for o in texts]
         for key, value in items:
-            _apply_override(raw, key, value, source)
-    scene = _Validator(source).scene(raw)
-    return dataclasses.replace(scene, overrides=tuple(texts))
+            _apply_override(raw, key, value, where)
+    scene = _Validator(where).scene(raw)
+    return dataclasses.replace(scene, source=source, overrides=tuple(texts))
 
 
 # ----------------------------------------------------------------------------- resolved scene
@@ -191,9 +210,12 @@ def _split_override(source: str, text: str) -> tuple[str, Any]:
         raise SceneError(f"{source}: --set {text!r}: expected key=value")
     key, value = text.split("=", 1)
     try:
-        parsed = tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value  # a bare string
+        doc = tomllib.loads(f"v = {value}")
+    except (tomllib.TOMLDecodeError, RecursionError):
+        return key.strip(), value  # a bare string
+    if set(doc) != {"v"}:  # "1\nx = 2" would set x too, silently
+        raise SceneError(f"{source}: --set {text!r}: the value is more than one TOML value")
+    parsed = doc["v"]
     return key.strip(), parsed
 
 
@@ -209,7 +231,7 @@ def _apply_override(raw: dict, key: str, value: Any, source: str) -> None:
             elif part.isdigit() and int(part) < len(node):
                 targets = [int(part)]
             else:
-                raise SceneError(f"{source}: --set {key}: {part!r} is not an index of a list of {len(node)}")
+                raise SceneError(f"{source}: --set {key!r}: {part!r} is not an index of a list of {len(node)}")
             for j in targets:
                 if last:
                     node[j] = value
@@ -217,7 +239,7 @@ def _apply_override(raw: dict, key: str, value: Any, source: str) -> None:
                     walk(node[j], i + 1)
             return
         if not isinstance(node, dict):
-            raise SceneError(f"{source}: --set {key}: {'.'.join(parts[:i])} is not a table")
+            raise SceneError(f"{source}: --set {key!r}: {'.'.join(parts[:i])!r} is not a table")
         if last:
             node[part] = value
         else:
@@ -239,7 +261,8 @@ class _Validator:
             self.fail(where, f"expected a table, got {type(node).__name__}")
         for k in node:
             if k not in allowed:
-                self.fail(f"{where}.{k}" if where else k, f"unknown key (allowed: {', '.join(sorted(allowed))})")
+                label = k if re.fullmatch(r"[\w.-]+", k) else repr(k)  # one line, visible
+                self.fail(f"{where}.{label}" if where else label, f"unknown key (allowed: {', '.join(sorted(allowed))})")
         for k in required:
             if k not in node:
                 self.fail(f"{where}.{k}" if where else k, "missing")
@@ -251,8 +274,8 @@ class _Validator:
                 self.fail(f"{where}.{key}", "missing")
             return float(default)
         v = node[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            self.fail(f"{where}.{key}", f"expected a finite number, got {v!r}")
+        if not _is_number(v):
+            self.fail(f"{where}.{key}", f"expected a finite number of magnitude <= {LIMIT:g}, got {_show(v)}")
         if positive and v <= 0:
             self.fail(f"{where}.{key}", f"must be positive, got {v}")
         if nonneg and v < 0:
@@ -265,12 +288,8 @@ class _Validator:
                 self.fail(f"{where}.{key}", "missing")
             return tuple(default)
         v = node[key]
-        if (
-            not isinstance(v, list)
-            or len(v) != n
-            or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in v)
-        ):
-            self.fail(f"{where}.{key}", f"expected {n} numbers, got {v!r}")
+        if not isinstance(v, list) or len(v) != n or not all(_is_number(x) for x in v):
+            self.fail(f"{where}.{key}", f"expected {n} finite numbers of magnitude <= {LIMIT:g}, got {_show(v)}")
         if nonneg and any(x < 0 for x in v):
             self.fail(f"{where}.{key}", f"must not be negative, got {v!r}")
         return tuple(float(x) for x in v)
@@ -281,10 +300,28 @@ class _Validator:
             self.fail(f"{where}.{key}", f"expected a list of at least {min_len} [x, y] points")
         out = []
         for j, p in enumerate(v):
-            if not isinstance(p, list) or len(p) != 2 or not all(isinstance(x, (int, float)) for x in p):
-                self.fail(f"{where}.{key}[{j}]", f"expected [x, y], got {p!r}")
+            if not isinstance(p, list) or len(p) != 2 or not all(_is_number(x) for x in p):
+                self.fail(f"{where}.{key}[{j}]", f"expected [x, y] (finite, magnitude <= {LIMIT:g}), got {_show(p)}")
             out.append((float(p[0]), float(p[1])))
         return tuple(out)
+
+    def integer(self, node, key, where, default: int) -> int:
+        v = self.number(node, key, where, default, nonneg=True)
+        if v != int(v):
+            self.fail(f"{where}.{key}", f"must be a whole number, got {v}")
+        return int(v)
+
+    def name(self, node, key, where, default=None) -> str:
+        v = self.string(node, key, where, default)
+        if not NAME_PATTERN.fullmatch(v) or v in RESERVED_NAMES:
+            self.fail(f"{where}.{key}", f"{v!r}: a name is 1-64 letters, digits, '_', '.' or '-', starting with a letter or digit, and not {', '.join(sorted(RESERVED_NAMES))}")
+        return v
+
+    def array_of_tables(self, raw, key) -> list:
+        v = raw.get(key, [])
+        if not isinstance(v, list):
+            self.fail(key, f"expected an array of tables [[{key}]], got {type(v).__name__}")
+        return v
 
     def boolean(self, node, key, where, default: bool) -> bool:
         v = node.get(key, default)
@@ -309,7 +346,7 @@ class _Validator:
         floorplan = self.floorplan(raw)
         sensors = self.sensors(raw.get("sensors", {}))
         render = self.table(raw.get("render", {}), "render", KEYS["render"])
-        cameras = self.cameras(raw.get("cameras", []), floorplan, sensors)
+        cameras = self.cameras(self.array_of_tables(raw, "cameras"), floorplan, sensors)
         walkers = self.walkers(raw.get("walkers", {}), floorplan)
         return Scene(
             name=self.string(meta, "name", "scene"),
@@ -332,7 +369,7 @@ class _Validator:
         wh = self.number(room, "wall_height", "room", 2.5, positive=True)
         wt = self.number(room, "wall_thickness", "room", 0.1, positive=True)
         walls = []
-        for i, w in enumerate(raw.get("walls", [])):
+        for i, w in enumerate(self.array_of_tables(raw, "walls")):
             where = f"walls[{i}]"
             self.table(w, where, KEYS["walls"], {"start", "end"})
             a, b = self.vector(w, "start", where, 2), self.vector(w, "end", where, 2)
@@ -340,14 +377,17 @@ class _Validator:
                 self.fail(where, "start and end are the same point")
             walls.append(Wall(a, b, self.number(w, "thickness", where, wt, positive=True), self.number(w, "height", where, wh, positive=True)))
         obstacles = []
-        for i, o in enumerate(raw.get("obstacles", [])):
+        for i, o in enumerate(self.array_of_tables(raw, "obstacles")):
             where = f"obstacles[{i}]"
             self.table(o, where, KEYS["obstacles"], {"center", "size"})
             size = self.vector(o, "size", where, 3)
             if min(size) <= 0:
                 self.fail(f"{where}.size", f"every side must be positive, got {list(size)}")
             c = self.vector(o, "center", where, 2)
-            obstacles.append(Obstacle(c, size, math.radians(self.number(o, "yaw_deg", where, 0.0)), o.get("name", f"obstacle{i}")))
+            name = self.string(o, "name", where, default=f"obstacle{i}")
+            if not name or name in {ob.name for ob in obstacles}:
+                self.fail(f"{where}.name", f"{name!r}: obstacle names must be non-empty and distinct")
+            obstacles.append(Obstacle(c, size, math.radians(self.number(o, "yaw_deg", where, 0.0)), name))
             if not bool(np.all(point_in_polygon(Obstacle(c, size).corners(), outline))):
                 self.fail(where, f"obstacle at {list(c)} is not inside the room outline")
         return Floorplan(outline, tuple(walls), tuple(obstacles), wh, wt)
@@ -377,7 +417,7 @@ class _Validator:
         for i, c in enumerate(nodes):
             where = f"cameras[{i}]"
             self.table(c, where, KEYS["cameras"], {"name", "kind", "position", "fovy_deg", "resolution", "fps"})
-            name = self.string(c, "name", where)
+            name = self.name(c, "name", where)
             where = f"cameras[{i}] ({name})"
             if name in names:
                 self.fail(f"{where}.name", f"duplicate camera name {name!r}")
@@ -397,11 +437,11 @@ class _Validator:
             if kind == "overhead" and pitch > math.radians(-60):
                 self.fail(f"{where}.pitch_deg", "an overhead camera must look down (pitch <= -60 degrees)")
             fovy = self.number(c, "fovy_deg", where, positive=True)
-            if fovy >= 170:
-                self.fail(f"{where}.fovy_deg", f"{fovy} degrees: must be below 170 (pinhole model)")
+            if not 0.1 <= fovy < 170:
+                self.fail(f"{where}.fovy_deg", f"{fovy} degrees: must be from 0.1 and below 170 (pinhole model)")
             res = self.vector(c, "resolution", where, 2)
-            if min(res) < 8 or any(r != int(r) for r in res):
-                self.fail(f"{where}.resolution", f"expected [width, height] in whole pixels >= 8, got {list(res)}")
+            if min(res) < 8 or max(res) > MAX_PIXELS or any(r != int(r) for r in res):
+                self.fail(f"{where}.resolution", f"expected [width, height] in whole pixels from 8 to {MAX_PIXELS}, got {list(res)}")
             fps = self.number(c, "fps", where, positive=True)
             if not _divides(fps, sensors.sim_rate):
                 self.fail(f"{where}.fps", f"{fps} Hz must divide sensors.sim_rate = {sensors.sim_rate} Hz")
@@ -431,12 +471,10 @@ class _Validator:
         people = node.get("people", [])
         if not isinstance(people, list):
             self.fail("walkers.people", "expected an array of tables [[walkers.people]]")
-        count = int(self.number(node, "count", "walkers", len(people) if people else 1, nonneg=True))
-        if count != self.number(node, "count", "walkers", count):
-            self.fail("walkers.count", "must be a whole number")
+        count = self.integer(node, "count", "walkers", len(people) if people else 1)
         if count > len(PALETTE):
             self.fail("walkers.count", f"{count} walkers: at most {len(PALETTE)} (one distinct colour each)")
-        phoneless = int(self.number(node, "phoneless", "walkers", 0, nonneg=True))
+        phoneless = self.integer(node, "phoneless", "walkers", 0)
         if phoneless > count:
             self.fail("walkers.phoneless", f"{phoneless} phoneless walkers but only {count} walkers")
         colours = dict(PALETTE)
@@ -458,6 +496,8 @@ class _Validator:
             radius = self.number(merged, "radius", where, 0.2, positive=True)
             if speed[0] > speed[1]:
                 self.fail(f"{where}.speed", f"min {speed[0]} exceeds max {speed[1]}")
+            if pause[0] > pause[1]:
+                self.fail(f"{where}.pause", f"min {pause[0]} exceeds max {pause[1]}")
             if motion in ("random_waypoint", "random_walk", "waypoints") and speed[1] <= 0:
                 self.fail(f"{where}.speed", "a walking person needs a positive speed")
             for label, pts in (("start", [start] if start else []), ("waypoints", list(waypoints))):
@@ -466,14 +506,15 @@ class _Validator:
                     if clear < radius:
                         what = "outside the room" if not np.isfinite(clear) else "inside a wall or obstacle"
                         self.fail(f"{where}.{label}" + (f"[{j}]" if label == "waypoints" else ""), f"{list(q)} is {what} (clearance {clear:.2f} m < radius {radius} m)")
-            name = p.get("name", f"p{i}")
-            if not isinstance(name, str):
-                self.fail(f"{where}.name", "expected a string")
+            name = self.name(p, "name", where, default=f"p{i}")
+            pause_probability = self.number(merged, "pause_probability", where, 0.5, nonneg=True)
+            if pause_probability > 1:
+                self.fail(f"{where}.pause_probability", f"must be from 0 to 1, got {pause_probability}")
             out.append(
                 WalkerSpec(
                     name=name, color=colours[cname], color_name=cname, motion=motion, height=height, radius=radius,
                     speed=speed, pause=pause,
-                    pause_probability=self.number(merged, "pause_probability", where, 0.5, nonneg=True),
+                    pause_probability=pause_probability,
                     waypoints=waypoints, loop=self.boolean(merged, "loop", where, False), start=start,
                     phone=self.boolean(merged, "phone", where, True) and i < count - phoneless,
                     gauss_markov=GaussMarkovParams(*pn),
@@ -491,7 +532,20 @@ class _Validator:
 
 def _divides(rate: float, base: float) -> bool:
     k = base / rate
-    return abs(k - round(k)) < 1e-9
+    return math.isfinite(k) and abs(k - round(k)) < 1e-9
+
+
+def _is_number(v) -> bool:
+    """A TOML int or float (not a bool), finite and at most LIMIT in magnitude."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    return abs(v) <= LIMIT if isinstance(v, int) else math.isfinite(v) and abs(v) <= LIMIT
+
+
+def _show(v) -> str:
+    """A value for an error message: repr, shortened (a 400-digit integer is not worth a screen)."""
+    r = repr(v)
+    return r if len(r) <= 60 else r[:57] + "..."
 
 
 def _near_outline(xy, floorplan: Floorplan) -> bool:

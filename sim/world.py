@@ -145,7 +145,8 @@ def build_world(scene: Scene) -> World:
             # half-length extended by half the thickness so corners close
             _box(world, f"{kind}{j}", [*(0.5 * (a + b)), 0.5 * w.height], [0.5 * length + 0.5 * w.thickness, 0.5 * w.thickness, 0.5 * w.height], yaw, (0.85, 0.83, 0.78, 1.0))
     for j, o in enumerate(fp.obstacles):
-        _box(world, o.name or f"obstacle{j}", [*o.center, 0.5 * o.size[2]], [0.5 * s for s in o.size], o.yaw, (0.45, 0.35, 0.25, 1.0))
+        # prefixed: an obstacle named "floor" or "wall0" must not collide with the geoms above
+        _box(world, f"obstacle/{o.name or j}", [*o.center, 0.5 * o.size[2]], [0.5 * s for s in o.size], o.yaw, (0.45, 0.35, 0.25, 1.0))
 
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     for j, pos in enumerate(([cx, cy, fp.wall_height + 2.0], [x0 + 1, y0 + 1, fp.wall_height + 1.0])):

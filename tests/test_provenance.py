@@ -326,15 +326,15 @@ def test_corrupt_parquet_with_matching_hash_is_one_clear_error(tmp_path):
     m = json.loads((out / "manifest.json").read_text())
     m["files"]["floor_detections.parquet"] = _sha256(path)  # the hash updated to match
     (out / "manifest.json").write_text(json.dumps(m))
-    with pytest.raises(RecordingError, match=r"rec: floor_detections.parquet cannot be read \("):
+    with pytest.raises(RecordingError, match=r"rec/floor_detections.parquet: not a readable Parquet table \("):
         read_recording(out)
     r = run_cli("show", str(out))
     lines = r.stderr.strip().splitlines()
-    assert r.returncode == 2 and len(lines) == 1 and "floor_detections.parquet cannot be read" in lines[0], r.stderr
+    assert r.returncode == 2 and len(lines) == 1 and "floor_detections.parquet: not a readable Parquet table" in lines[0], r.stderr
     path.write_bytes(b"PAR1")  # truncated to the magic number
     m["files"]["floor_detections.parquet"] = _sha256(path)
     (out / "manifest.json").write_text(json.dumps(m))
-    with pytest.raises(RecordingError, match="floor_detections.parquet cannot be read"):
+    with pytest.raises(RecordingError, match="floor_detections.parquet: not a readable Parquet table"):
         read_recording(out)
     path.write_bytes(data + b"x")  # changed, hash not updated: named as changed
     with pytest.raises(RecordingError, match="file floor_detections.parquet does not match its hash"):

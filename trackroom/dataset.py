@@ -52,19 +52,20 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from trackroom.scenes.camera import Camera
+from trackroom.scenes.camera import CAMERA_KINDS, Camera
 from trackroom.scenes.spec import Floorplan
 
 from .recording import (
     OBSERVATION_COLUMNS,
+    SENSING_MODES,
     Calibration,
     Observations,
     Recording,
@@ -183,33 +184,23 @@ def _process_alive(pid: int) -> bool:
 
 
 def read_manifest(path: str | Path) -> dict:
-    """The manifest of a recording folder, checked for the keys a reader needs."""
+    """The manifest of a recording folder, checked (keys, types, file paths, digests)."""
     root = Path(path)
     manifest_path = root / "manifest.json"
     if not root.is_dir():
         raise RecordingError(f"{root}: no such recording folder")
     if not manifest_path.exists():
         raise RecordingError(f"{root}: not a trackroom recording (no manifest.json)")
-    try:
-        manifest = json.loads(manifest_path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise RecordingError(f"{manifest_path}: not valid JSON: {e}") from None
-    if not isinstance(manifest, dict) or manifest.get("format") != "trackroom-recording":
-        raise RecordingError(f"{manifest_path}: not a trackroom recording manifest")
-    for key, types in (("files", dict), ("observations", list), ("duration", (int, float)), ("meta", dict)):
-        if not isinstance(manifest.get(key), types) or isinstance(manifest.get(key), bool):
-            raise RecordingError(f"{manifest_path}: {key!r} is missing or of the wrong type")
-    for rel in manifest["files"]:
-        if Path(rel).is_absolute() or ".." in Path(rel).parts:
-            raise RecordingError(f"{manifest_path}: file {rel!r} lies outside the recording")
-    return manifest
+    return _check_manifest(_read_json(manifest_path), manifest_path)
 
 
 def read_recording(path: str | Path, verify: bool = True) -> Recording:
     """Read a dataset folder back into a ``Recording``; ``verify`` checks every file's hash.
 
-    Every problem (missing or changed file, a file that cannot be parsed, a table that breaks the
-    contract) is one ``RecordingError`` naming the folder and the file.
+    Anything wrong with the folder ends in one ``RecordingError`` naming the file and the problem:
+    a missing or changed file, a manifest without its keys, a table with a missing column, a
+    column of the wrong type, NaN or inf, unsorted time, a calibration file that does not parse or
+    whose P does not match its pose, a camera used by a table but not calibrated.
     """
     root = Path(path)
     manifest = read_manifest(root)
@@ -220,32 +211,27 @@ def read_recording(path: str | Path, verify: bool = True) -> Recording:
                 raise RecordingError(f"{root}: file {rel} listed in the manifest is missing")
             if _sha256(p) != digest:
                 raise RecordingError(f"{root}: file {rel} does not match its hash in the manifest (modified or corrupt)")
-    tables = {}
-    for kind in manifest["observations"]:
-        if kind not in OBSERVATION_COLUMNS:
-            raise RecordingError(f"{root}: manifest.json lists an unknown observation table {kind!r}")
-        with _reading(root, f"{kind}.parquet"):
-            tables[kind] = check_table(kind, _read_parquet(root / f"{kind}.parquet"))
-    truth = {}
-    for k, f in TRUTH_FILES.items():
-        if (root / f).exists():
-            with _reading(root, f):
-                truth[k] = _read_parquet(root / f)
+    tables = {kind: _read_parquet(root / f"{kind}.parquet", kind) for kind in manifest["observations"]}
+    truth = {k: _read_parquet(root / f, k) for k, f in TRUTH_FILES.items() if (root / f).exists()}
     cams = {}
     for xml in sorted((root / "calibration").glob("*.xml")):
-        with _reading(root, f"calibration/{xml.name}"):
-            cam = read_camera_xml(xml)
+        cam = read_camera_xml(xml)
         cams[cam.name] = cam
-    with _reading(root, "calibration/sensors.json"):
-        noise = json.loads((root / "calibration" / "sensors.json").read_text())
-    with _reading(root, "floorplan.json"):
-        floorplan = Floorplan.from_dict(json.loads((root / "floorplan.json").read_text()))
+    for kind, df in [*tables.items(), *truth.items()]:
+        if "camera" in df.columns:
+            unknown = sorted(set(df["camera"]) - set(cams))
+            if unknown:
+                f = f"{kind}.parquet" if kind in tables else TRUTH_FILES[kind]
+                raise RecordingError(f"{root / f}: cameras {unknown} have no calibration/<camera>.xml")
+    noise = _check_noise(_read_json(root / "calibration" / "sensors.json"), root / "calibration" / "sensors.json")
+    floorplan = _read_floorplan(root / "floorplan.json")
     scene_text = None
     if (root / SCENE_FILE).is_file():
-        with _reading(root, SCENE_FILE):
-            scene_text = (root / SCENE_FILE).read_text()
-    with _reading(root, "manifest.json"):
-        duration = float(manifest["duration"])
+        try:
+            scene_text = (root / SCENE_FILE).read_text(encoding="utf-8")
+        except UnicodeDecodeError as e:
+            raise RecordingError(f"{root / SCENE_FILE}: not UTF-8 text (byte {e.start})") from None
+    duration = float(manifest["duration"])
     return Recording(
         calibration=Calibration(cameras=cams, floorplan=floorplan, noise=noise),
         observations=Observations(tables=tables, duration=duration),
@@ -255,17 +241,100 @@ def read_recording(path: str | Path, verify: bool = True) -> Recording:
     )
 
 
-@contextmanager
-def _reading(root: Path, rel: str):
-    """Turn any failure to parse ``rel`` into one RecordingError naming the folder and the file."""
-    try:
-        yield
-    except RecordingError as e:
-        msg = str(e)
-        raise RecordingError(msg if rel in msg else f"{root}: {rel}: {msg}") from None
-    except Exception as e:  # pyarrow, OpenCV, JSON and TOML raise their own types; all mean the same here
-        first = (str(e).strip().splitlines() or [""])[0][:200]
-        raise RecordingError(f"{root}: {rel} cannot be read ({type(e).__name__}: {first})") from None
+def _check_manifest(manifest, path: Path) -> dict:
+    """The manifest's keys and types (keys this reader does not use may be added freely)."""
+    def bad(problem: str):
+        raise RecordingError(f"{path}: {problem}")
+
+    if not isinstance(manifest, dict):
+        bad(f"expected a JSON object, got {type(manifest).__name__}")
+    if manifest.get("format") != "trackroom-recording":
+        bad("not a trackroom recording manifest (format is not 'trackroom-recording')")
+    kinds = {"format_version": (int,), "duration": (int, float), "observations": (list,), "files": (dict,), "meta": (dict,)}
+    for key, types in kinds.items():
+        if key not in manifest:
+            bad(f"missing key {key!r}")
+        v = manifest[key]
+        if isinstance(v, bool) or not isinstance(v, types):
+            bad(f"{key}: expected {' or '.join(t.__name__ for t in types)}, got {_short(v)}")
+    if manifest["format_version"] > FORMAT_VERSION:
+        bad(f"format_version {manifest['format_version']} is newer than this trackroom reads ({FORMAT_VERSION})")
+    if not (math.isfinite(manifest["duration"]) and manifest["duration"] > 0):
+        bad(f"duration: expected a positive number of seconds, got {manifest['duration']!r}")
+    obs = manifest["observations"]
+    if not all(isinstance(k, str) and k in OBSERVATION_COLUMNS for k in obs) or len(set(obs)) != len(obs):
+        bad(f"observations: expected distinct table kinds from {sorted(OBSERVATION_COLUMNS)}, got {_short(obs)}")
+    for rel, digest in manifest["files"].items():
+        parts = Path(rel).parts
+        if Path(rel).is_absolute() or ".." in parts or not parts:
+            bad(f"files: {rel!r} is not a path inside the recording")
+        if not (isinstance(digest, str) and len(digest) == 64 and all(c in "0123456789abcdef" for c in digest)):
+            bad(f"files: {rel}: expected a sha256 hex digest, got {_short(digest)}")
+    for key, types in (("scene", (str,)), ("seed", (int, type(None))), ("sensing", (str,))):
+        if key in manifest and (isinstance(manifest[key], bool) or not isinstance(manifest[key], types)):
+            bad(f"{key}: expected {' or '.join(t.__name__ for t in types if t is not type(None))}, got {_short(manifest[key])}")
+    if manifest.get("sensing", "analytic") not in SENSING_MODES:
+        bad(f"sensing: expected one of {', '.join(SENSING_MODES)}, got {manifest['sensing']!r}")
+    return manifest
+
+
+def _check_noise(noise, path: Path) -> dict:
+    """calibration/sensors.json: sensor noise and rates, each a finite number or list of numbers."""
+    if not isinstance(noise, dict):
+        raise RecordingError(f"{path}: expected a JSON object, got {type(noise).__name__}")
+    for k, v in noise.items():
+        values = v if isinstance(v, list) else [v]
+        if not all(_finite_number(x) for x in values):
+            raise RecordingError(f"{path}: {k}: expected a finite number (or a list of them), got {_short(v)}")
+    return noise
+
+
+def _read_floorplan(path: Path) -> Floorplan:
+    """floorplan.json, checked key by key so a damaged file names what is wrong."""
+    d = _read_json(path)
+
+    def bad(problem: str):
+        raise RecordingError(f"{path}: {problem}")
+
+    def vec(x, n: int, where: str, positive: bool = False) -> None:
+        if not (isinstance(x, list) and len(x) == n and all(_finite_number(v) for v in x)):
+            bad(f"{where}: expected {n} finite numbers, got {_short(x)}")
+        if positive and min(x) <= 0:
+            bad(f"{where}: expected positive numbers, got {_short(x)}")
+
+    def num(node: dict, key: str, where: str, positive: bool = True) -> None:
+        if key not in node:
+            bad(f"{where}{key}: missing")
+        if not _finite_number(node[key]) or (positive and node[key] <= 0):
+            bad(f"{where}{key}: expected a {'positive' if positive else 'finite'} number, got {_short(node[key])}")
+
+    if not isinstance(d, dict):
+        bad(f"expected a JSON object, got {type(d).__name__}")
+    for key in ("outline", "walls", "obstacles"):
+        if not isinstance(d.get(key), list):
+            bad(f"{key}: expected a list, got {_short(d.get(key))}")
+    if len(d["outline"]) < 3:
+        bad("outline: expected at least 3 points")
+    for i, p in enumerate(d["outline"]):
+        vec(p, 2, f"outline[{i}]")
+    num(d, "wall_height", "")
+    num(d, "wall_thickness", "")
+    for i, w in enumerate(d["walls"]):
+        if not isinstance(w, dict):
+            bad(f"walls[{i}]: expected an object")
+        vec(w.get("start"), 2, f"walls[{i}].start")
+        vec(w.get("end"), 2, f"walls[{i}].end")
+        num(w, "thickness", f"walls[{i}].")
+        num(w, "height", f"walls[{i}].")
+    for i, o in enumerate(d["obstacles"]):
+        if not isinstance(o, dict):
+            bad(f"obstacles[{i}]: expected an object")
+        vec(o.get("center"), 2, f"obstacles[{i}].center")
+        vec(o.get("size"), 3, f"obstacles[{i}].size", positive=True)
+        num(o, "yaw", f"obstacles[{i}].", positive=False)
+        if not isinstance(o.get("name", ""), str):
+            bad(f"obstacles[{i}].name: expected a string, got {_short(o['name'])}")
+    return Floorplan.from_dict(d)
 
 
 # ----------------------------------------------------------------------------- calibration XML
@@ -296,31 +365,75 @@ def write_camera_xml(cam: Camera, path: Path) -> None:
 
 
 def read_camera_xml(path: Path) -> Camera:
+    """A camera from its OpenCV FileStorage XML; a missing node, a node of the wrong type, an
+    impossible value or a P that does not match the pose ends in ``RecordingError``."""
     import cv2
 
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as e:
+        # OpenCV's parse error reaches Python as a SystemError wrapping the cv2.error
+        cause = e.__context__ if isinstance(e, SystemError) and e.__context__ is not None else e
+        raise RecordingError(f"{path}: not readable as OpenCV FileStorage XML ({_first_line(cause)})") from None
     if not fs.isOpened():
         raise RecordingError(f"{path}: cannot be read as OpenCV FileStorage")
+
+    def bad(problem: str):
+        raise RecordingError(f"{path}: {problem}")
+
+    def node(key: str):
+        n = fs.getNode(key)
+        if n.empty() or n.isNone():
+            bad(f"missing {key}")
+        return n
+
+    def text(key: str) -> str:
+        n = node(key)
+        if not n.isString():
+            bad(f"{key}: expected text")
+        return n.string()
+
+    def real(key: str) -> float:
+        n = node(key)
+        if not (n.isReal() or n.isInt()):
+            bad(f"{key}: expected a number")
+        return float(n.real())
+
+    def mat(key: str, shape: tuple[int, int]) -> np.ndarray:
+        n = node(key)
+        m = n.mat() if n.isMap() else None
+        if m is None or m.shape[:2] != shape:
+            bad(f"{key}: expected a {shape[0]}x{shape[1]} opencv-matrix")
+        return np.asarray(m, float)
+
     try:
-        region = fs.getNode("region").mat().ravel()
-        cam = Camera(
-            name=fs.getNode("name").string(),
-            kind=fs.getNode("kind").string(),
-            position=fs.getNode("position").mat().ravel(),
-            yaw=fs.getNode("yaw").real(),
-            pitch=fs.getNode("pitch").real(),
-            fovy=fs.getNode("fovy").real(),
-            width=int(fs.getNode("image_width").real()),
-            height=int(fs.getNode("image_height").real()),
-            fps=fs.getNode("fps").real(),
-            privacy=bool(int(fs.getNode("privacy").real())),
-            quantum=fs.getNode("quantum").real(),
-            region=None if np.isnan(region).any() else tuple(float(v) for v in region),
-        )
-        P = fs.getNode("P").mat()
+        name, kind = text("name"), text("kind")
+        position, region, P = mat("position", (3, 1)).ravel(), mat("region", (4, 1)).ravel(), mat("P", (3, 4))
+        values = {k: real(k) for k in ("yaw", "pitch", "fovy", "image_width", "image_height", "fps", "privacy", "quantum")}
+    except (cv2.error, SystemError) as e:
+        cause = e.__context__ if isinstance(e, SystemError) and e.__context__ is not None else e
+        raise RecordingError(f"{path}: not readable as OpenCV FileStorage XML ({_first_line(cause)})") from None
     finally:
         fs.release()
-    if P is None or not np.allclose(P, cam.P, rtol=1e-9, atol=1e-6):
+    if name != path.stem:
+        bad(f"name {name!r} does not match the file name (calibration/<camera>.xml)")
+    if kind not in CAMERA_KINDS:
+        bad(f"kind {kind!r} is not one of {', '.join(CAMERA_KINDS)}")
+    if not (np.isfinite(position).all() and np.isfinite(P).all() and all(map(math.isfinite, values.values()))):
+        bad("non-finite values (NaN or inf) in the camera's pose or intrinsics")
+    w, h = values["image_width"], values["image_height"]
+    if w != int(w) or h != int(h) or min(w, h) < 1:
+        bad(f"image size {w} x {h}: expected whole pixels")
+    if not 0 < values["fovy"] < math.pi or values["fps"] <= 0 or values["quantum"] < 0 or values["privacy"] not in (0, 1):
+        bad("fovy, fps, quantum or privacy out of range (0 < fovy < pi, fps > 0, quantum >= 0, privacy 0 or 1)")
+    if not (np.isnan(region).all() or (np.isfinite(region).all() and region[0] < region[2] and region[1] < region[3])):
+        bad(f"region {region.tolist()}: expected [xmin, ymin, xmax, ymax] or all NaN (none)")
+    cam = Camera(
+        name=name, kind=kind, position=position, yaw=values["yaw"], pitch=values["pitch"], fovy=values["fovy"],
+        width=int(w), height=int(h), fps=values["fps"], privacy=bool(values["privacy"]), quantum=values["quantum"],
+        region=None if np.isnan(region).any() else tuple(float(v) for v in region),
+    )
+    if not np.allclose(P, cam.P, rtol=1e-9, atol=1e-6):
         raise RecordingError(f"{path}: the stored P does not match the camera's pose and intrinsics")
     return cam
 
@@ -330,10 +443,51 @@ def _write_parquet(df: pd.DataFrame, path: Path) -> None:
     df.reset_index(drop=True).to_parquet(path, index=False, engine="pyarrow", compression="zstd")
 
 
-def _read_parquet(path: Path) -> pd.DataFrame:
-    if not path.exists():
+def _read_parquet(path: Path, kind: str | None = None) -> pd.DataFrame:
+    """A Parquet table, checked against its contract (``check_table``) when ``kind`` is given."""
+    import pyarrow as pa
+
+    if not path.is_file():
         raise RecordingError(f"{path.parent}: missing table {path.name}")
-    return pd.read_parquet(path, engine="pyarrow")
+    try:
+        df = pd.read_parquet(path, engine="pyarrow")
+    except (pa.ArrowException, OSError, ValueError, TypeError, NotImplementedError) as e:
+        # truncated or corrupt files, schemas pandas cannot hold (pyarrow raises all of these)
+        detail = _first_line(e).replace(str(path), path.name)
+        raise RecordingError(f"{path}: not a readable Parquet table ({type(e).__name__}: {detail})") from None
+    if kind is not None:
+        try:
+            check_table(kind, df)
+        except RecordingError as e:
+            raise RecordingError(f"{path}: {e}") from None
+    return df
+
+
+def _read_json(path: Path):
+    if not path.is_file():
+        raise RecordingError(f"{path}: missing")
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise RecordingError(f"{path}: not valid JSON: {_first_line(e)}") from None
+
+
+def _finite_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _short(v) -> str:
+    r = repr(v)
+    return r if len(r) <= 60 else r[:57] + "..."
+
+
+def _first_line(e: BaseException) -> str:
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    return _short_text(lines[0]) if lines else type(e).__name__
+
+
+def _short_text(t: str) -> str:
+    return t if len(t) <= 200 else t[:197] + "..."
 
 
 def _write_gt_world(people: pd.DataFrame, path: Path) -> None:

@@ -47,6 +47,9 @@ TRUTH_COLUMNS: dict[str, list[str]] = {
     "labels": ["t", "camera", "person_id", "pixels", "visible_fraction", "x0", "y0", "x1", "y1"],
 }
 SENSING_MODES = ("analytic", "rendered")
+# Column types: ids are strings, flags are true/false, every other column is a number.
+STRING_COLUMNS = frozenset({"camera", "label", "phone_id", "person_id"})
+FLAG_COLUMNS = frozenset({"walking", "in_fov", "visible"})
 
 
 class RecordingError(ValueError):
@@ -59,20 +62,53 @@ def empty_table(kind: str) -> pd.DataFrame:
 
 
 def check_table(kind: str, df: pd.DataFrame) -> pd.DataFrame:
-    """Validate an observation or truth table: required columns, finite numbers, sorted by time."""
+    """Validate an observation or truth table: required columns of the right types (ids strings,
+    flags true/false, the rest numbers), finite numbers, sorted by time."""
     cols = OBSERVATION_COLUMNS.get(kind) or TRUTH_COLUMNS.get(kind)
     if cols is None:
         raise RecordingError(f"unknown table kind {kind!r}")
+    if not isinstance(df, pd.DataFrame):
+        raise RecordingError(f"{kind}: expected a table, got {type(df).__name__}")
+    if not df.columns.is_unique:
+        raise RecordingError(f"{kind}: repeated column names {sorted(set(df.columns[df.columns.duplicated()]))}")
     missing = [c for c in cols if c not in df.columns]
     if missing:
         raise RecordingError(f"{kind}: missing columns {missing}")
-    num = df.select_dtypes(include=[np.number])
-    if len(df) and not np.isfinite(num.to_numpy(float)).all():
-        bad = [c for c in num.columns if not np.isfinite(num[c].to_numpy(float)).all()]
+    if not len(df):
+        return df
+    for c in cols:
+        problem = _column_problem(c, df[c])
+        if problem:
+            raise RecordingError(f"{kind}: column {c!r} {problem}")
+    numeric = [c for c in df.columns if _is_number_column(df[c])]
+    bad = [c for c in numeric if not np.isfinite(df[c].to_numpy(float, na_value=np.nan)).all()]
+    if bad:
         raise RecordingError(f"{kind}: non-finite values (NaN or inf) in columns {bad}")
-    if len(df) and (np.diff(df["t"].to_numpy(float)) < 0).any():
+    if (np.diff(df["t"].to_numpy(float)) < 0).any():
         raise RecordingError(f"{kind}: rows are not sorted by time")
     return df
+
+
+def _is_number_column(s: pd.Series) -> bool:
+    return (pd.api.types.is_integer_dtype(s) or pd.api.types.is_float_dtype(s)) and not pd.api.types.is_bool_dtype(s)
+
+
+def _column_problem(name: str, s: pd.Series) -> str | None:
+    """Why column ``name`` does not hold what the contract says, or None."""
+    if name in STRING_COLUMNS:
+        if s.isna().any():
+            return "has missing values (ids are strings; a phone-less person has \"\")"
+        values = s.cat.categories if isinstance(s.dtype, pd.CategoricalDtype) else s
+        if pd.api.types.infer_dtype(values, skipna=False) not in ("string", "empty"):
+            return f"must hold strings (ids), found {s.dtype} values such as {repr(s.iloc[0])[:40]}"
+    elif name in FLAG_COLUMNS:
+        if s.isna().any():
+            return "has missing values (flags are true or false)"
+        if not (pd.api.types.is_bool_dtype(s) or (_is_number_column(s) and s.isin([0, 1]).all())):
+            return f"must hold true/false, found {s.dtype}"
+    elif not _is_number_column(s):
+        return f"must be numeric, found {s.dtype} values such as {repr(s.iloc[0])[:40]}"
+    return None
 
 
 @dataclass
