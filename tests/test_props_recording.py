@@ -242,6 +242,7 @@ def damaged(draw, base) -> tuple[str, bool]:
     files = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
     rel = draw(st.sampled_from(files))
     p = root / rel
+    before = p.read_bytes()
     what = draw(st.sampled_from(["delete", "truncate", "content", "content", "content"]))
     if what == "delete":
         p.unlink()
@@ -265,6 +266,7 @@ def damaged(draw, base) -> tuple[str, bool]:
         p.write_text(draw(xml_damage(p.read_text())))
     else:  # gt_world.csv: not read, only hashed
         p.write_text(p.read_text() + "junk\n")
+    assume(not p.exists() or p.read_bytes() != before)  # junk equal to what was there is no damage
     rehash = rel != "manifest.json" and draw(st.booleans())
     if rehash:
         _rehash(root, rel)
