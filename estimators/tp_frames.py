@@ -1,6 +1,6 @@
 """Frame-wise access to the ``boxes`` table for the target-plane tracker.
 
-The oblique cameras' tracking windows (``sim/recording.py``: ``t, camera, track, u, u_left,
+The oblique cameras' tracking windows (``trackroom/recording.py``: ``t, camera, track, u, u_left,
 u_right, v_top, v_bottom, flow_u, flow_v``) are split once into one ``CameraBoxes`` per camera
 and frame, so the tracker's loop over frames does no pandas work.
 """

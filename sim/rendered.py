@@ -1,7 +1,7 @@
 """The ``rendered`` sensing mode: render every camera, run perception, label from segmentation.
 
 ``observe(world, scene, traj, rng, save_frames)`` fills the same observation tables as the
-analytic mode (``bearings``, ``boxes``, ``floor_detections``; see ``sim/recording.py``) from
+analytic mode (``bearings``, ``boxes``, ``floor_detections``; see ``trackroom/recording.py``) from
 pixels only, and the truth tables ``visibility`` and ``labels`` from segmentation renders.
 
 Schedule. Camera c captures at t = j / fps_c (``Camera.frame_times``); the world is posed at the

@@ -2,7 +2,7 @@
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering on the CPU
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # see scripts/cli.py
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # see trackroom/cli/main.py
 
 # Hypothesis case counts: "ci" (default) keeps each property suite to a few hundred cases;
 # TRACKROOM_HYPOTHESIS=slow runs >= 1000 per property (see tests/props.py).
