@@ -328,7 +328,7 @@ def run_comparison(spec: CompareSpec, progress: bool = True) -> Comparison:
 # ----------------------------------------------------------------------------- outputs
 def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True) -> dict[str, Path]:
     """results.csv, per_frame.csv, summary.md and the plots; returns their paths by name."""
-    from trackroom.metrics.aggregate import summary_markdown
+    from trackroom.metrics.aggregate import INTERVAL_NOTE, summary_markdown
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -338,7 +338,7 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True) -> 
     s = comp.spec
     head = (f"# Comparison\n\n{len(s.scenes)} scene(s) x {len(s.seeds)} seed(s) ({_seed_text(s.seeds)}) x "
             f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m. "
-            f"Mean [95% interval over seeds].\n\n")
+            f"{INTERVAL_NOTE}\n\n")
     paths["summary"].write_text(head + summary_markdown(comp.results) + "\n")
     if plots:
         paths.update(plot_metrics(comp.results, out))
@@ -379,7 +379,7 @@ def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict
             g = ok[ok["scene"] == sc]
             for i, e in enumerate(ests):
                 v = g.loc[g["estimator"] == e, m].to_numpy(float)
-                mean, lo, hi, n = mean_interval(v)
+                mean, lo, hi, n = mean_interval(v, m)
                 if n == 0:
                     ax.text(i, 0, "n/a", ha="center", va="bottom", fontsize=8, color="0.4")
                     continue

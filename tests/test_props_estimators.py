@@ -1,0 +1,160 @@
+"""Property-based tests: every registered estimator, fed mutated observation tables.
+
+One tiny analytic recording per scene an estimator needs is simulated once per module (5 s).
+Hypothesis then mutates its observation tables (emptied, one row kept, NaN or inf injected,
+rows duplicated, out of time order, a camera the calibration lacks, a camera that sees nothing,
+huge values, times outside the recording) and feeds the result through the runner, the
+boundary every command goes through. Each case must end in a valid tracks table, a "skipped"
+result with its reason, or one ``EstimatorError``/``RecordingError`` whose message is one line;
+any other exception is a defect.
+
+Case counts: ``examples(n)`` (tests/conftest.py), n in CI, >= 1000 with TRACKROOM_HYPOTHESIS=slow.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tests.conftest import examples
+from trackroom.estimators import available
+from trackroom.estimators.base import EstimatorError, check_tracks
+from trackroom.estimators.runner import run_estimator
+from trackroom.recording import Calibration, Observations, Recording, RecordingError
+
+DURATION = 5.0  # s: long enough for every estimator to confirm a track, short enough to run fast
+
+# The scene each estimator is fed, with the parameters it needs to run unattended.
+CASES = {
+    "ekf": ("overhead_lab", ["walkers.count=2"], {}),
+    "ekf_bearings": ("bearing_hall", ["walkers.count=2"], {}),
+    "qp_smoother": ("bearing_hall", ["walkers.count=2"], {}),
+    "hmm_matcher": ("overhead_lab", ["walkers.count=2"], {}),
+    "target_planes": ("occlusion_lab", [], {"multi_person": True}),
+}
+ESTIMATOR_OF = {"ekf_bearings": "ekf"}
+# Cases per estimator in CI (each run takes 10-100 ms on the 5 s recordings).
+N_CI = {"ekf": 40, "ekf_bearings": 25, "qp_smoother": 25, "hmm_matcher": 40, "target_planes": 25}
+
+OPS = ("empty", "single", "nan", "inf", "duplicate", "shuffle", "unknown_camera", "silent_camera",
+       "uncalibrated_camera", "huge", "time_shift", "null_text", "all_empty")
+
+
+@lru_cache(maxsize=None)
+def recording(scene: str, overrides: tuple[str, ...]) -> Recording:
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
+
+    return simulate(load_scene(scene, list(overrides)), seed=0, duration=DURATION)
+
+
+def test_every_registered_estimator_is_covered():
+    assert set(available()) <= {ESTIMATOR_OF.get(c, c) for c in CASES}
+
+
+def mutate(rec: Recording, op: str, data) -> Recording:
+    """A copy of ``rec`` whose observations (or calibration) are mutated by ``op``."""
+    tables = {k: v.copy() for k, v in rec.observations.tables.items()}
+    cameras = dict(rec.calibration.cameras)
+    kinds = sorted(k for k, v in tables.items() if len(v))
+    kind = data.draw(st.sampled_from(kinds), label="table")
+    df = tables[kind]
+    row = lambda: data.draw(st.integers(0, max(len(df) - 1, 0)), label="row")  # noqa: E731
+    numeric = [c for c in df.columns if pd.api.types.is_numeric_dtype(df[c]) and c != "t"]
+    text = [c for c in df.columns if not pd.api.types.is_numeric_dtype(df[c])]
+    if op == "empty":
+        df = df.iloc[:0]
+    elif op == "all_empty":
+        tables = {k: v.iloc[:0] for k, v in tables.items()}
+        df = tables[kind]
+    elif op == "single":
+        i = row()
+        df = df.iloc[i:i + 1]
+    elif op in ("nan", "inf", "huge"):
+        col = data.draw(st.sampled_from(numeric + ["t"]), label="column")
+        choices = {"nan": [np.nan], "inf": [np.inf, -np.inf], "huge": [1e12, -1e12, 1e-300, 0.0, -5.0]}[op]
+        value = data.draw(st.sampled_from(choices), label="value")
+        df = df.copy()
+        df[col] = df[col].astype(float)
+        df.iloc[row(), df.columns.get_loc(col)] = value
+    elif op == "duplicate":
+        idx = data.draw(st.lists(st.integers(0, len(df) - 1), min_size=1, max_size=5), label="rows")
+        df = pd.concat([df, df.iloc[idx]]).sort_values("t", kind="stable")
+    elif op == "shuffle":
+        seed = data.draw(st.integers(0, 2**32 - 1), label="seed")
+        df = df.sample(frac=1.0, random_state=seed)
+    elif op in ("unknown_camera", "silent_camera", "uncalibrated_camera"):
+        if "camera" not in df.columns:
+            return mutate(rec, "single", data)
+        cam = data.draw(st.sampled_from(list(pd.unique(df["camera"]))), label="camera")
+        if op == "unknown_camera":
+            df = df.copy()
+            df.loc[df.index[row()], "camera"] = "cam_nowhere"
+        elif op == "silent_camera":
+            df = df[df["camera"] != cam]
+        else:
+            cameras.pop(cam, None)
+    elif op == "time_shift":
+        shift = data.draw(st.sampled_from([-1.0, -1e-3, DURATION, 1e6]), label="shift")
+        df = df.copy()
+        df["t"] = df["t"] + shift
+    elif op == "null_text":
+        if not text:
+            return mutate(rec, "nan", data)
+        col = data.draw(st.sampled_from(text), label="column")
+        df = df.copy()
+        df[col] = df[col].astype(object)
+        df.iloc[row(), df.columns.get_loc(col)] = data.draw(st.sampled_from([None, np.nan, 7]))
+    tables[kind] = df.reset_index(drop=True)
+    cal = Calibration(cameras, rec.calibration.floorplan, dict(rec.calibration.noise))
+    return Recording(cal, Observations(tables, rec.observations.duration), rec.truth, dict(rec.meta))
+
+
+def check_outcome(name: str, params: dict, rec: Recording) -> None:
+    try:
+        result = run_estimator(rec, ESTIMATOR_OF.get(name, name), params)
+    except (EstimatorError, RecordingError) as e:
+        msg = str(e)
+        assert msg and "\n" not in msg, f"error message is not one line: {msg!r}"
+        return
+    if result.status == "skipped":
+        assert result.reason
+        return
+    assert result.status == "ok"
+    tracks = result.tracks
+    check_tracks(tracks)  # columns and finite t, x, y
+    assert tracks["track_id"].notna().all()
+    assert not tracks.duplicated(["t", "track_id"]).any(), "a track reports twice at one time"
+
+
+def _property(name: str):
+    scene, overrides, params = CASES[name]
+
+    @settings(max_examples=examples(N_CI[name]), deadline=None,
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    @given(ops=st.lists(st.sampled_from(OPS), min_size=1, max_size=3), data=st.data())
+    def prop(ops, data):
+        rec = recording(scene, tuple(overrides))
+        for op in ops:
+            if not any(len(v) for v in rec.observations.tables.values()):
+                break
+            rec = mutate(rec, op, data)
+        check_outcome(name, params, rec)
+
+    return prop
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_estimator_survives_mutated_observations(name):
+    _property(name)()
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_estimator_runs_on_the_unmutated_recording(name):
+    scene, overrides, params = CASES[name]
+    result = run_estimator(recording(scene, tuple(overrides)), ESTIMATOR_OF.get(name, name), params)
+    assert result.status == "ok" and len(result.tracks)
