@@ -65,11 +65,12 @@ class Estimator:
     @classmethod
     def applies_to(cls, observations: Observations, calibration: Calibration) -> str | None:
         """None if the estimator can run on this input, else the reason it cannot."""
+        # "has none" rather than "needs": the table may exist and be empty (no camera saw anyone)
         missing = [k for k in cls.requires if not observations.has(k)]
         if missing:
-            return f"needs {' and '.join(missing)} observations"
+            return f"needs {' and '.join(missing)} observations; the recording has none"
         if cls.requires_any and not any(observations.has(k) for k in cls.requires_any):
-            return f"needs {' or '.join(cls.requires_any)} observations"
+            return f"needs {' or '.join(cls.requires_any)} observations; the recording has none"
         return None
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:

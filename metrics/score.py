@@ -103,7 +103,9 @@ def truth_at(recording: Recording, times: np.ndarray, person=None) -> pd.DataFra
     df = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
     seen = cameras_seeing(recording, times)
     if seen is not None and len(df):
-        df = df.merge(seen, on=["frame", "person_id"], how="left")
+        # joined on the ids as text: a recording from elsewhere may write 3 in one table, "3" in another
+        seen = seen.assign(key=seen["person_id"].astype(str)).drop(columns="person_id")
+        df = df.assign(key=df["person_id"].astype(str)).merge(seen, on=["frame", "key"], how="left").drop(columns="key")
         df["cameras"] = df["cameras"].fillna(0).astype(int)
     return df
 
