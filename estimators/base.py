@@ -127,18 +127,24 @@ def check_tracks(df: pd.DataFrame, name: str = "tracks", first_line: int | None 
 # Columns of the observation tables that hold names (text); every other column is a number.
 TEXT_COLUMNS = ("camera", "label", "phone_id")
 TIME_TOL = 1e-6  # s: an observation this far outside [0, duration] is still taken as inside
+# Image coordinates (pixels) and the camera dimension they run along.
+IMAGE_COLUMNS = {
+    "bearings": (("u", "width"),),
+    "boxes": (("u", "width"), ("u_left", "width"), ("u_right", "width"), ("v_top", "height"), ("v_bottom", "height")),
+}
 
 
 def check_observations(observations: Observations, calibration: Calibration) -> Observations:
     """Validate observations at the estimator boundary; returns them in canonical form.
 
     Every table must have its documented columns (``OBSERVATION_COLUMNS``), numbers that are
-    finite, names that are present, times within [0, duration] s, and cameras that the calibration
-    holds. Rows out of time order are sorted by ``t`` (stable, so rows of one time keep their
-    order): merged or hand-made tables often are, and no estimator should depend on it. Name
-    columns are taken as text. Duplicated rows are kept: two detections of one time and place are
-    legitimate measurements. Anything else raises ``RecordingError`` naming the table, the column
-    and the first bad row. A camera in the calibration that sees nothing is no error.
+    finite, names that are present, times within [0, duration] s, cameras that the calibration
+    holds, and image coordinates (px) within one image size of the image. Rows out of time order
+    are sorted by ``t`` (stable, so rows of one time keep their order): merged or hand-made
+    tables often are, and no estimator should depend on it. Name columns are taken as text.
+    Duplicated rows are kept: two detections of one time and place are legitimate measurements.
+    Anything else raises ``RecordingError`` naming the table, the column and the first bad row.
+    A camera in the calibration that sees nothing is no error.
     """
     duration = observations.duration
     if not (isinstance(duration, (int, float)) and np.isfinite(duration) and duration > 0):
@@ -179,6 +185,16 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
             unknown = sorted(set(df["camera"]) - set(calibration.cameras))
             if unknown:
                 raise RecordingError(f"{kind}: cameras not in the calibration: {unknown}; calibrated: {sorted(calibration.cameras)}")
+        for c, size in IMAGE_COLUMNS.get(kind, ()):
+            # a detector reports inside its image, give or take noise; a value an image away is
+            # corrupt (found by the property tests: u = 1e12 px made qp_smoother's QP non-convex)
+            n = df["camera"].map({k: float(getattr(cam, size)) for k, cam in calibration.cameras.items()}).to_numpy(float)
+            v = df[c].to_numpy(float)
+            far = (v < -n) | (v > 2 * n)
+            if far.any():
+                i = int(np.argmax(far))
+                raise RecordingError(f"{kind}: column {c!r} lies more than an image {size} outside camera "
+                                     f"{df['camera'].iloc[i]!r}'s {n[i]:g} px image; row {i} has {v[i]:g}")
         if (np.diff(t) < 0).any():
             df = df.sort_values("t", kind="stable").reset_index(drop=True)
         tables[kind] = df

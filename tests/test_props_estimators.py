@@ -41,7 +41,7 @@ ESTIMATOR_OF = {"ekf_bearings": "ekf"}
 N_CI = {"ekf": 60, "ekf_bearings": 60, "qp_smoother": 60, "hmm_matcher": 60, "target_planes": 60}
 
 OPS = ("empty", "single", "nan", "inf", "duplicate", "shuffle", "unknown_camera", "silent_camera",
-       "uncalibrated_camera", "huge", "time_shift", "null_text", "all_empty")
+       "uncalibrated_camera", "huge", "time_shift", "null_text", "all_empty", "scale", "jitter_t", "double")
 
 
 @lru_cache(maxsize=None)
@@ -84,6 +84,17 @@ def mutate(rec: Recording, op: str, data) -> Recording:
     elif op == "duplicate":
         idx = data.draw(st.lists(st.integers(0, len(df) - 1), min_size=1, max_size=5), label="rows")
         df = pd.concat([df, df.iloc[idx]]).sort_values("t", kind="stable")
+    elif op == "double":  # every row twice
+        df = pd.concat([df, df]).sort_values("t", kind="stable")
+    elif op == "scale":  # every value of one column scaled: far away, or all in one point
+        col = data.draw(st.sampled_from(numeric), label="column")
+        df = df.copy()
+        df[col] = df[col].astype(float) * data.draw(st.sampled_from([1e6, -1.0, 1e-9, 0.0]), label="factor")
+    elif op == "jitter_t":  # times off the camera frame grid, kept inside the recording
+        seed = data.draw(st.integers(0, 2**32 - 1), label="seed")
+        df = df.copy()
+        df["t"] = np.clip(df["t"] + np.random.default_rng(seed).uniform(-0.02, 0.02, len(df)), 0.0, DURATION)
+        df = df.sort_values("t", kind="stable")
     elif op == "shuffle":
         seed = data.draw(st.integers(0, 2**32 - 1), label="seed")
         df = df.sample(frac=1.0, random_state=seed)
@@ -232,3 +243,13 @@ def test_estimate_command_on_an_empty_stream_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("trackroom estimate: error: ekf does not apply to") and err.endswith(
         "needs floor_detections or bearings observations; the recording has none")
+
+
+def test_image_coordinates_an_image_away_are_refused():
+    # found by the property test: u = 1e12 px made qp_smoother's QP non-convex (a warning, and
+    # tracks from an unconverged solve)
+    rec = recording("bearing_hall", ("walkers.count=2",))
+    b = rec.observations["bearings"].copy()
+    b.loc[2, "u"] = 1e12
+    with pytest.raises(RecordingError, match=r"^bearings: column 'u' lies more than an image width outside camera "):
+        run_estimator(with_tables(rec, bearings=b), "qp_smoother")
