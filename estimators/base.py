@@ -144,7 +144,8 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
     tables often are, and no estimator should depend on it. Name columns are taken as text.
     Duplicated rows are kept: two detections of one time and place are legitimate measurements.
     Anything else raises ``RecordingError`` naming the table, the column and the first bad row.
-    A camera in the calibration that sees nothing is no error.
+    A camera in the calibration that sees nothing is no error; tables of kinds the contract does
+    not define are passed on unchecked.
     """
     duration = observations.duration
     if not (isinstance(duration, (int, float)) and np.isfinite(duration) and duration > 0):
@@ -152,8 +153,9 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
     tables = {}
     for kind, df in observations.tables.items():
         cols = OBSERVATION_COLUMNS.get(kind)
-        if cols is None:
-            raise RecordingError(f"observations: unknown table {kind!r}; known: {list(OBSERVATION_COLUMNS)}")
+        if cols is None:  # a table beyond the contract (an outside estimator's own): passed on as is
+            tables[kind] = df
+            continue
         if not isinstance(df, pd.DataFrame):
             raise RecordingError(f"{kind}: not a table (got {type(df).__name__})")
         missing = [c for c in cols if c not in df.columns]

@@ -176,23 +176,14 @@ def test_tracks_csv_loads_or_one_clear_line(tracks):
 
     buf = io.StringIO()
     tracks.to_csv(buf, index=False)
-    path = _tmp_csv(buf.getvalue())
+    buf.seek(0)
     try:
-        loaded = load_tracks(path)
+        loaded = load_tracks(buf)
     except (EstimatorError, CommandError) as e:
         assert str(e) and "\n" not in str(e)
         return
     assert np.isfinite(loaded[["t", "x", "y"]].to_numpy(float)).all()
     assert not loaded.duplicated(["t", "track_id"]).any() and loaded["track_id"].notna().all()
-
-
-def _tmp_csv(text: str):
-    import tempfile
-
-    f = tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False)
-    f.write(text)
-    f.close()
-    return f.name
 
 
 # --------------------------------------------------------------------- intervals
