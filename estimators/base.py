@@ -15,6 +15,7 @@ Tracks are a DataFrame with columns ``t, track_id, x, y`` and optionally ``vx, v
 from __future__ import annotations
 
 import dataclasses
+import numbers
 from typing import Any, ClassVar
 
 import numpy as np
@@ -148,7 +149,7 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
     not define are passed on unchecked.
     """
     duration = observations.duration
-    if not (isinstance(duration, (int, float)) and np.isfinite(duration) and duration > 0):
+    if isinstance(duration, bool) or not (isinstance(duration, numbers.Real) and np.isfinite(duration) and duration > 0):
         raise RecordingError(f"observations: duration must be a positive number of seconds, got {duration!r}")
     tables = {}
     for kind, df in observations.tables.items():
@@ -178,6 +179,8 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
             if bad.any():
                 i = int(np.argmax(bad))
                 raise RecordingError(f"{kind}: column {c!r} must hold finite numbers; row {i} has {_show(df[c].iloc[i])}")
+            if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
+                df[c] = values  # numbers written as text ("1.5") become numbers
         t = df["t"].to_numpy(float)
         out = (t < -TIME_TOL) | (t > duration + TIME_TOL)
         if out.any():

@@ -1,12 +1,12 @@
 """Property-based tests: every registered estimator, fed mutated observation tables.
 
 One tiny analytic recording per scene an estimator needs is simulated once per module (5 s).
-Hypothesis then mutates its observation tables (emptied, one row kept, NaN or inf injected,
-rows duplicated, out of time order, a camera the calibration lacks, a camera that sees nothing,
-huge values, times outside the recording) and feeds the result through the runner, the
-boundary every command goes through. Each case must end in a valid tracks table, a "skipped"
-result with its reason, or one ``EstimatorError``/``RecordingError`` whose message is one line;
-any other exception is a defect.
+Hypothesis then mutates its observation tables (emptied, one row kept, NaN or inf injected, rows
+duplicated, out of time order, a camera the calibration lacks, a camera that sees nothing, huge
+values, times outside the recording or off the frame grid, numbers as text) and feeds the result
+through the runner, the boundary every command goes through. Each case must end in a valid
+tracks table, a "skipped" result with its reason, or one ``EstimatorError``/``RecordingError``
+whose message is one line; any other exception is a defect.
 
 Case counts: ``examples(n)`` (tests/conftest.py), n in CI, >= 1000 with TRACKROOM_HYPOTHESIS=slow.
 """
@@ -41,7 +41,7 @@ ESTIMATOR_OF = {"ekf_bearings": "ekf"}
 N_CI = 60
 
 OPS = ("empty", "single", "nan", "inf", "duplicate", "shuffle", "unknown_camera", "silent_camera",
-       "uncalibrated_camera", "huge", "time_shift", "null_text", "all_empty", "scale", "jitter_t", "double")
+       "uncalibrated_camera", "huge", "time_shift", "null_text", "all_empty", "scale", "jitter_t", "double", "as_text")
 
 
 @lru_cache(maxsize=None)
@@ -84,6 +84,12 @@ def mutate(rec: Recording, op: str, data) -> Recording:
     elif op == "duplicate":
         idx = data.draw(st.lists(st.integers(0, len(df) - 1), min_size=1, max_size=5), label="rows")
         df = pd.concat([df, df.iloc[idx]]).sort_values("t", kind="stable")
+    elif op == "as_text":  # a numeric column read as text, perhaps with a word in it
+        col = data.draw(st.sampled_from(numeric + ["t"]), label="column")
+        df = df.copy()
+        df[col] = df[col].astype(str).astype(object)
+        if data.draw(st.booleans(), label="word"):
+            df.iloc[row(), df.columns.get_loc(col)] = "abc"
     elif op == "double":  # every row twice
         df = pd.concat([df, df]).sort_values("t", kind="stable")
     elif op == "scale":  # every value of one column scaled: far away, or all in one point
@@ -151,7 +157,7 @@ def check_outcome(name: str, params: dict, rec: Recording) -> None:
 def test_estimator_survives_mutated_observations(name, ops, data):
     scene, overrides, params = CASES[name]
     rec = recording(scene, tuple(overrides))
-    for op in ops:
+    for op in sorted(ops, key=lambda o: o == "as_text"):  # the others do arithmetic on numbers
         if not any(len(v) for v in rec.observations.tables.values()):
             break
         rec = mutate(rec, op, data)
@@ -247,3 +253,12 @@ def test_image_coordinates_an_image_away_are_refused():
     b.loc[2, "u"] = 1e12
     with pytest.raises(RecordingError, match=r"^bearings: column 'u' lies more than an image width outside camera "):
         run_estimator(with_tables(rec, bearings=b), "qp_smoother")
+
+
+def test_numbers_written_as_text_are_read_as_numbers_or_named():
+    det = overhead().observations["floor_detections"].copy()
+    det["x"] = det["x"].astype(str).astype(object)
+    assert run_estimator(with_tables(overhead(), floor_detections=det), "ekf").status == "ok"
+    det.loc[4, "x"] = "abc"
+    with pytest.raises(RecordingError, match=r"^floor_detections: column 'x' must hold finite numbers; row 4 has 'abc'$"):
+        run_estimator(with_tables(overhead(), floor_detections=det), "ekf")
