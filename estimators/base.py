@@ -33,7 +33,7 @@ from typing import Any, ClassVar, Literal, Union
 import numpy as np
 import pandas as pd
 
-from trackroom.recording import Calibration, Observations, RecordingError
+from trackroom.recording import OBSERVATION_COLUMNS, Calibration, Observations, RecordingError
 
 TRACK_COLUMNS = ["t", "track_id", "x", "y"]
 OPTIONAL_TRACK_COLUMNS = ["vx", "vy", "pxx", "pxy", "pyy", "phone_id"]
@@ -94,27 +94,144 @@ class Estimator:
     @classmethod
     def applies_to(cls, observations: Observations, calibration: Calibration) -> str | None:
         """None if the estimator can run on this input, else the reason it cannot."""
+        # "has none" rather than "needs": the table may exist and be empty (no camera saw anyone)
         missing = [k for k in cls.requires if not observations.has(k)]
         if missing:
-            return f"needs {' and '.join(missing)} observations"
+            return f"needs {' and '.join(missing)} observations; the recording has none"
         if cls.requires_any and not any(observations.has(k) for k in cls.requires_any):
-            return f"needs {' or '.join(cls.requires_any)} observations"
+            return f"needs {' or '.join(cls.requires_any)} observations; the recording has none"
         return None
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         raise NotImplementedError
 
 
-def check_tracks(df: pd.DataFrame, name: str = "tracks") -> pd.DataFrame:
-    """Validate an estimator's output table; returns it with columns in canonical order."""
+def _show(value) -> str:
+    """A table cell for a message: text quoted, numbers plain (no numpy type names)."""
+    return repr(value) if isinstance(value, str) else str(value.item() if hasattr(value, "item") else value)
+
+
+def check_tracks(df: pd.DataFrame, name: str = "tracks", first_line: int | None = None) -> pd.DataFrame:
+    """Validate a tracks table (an estimator's output, or a tracks CSV); returns it with columns in
+    canonical order, ``t, x, y`` (and ``vx ... pyy`` when present) as floats, sorted by time.
+
+    Refused with ``EstimatorError`` naming the column and the first bad row: a missing column, a
+    ``t, x, y`` value that is not a finite number, a missing ``track_id``, and one track reporting
+    twice at one time (which position would be scored is ambiguous). ``first_line``: the file line
+    of the table's first row (2 for a CSV with a header), so messages name lines, not row indices.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise EstimatorError(f"{name}: not a table (got {type(df).__name__})")
     missing = [c for c in TRACK_COLUMNS if c not in df.columns]
     if missing:
         raise EstimatorError(f"{name}: missing columns {missing}")
-    for c in ("t", "x", "y"):
-        if len(df) and not np.isfinite(df[c].to_numpy(float)).all():
-            raise EstimatorError(f"{name}: non-finite values in column {c!r}")
+    where = (lambda i: f"line {first_line + i}") if first_line is not None else (lambda i: f"row {i}")
+    df = df.reset_index(drop=True)
+    numbers = {}
+    for c in ("t", "x", "y", "vx", "vy", "pxx", "pxy", "pyy"):
+        if c not in df.columns:
+            continue
+        values = pd.to_numeric(df[c], errors="coerce").to_numpy(float) if len(df) else np.zeros(0)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise EstimatorError(f"{name}: column {c!r} must hold finite numbers; {where(i)} has {_show(df[c].iloc[i])}")
+        numbers[c] = values
+    ids = df["track_id"]
+    empty = (ids.isna() | (ids.astype(str).str.strip() == "")).to_numpy(bool)
+    if empty.any():
+        raise EstimatorError(f"{name}: column 'track_id' is empty at {where(int(np.argmax(empty)))}; every row needs a track id")
+    if ids.dtype == object and len({type(v) for v in ids}) > 1:
+        numbers["track_id"] = ids.astype(str)  # mixed ids (1 and "1b") compare and sort as text
+    df = df.assign(**numbers)
+    ids = df["track_id"]
+    twice = df.duplicated(["t", "track_id"]).to_numpy(bool)
+    if twice.any():
+        i = int(np.argmax(twice))
+        raise EstimatorError(f"{name}: track {_show(ids.iloc[i])} has two rows at t = {df['t'].iloc[i]:g} s ({where(i)})")
     cols = TRACK_COLUMNS + [c for c in OPTIONAL_TRACK_COLUMNS if c in df.columns]
     return df[cols].sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)
+
+
+# Columns of the observation tables that hold names (text); every other column is a number.
+TEXT_COLUMNS = ("camera", "label", "phone_id")
+TIME_TOL = 1e-6  # s: an observation this far outside [0, duration] is still taken as inside
+# Image coordinates (pixels) and the camera dimension they run along.
+IMAGE_COLUMNS = {
+    "bearings": (("u", "width"),),
+    "boxes": (("u", "width"), ("u_left", "width"), ("u_right", "width"), ("v_top", "height"), ("v_bottom", "height")),
+}
+
+
+def check_observations(observations: Observations, calibration: Calibration) -> Observations:
+    """Validate observations at the estimator boundary; returns them in canonical form.
+
+    Every table must have its documented columns (``OBSERVATION_COLUMNS``), numbers that are
+    finite, names that are present, times within [0, duration] s, cameras that the calibration
+    holds, and image coordinates (px) within one image size of the image. Rows out of time order
+    are sorted by ``t`` (stable, so rows of one time keep their order): merged or hand-made
+    tables often are, and no estimator should depend on it. Name columns are taken as text.
+    Duplicated rows are kept: two detections of one time and place are legitimate measurements.
+    Anything else raises ``RecordingError`` naming the table, the column and the first bad row.
+    A camera in the calibration that sees nothing is no error; tables of kinds the contract does
+    not define are passed on unchecked.
+    """
+    duration = observations.duration
+    if isinstance(duration, bool) or not (isinstance(duration, numbers.Real) and np.isfinite(duration) and duration > 0):
+        raise RecordingError(f"observations: duration must be a positive number of seconds, got {duration!r}")
+    tables = {}
+    for kind, df in observations.tables.items():
+        cols = OBSERVATION_COLUMNS.get(kind)
+        if cols is None:  # a table beyond the contract (an outside estimator's own): passed on as is
+            tables[kind] = df
+            continue
+        if not isinstance(df, pd.DataFrame):
+            raise RecordingError(f"{kind}: not a table (got {type(df).__name__})")
+        missing = [c for c in cols if c not in df.columns]
+        if missing:
+            raise RecordingError(f"{kind}: missing columns {missing}")
+        df = df.reset_index(drop=True)
+        if not len(df):
+            tables[kind] = df
+            continue
+        for c in cols:
+            if c in TEXT_COLUMNS:
+                bad = df[c].isna().to_numpy()
+                if bad.any():
+                    raise RecordingError(f"{kind}: missing value in column {c!r} (first at row {int(np.argmax(bad))})")
+                if df[c].dtype != object or not all(isinstance(v, str) for v in df[c]):
+                    df[c] = df[c].astype(str)
+                continue
+            values = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+            bad = ~np.isfinite(values)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise RecordingError(f"{kind}: column {c!r} must hold finite numbers; row {i} has {_show(df[c].iloc[i])}")
+            if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
+                df[c] = values  # numbers written as text ("1.5") become numbers
+        t = df["t"].to_numpy(float)
+        out = (t < -TIME_TOL) | (t > duration + TIME_TOL)
+        if out.any():
+            i = int(np.argmax(out))
+            raise RecordingError(f"{kind}: times must lie within the recording [0, {duration:g}] s; row {i} has t = {t[i]:g}")
+        if "camera" in df.columns:
+            unknown = sorted(set(df["camera"]) - set(calibration.cameras))
+            if unknown:
+                raise RecordingError(f"{kind}: cameras not in the calibration: {unknown}; calibrated: {sorted(calibration.cameras)}")
+        for c, size in IMAGE_COLUMNS.get(kind, ()):
+            # a detector reports inside its image, give or take noise; a value an image away is
+            # corrupt (found by the property tests: u = 1e12 px made qp_smoother's QP non-convex)
+            n = df["camera"].map({k: float(getattr(cam, size)) for k, cam in calibration.cameras.items()}).to_numpy(float)
+            v = df[c].to_numpy(float)
+            far = (v < -n) | (v > 2 * n)
+            if far.any():
+                i = int(np.argmax(far))
+                raise RecordingError(f"{kind}: column {c!r} lies more than an image {size} outside camera "
+                                     f"{df['camera'].iloc[i]!r}'s {n[i]:g} px image; row {i} has {v[i]:g}")
+        if (np.diff(t) < 0).any():
+            df = df.sort_values("t", kind="stable").reset_index(drop=True)
+        tables[kind] = df
+    return Observations(tables, float(duration))
 
 
 class _Expected(Exception):
@@ -303,6 +420,6 @@ def _toml_or_text(text: str) -> Any:
 
 
 __all__ = [
-    "REGISTRY", "Estimator", "EstimatorError", "RecordingError", "TRACK_COLUMNS", "check_tracks", "coerce_param",
-    "coerce_value", "config_types", "param", "register", "type_text", "value_text",
+    "REGISTRY", "Estimator", "EstimatorError", "RecordingError", "TRACK_COLUMNS", "check_observations", "check_tracks",
+    "coerce_param", "coerce_value", "config_types", "param", "register", "type_text", "value_text",
 ]

@@ -5,7 +5,10 @@
     result.tracks   # the validated tracks table (``check_tracks``), None unless ok
     result.seconds  # wall-clock time of ``estimate`` alone, s
 
-Estimators get ``recording.observations`` and ``recording.calibration`` only, never the truth.
+Estimators get ``recording.observations`` and ``recording.calibration`` only, never the truth. The
+observations are checked first (``check_observations``: documented columns, finite numbers, times
+inside the recording, calibrated cameras; rows sorted by time), so a bad table ends in one
+``RecordingError`` naming the table, column and row, whichever estimator runs.
 An ``EstimatorError`` raised while estimating becomes status "error" with its message when
 ``errors="record"`` (the comparison engine keeps going); with ``errors="raise"`` it propagates.
 """
@@ -20,7 +23,7 @@ import pandas as pd
 from trackroom.recording import Recording
 
 from . import get
-from .base import Estimator, EstimatorError, check_tracks, coerce_param, coerce_value
+from .base import Estimator, EstimatorError, check_observations, check_tracks, coerce_param, coerce_value
 
 
 @dataclass
@@ -56,7 +59,8 @@ def run_estimator(recording: Recording, name: str, params: dict[str, Any] | list
     """Check that ``name`` applies to the recording, run it, time it and validate its tracks."""
     cls = get(name)
     est = cls(**parse_params(cls, params))
-    obs, cal = recording.observations, recording.calibration
+    cal = recording.calibration
+    obs = check_observations(recording.observations, cal)
     reason = cls.applies_to(obs, cal)
     if reason:
         return RunResult(name, "skipped", reason)

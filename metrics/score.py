@@ -21,6 +21,15 @@ an estimator chooses (usually camera frame times). Everything is compared on one
 
 Then CLEAR MOT (``mot.py``), IDF1 and identification accuracy (``identity.py``) and position
 error (``position.py``) are computed on those frames with the same gate (default 1 m).
+
+**One person** (``person=ID``): the truth is that person's alone, so a single-target tracker is
+scored against the person it follows: every track row is matched to that person or counts as
+a false positive, and the frames where the person is absent count nothing for the truth.
+
+Tracks are validated first (``estimators.base.check_tracks``): a missing column, a ``t, x, y``
+that is not a finite number, an empty ``track_id``, or one track at one time twice ends in one
+``EstimatorError`` naming the column and row; a person id the truth lacks ends in a
+``RecordingError`` listing the ids it holds.
 """
 from __future__ import annotations
 
@@ -30,7 +39,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from trackroom.recording import Recording
+from trackroom.estimators.base import check_tracks
+from trackroom.recording import Recording, RecordingError
 
 from .identity import IdentificationResult, IdResult, claims_phones, idf1, identification_accuracy
 from .mot import DEFAULT_GATE, EvalFrames, MotResult, clear_mot
@@ -53,9 +63,26 @@ def default_max_gap(recording: Recording) -> float:
     return 1.5 / min(c.fps for c in recording.calibration.cameras.values())
 
 
-def truth_at(recording: Recording, times: np.ndarray) -> pd.DataFrame:
-    """Truth on the frame grid: ``frame, person_id, x, y, phone_id`` (+ ``cameras``)."""
+def person_ids(recording: Recording) -> list:
+    """The person ids of the recording's truth, sorted."""
+    return sorted(pd.unique(recording.truth.people["person_id"]), key=str)
+
+
+def find_person(recording: Recording, person) -> Any:
+    """The truth's id equal to ``person`` (compared as text, so "3" finds 3), else RecordingError."""
+    ids = person_ids(recording)
+    for pid in ids:
+        if str(pid) == str(person):
+            return pid
+    raise RecordingError(f"no person {str(person)!r} in the recording's truth; person ids: {', '.join(map(str, ids)) or 'none'}")
+
+
+def truth_at(recording: Recording, times: np.ndarray, person=None) -> pd.DataFrame:
+    """Truth on the frame grid: ``frame, person_id, x, y, phone_id`` (+ ``cameras``); only
+    ``person``'s rows when given (an id of the truth)."""
     people = recording.truth.people
+    if person is not None:
+        people = people[people["person_id"] == person]
     parts = []
     for pid, g in people.groupby("person_id", sort=True):
         g = g.sort_values("t", kind="stable")
@@ -75,8 +102,10 @@ def truth_at(recording: Recording, times: np.ndarray) -> pd.DataFrame:
     cols = ["frame", "person_id", "x", "y", "phone_id"]
     df = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
     seen = cameras_seeing(recording, times)
-    if seen is not None:
-        df = df.merge(seen, on=["frame", "person_id"], how="left")
+    if seen is not None and len(df):
+        # joined on the ids as text: a recording from elsewhere may write 3 in one table, "3" in another
+        seen = seen.assign(key=seen["person_id"].astype(str)).drop(columns="person_id")
+        df = df.assign(key=df["person_id"].astype(str)).merge(seen, on=["frame", "key"], how="left").drop(columns="key")
         df["cameras"] = df["cameras"].fillna(0).astype(int)
     return df
 
@@ -141,11 +170,11 @@ def tracks_at(tracks: pd.DataFrame, times: np.ndarray, max_gap: float, tol: floa
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
 
-def build_frames(recording: Recording, tracks: pd.DataFrame, max_gap: float | None = None) -> EvalFrames:
-    """Truth and tracks on the evaluation grid (module docstring)."""
+def build_frames(recording: Recording, tracks: pd.DataFrame, max_gap: float | None = None, person=None) -> EvalFrames:
+    """Truth (``person``'s only, when given) and tracks on the evaluation grid (module docstring)."""
     times = evaluation_frames(recording)
     gap = default_max_gap(recording) if max_gap is None else max_gap
-    return EvalFrames(times, truth_at(recording, times), tracks_at(tracks, times, gap))
+    return EvalFrames(times, truth_at(recording, times, person), tracks_at(tracks, times, gap))
 
 
 @dataclass
@@ -195,12 +224,17 @@ class Evaluation:
 
 
 def evaluate(recording: Recording, tracks: pd.DataFrame, gate: float = DEFAULT_GATE,
-             max_gap: float | None = None) -> Evaluation:
-    """Score ``tracks`` (``t, track_id, x, y`` [+ ``phone_id``]) against ``recording``'s truth."""
-    missing = [c for c in ("t", "track_id", "x", "y") if c not in tracks.columns]
-    if missing:
-        raise ValueError(f"tracks table is missing columns {missing}")
-    frames = build_frames(recording, tracks, max_gap)
+             max_gap: float | None = None, person=None) -> Evaluation:
+    """Score ``tracks`` (``t, track_id, x, y`` [+ ``phone_id``]) against ``recording``'s truth:
+    every person's, or ``person``'s alone (an id of the truth, e.g. "p1"; module docstring)."""
+    if not (isinstance(gate, (int, float)) and gate > 0 and np.isfinite(gate)):
+        raise ValueError(f"gate must be a positive distance in metres, got {gate!r}")
+    tracks = check_tracks(tracks)
+    if "phone_id" in tracks.columns:
+        tracks = tracks.assign(phone_id=tracks["phone_id"].fillna("").astype(str))
+    if person is not None:
+        person = find_person(recording, person)
+    frames = build_frames(recording, tracks, max_gap, person)
     mot = clear_mot(frames, gate)
     ident = identification_accuracy(frames, mot) if claims_phones(tracks) else None
     return Evaluation(frames, mot, idf1(frames, gate), ident, position_errors(frames, mot))
@@ -210,9 +244,12 @@ KEY_COLUMNS = ["scene", "seed", "sensing", "estimator"]
 
 
 def score(recording: Recording, tracks: pd.DataFrame, estimator: str = "", gate: float = DEFAULT_GATE,
-          **extra: Any) -> pd.DataFrame:
-    """One tidy row: ``scene, seed, sensing, estimator`` + ``extra`` columns + the metrics."""
+          person=None, **extra: Any) -> pd.DataFrame:
+    """One tidy row: ``scene, seed, sensing, estimator`` + ``extra`` columns + the metrics
+    (against ``person`` alone when given, with a ``person`` column)."""
     row = {"scene": recording.scene, "seed": recording.seed, "sensing": recording.sensing, "estimator": estimator}
+    if person is not None:
+        row["person"] = str(person)
     row.update(extra)
-    row.update(evaluate(recording, tracks, gate).metrics())
+    row.update(evaluate(recording, tracks, gate, person=person).metrics())
     return pd.DataFrame([row])

@@ -92,7 +92,7 @@ def test_parallel_equals_serial():
 def test_mean_interval_and_summary():
     m, lo, hi, n = mean_interval([1.0, 2.0, 3.0, float("nan")])
     assert (m, n) == (2.0, 3)
-    assert hi - m == pytest.approx(4.302652729911275 * 1.0 / 3**0.5)  # t_{0.975, 2} s / sqrt(n)
+    assert 1.0 <= lo < m < hi <= 3.0  # bootstrap percentiles of the mean lie within the values
     assert mean_interval([]) [3] == 0 and mean_interval([5.0])[1] != mean_interval([5.0])[1]
     res = pd.DataFrame({"scene": "s", "sensing": "analytic", "estimator": ["a", "a", "b"], "status": ["ok", "ok", "skipped"],
                         "reason": ["", "", "needs imu"], "mota": [0.5, 0.7, float("nan")]})

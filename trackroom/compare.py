@@ -539,7 +539,7 @@ OUTPUT_FILES = ("results.csv", "per_frame.csv", "summary.md", "spec.toml", "prov
 def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, command: list[str] | None = None) -> dict[str, Path]:
     """results.csv, per_frame.csv, summary.md, spec.toml, provenance.json and the plots (each
     written atomically); returns their paths by name. ``command``: the command line to record."""
-    from trackroom.metrics.aggregate import summary_markdown
+    from trackroom.metrics.aggregate import INTERVAL_NOTE, summary_markdown
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -550,7 +550,7 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, com
     s = comp.spec
     head = (f"# Comparison\n\n{len(s.scenes)} scene(s) x {len(s.seeds)} seed(s) ({_seed_text(s.seeds)}) x "
             f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m. "
-            f"Mean [95% interval over seeds].\n\n")
+            f"{INTERVAL_NOTE}\n\n")
     _atomic(paths["summary"], lambda p: p.write_text(head + summary_markdown(comp.results) + "\n"))
     _atomic(paths["spec"], lambda p: p.write_text(spec_to_toml(s)))
     _atomic(paths["provenance"], lambda p: p.write_text(json.dumps(provenance_record(comp, command), indent=2) + "\n"))
@@ -619,7 +619,7 @@ def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict
             g = ok[ok["scene"] == sc]
             for i, e in enumerate(ests):
                 v = g.loc[g["estimator"] == e, m].to_numpy(float)
-                mean, lo, hi, n = mean_interval(v)
+                mean, lo, hi, n = mean_interval(v, m)
                 if n == 0:
                     ax.text(i, 0, "n/a", ha="center", va="bottom", fontsize=8, color="0.4")
                     continue

@@ -19,23 +19,32 @@ def add_arguments(p) -> None:
     p.add_argument("recording", metavar="DIR", help="recording folder with truth")
     p.add_argument("tracks", help="tracks CSV (t, track_id, x, y [, phone_id])")
     p.add_argument("--gate", type=float, default=1.0, help="match distance gate in metres (default 1)")
+    p.add_argument("--person", metavar="ID", default=None,
+                   help="score against this person's truth alone (a single-target tracker; ids as in truth/people)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
 
 
 def load_tracks(path):
+    """A tracks CSV (``t, track_id, x, y`` [+ ``vx, vy, pxx, pxy, pyy, phone_id``]), validated by
+    ``check_tracks``: a bad value ends in one line naming the column and the file line."""
     import pandas as pd
 
     from trackroom.estimators.base import check_tracks
 
     try:
-        df = pd.read_csv(path, dtype={"phone_id": str})
+        df = pd.read_csv(path, dtype={"phone_id": str, "track_id": str}, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
         from trackroom.errors import CommandError
 
-        raise CommandError(f"{path}: not a readable CSV: {e}") from None
+        raise CommandError(f"{path}: not a readable CSV: {' '.join(str(e).split())}") from None
+    if "track_id" in df.columns:
+        # integer ids stay integers ("3" -> 3, as estimators write them); others stay text
+        ids = pd.to_numeric(df["track_id"], errors="coerce")
+        if ids.notna().all() and (ids == ids.round()).all():
+            df["track_id"] = ids.astype("int64")
     if "phone_id" in df.columns:
         df["phone_id"] = df["phone_id"].fillna("")
-    return check_tracks(df, str(path))
+    return check_tracks(df, str(path), first_line=2)
 
 
 def _nan(v) -> bool:
@@ -55,14 +64,24 @@ def run(args) -> int:
         raise CommandError(f"--gate must be a positive distance in metres, got {args.gate}")
     rec = read_recording(args.recording)
     tracks = load_tracks(args.tracks)
-    m = evaluate(rec, tracks, args.gate).metrics()
+    person = None
+    if args.person is not None:
+        from trackroom.metrics.score import find_person
+
+        try:
+            person = find_person(rec, args.person)
+        except ValueError as e:
+            raise CommandError(f"--person: {e}") from None
+    m = evaluate(rec, tracks, args.gate, person=person).metrics()
     if args.json:
         clean = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in m.items()}
         if not claims_phones(tracks):
             del clean["id_accuracy"], clean["id_accuracy_all"]
-        print(json.dumps({"scene": rec.scene, "seed": rec.seed, "sensing": rec.sensing, **clean}))
+        who = {"person": str(person)} if person is not None else {}
+        print(json.dumps({"scene": rec.scene, "seed": rec.seed, "sensing": rec.sensing, **who, **clean}))
         return 0
-    print(f"{rec.scene} seed {rec.seed} ({rec.sensing}), {m['frames']} frames, {m['people']} people, "
+    who = f"person {person}" if person is not None else f"{m['people']} people"
+    print(f"{rec.scene} seed {rec.seed} ({rec.sensing}), {m['frames']} frames, {who}, "
           f"{m['tracks']} tracks, gate {args.gate:g} m")
     for label, key, fmt in TABLE:
         keys = key if isinstance(key, tuple) else (key,)
