@@ -114,8 +114,9 @@ def test_plugin_in_demo_does_not_apply_table(tmp_path, capsys, own_registry):
                  "--out", str(tmp_path)]) == 0
     res = pd.read_csv(tmp_path / "results.csv").set_index("estimator")
     assert res.loc["floor_nearest", "status"] == "skipped"
-    assert res.loc["floor_nearest", "reason"] == "needs floor_detections observations"
-    assert "| occlusion_lab | analytic | floor_nearest | skipped | needs floor_detections observations |" in capsys.readouterr().out
+    reason = "needs floor_detections observations; the recording has none"
+    assert res.loc["floor_nearest", "reason"] == reason
+    assert f"| occlusion_lab | analytic | floor_nearest | skipped | {reason} |" in capsys.readouterr().out
 
 
 def test_worker_process_started_afresh_imports_the_plugins(recording, own_registry):

@@ -127,11 +127,11 @@ def test_intervals_are_bootstrap_percentiles_inside_the_valid_range():
 
 
 def test_summary_header_says_which_interval(tmp_path):
-    from trackroom.compare import Comparison, CompareSpec, write_outputs
+    from trackroom.compare import Comparison, CompareSpec, EstimatorRun, SceneRun, write_outputs
 
-    res = pd.DataFrame({"scene": "s", "sensing": "analytic", "estimator": "a", "status": "ok", "reason": "",
+    res = pd.DataFrame({"scene": "overhead_lab", "sensing": "analytic", "estimator": "a", "status": "ok", "reason": "",
                         "seed": [0, 1], "mota": [0.999, 1.0], "idf1": [0.2, 0.9]})
-    spec = CompareSpec(scenes=["s"], seeds=[0, 1], estimators=["a"], duration=1.0)
+    spec = CompareSpec(scenes=[SceneRun("overhead_lab")], seeds=[0, 1], estimators=[EstimatorRun("a")], duration=1.0)
     paths = write_outputs(Comparison(spec, res, pd.DataFrame(), 0.0), tmp_path / "out", plots=False)
     text = paths["summary"].read_text()
     assert INTERVAL_NOTE in text and "bootstrap percentile" in text
