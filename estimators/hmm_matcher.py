@@ -181,8 +181,11 @@ class HMMMatcher(Estimator):
                                               "mean heading and the camera's mean velocity cover the same interval")
         newcomer_density: float = param(0.01, 'prior weight of "a new person" at a segment birth, 1/m^2')
         birth_sigma_m: float = param(0.3, "continuity std between an ended segment and a new one at zero gap, m")
-        gap_speed: float = param(-1.0, "growth of that std per second of gap, m/s; < 0: automatic (a privacy camera's "
-                                       "still_speed when there is one, else a walking speed of 1 m/s)")
+        gap_speed: float = param(-1.0, "growth of that std per second of gap, m/s; < 0: automatic "
+                                       "(privacy_gap_speed with privacy cameras, else a walking speed of 1 m/s)")
+        privacy_gap_speed: float = param(0.1, "automatic gap_speed with privacy cameras, m/s: they lose a person "
+                                              "who slows below about this (motion-only detection), so a gap "
+                                              "there means slow movement")
         # assignment
         llr_min: float = param(8.0, "log Omega_min: least log-likelihood ratio for assigning a phone to a track "
                                     "(chosen on development seeds 100-104, not the evaluation seeds 0-9)")
@@ -236,7 +239,7 @@ class HMMMatcher(Estimator):
         gap_speed = cfg.gap_speed
         if gap_speed < 0:
             privacy = any(c.privacy for c in cams.values())
-            gap_speed = float(calibration.noise.get("still_speed", 0.1)) if privacy else 1.0
+            gap_speed = cfg.privacy_gap_speed if privacy else 1.0
         # two cameras' reports of one person differ by noise of std sqrt(2) sigma per axis
         duplicate_m = cfg.duplicate_m if cfg.duplicate_m > 0 else max(0.5, 3.0 * np.sqrt(2.0) * sigma_eff)
         return TrackerConfig(sigma_m=sigma_eff, q=cfg.accel_q, duplicate_m=duplicate_m, gate_m=cfg.gate_m, max_missed_s=cfg.max_missed_s,

@@ -13,9 +13,9 @@ docs/scenes.md documents each with its type, default and unit)::
     [sensors]    see ``SensorSpec``
     [render]     shadows
     [walkers]    count, motion, speed = [min, max], pause = [min, max], pause_probability,
-                 height, radius, phoneless, process_noise = [q_pos, q_vel], bob_amplitude
+                 height, radius, phoneless, process_noise = [q_pos, q_vel], bob_amplitude, vary
     [[walkers.people]]  name, motion, waypoints, loop, start, speed, pause, pause_probability,
-                 phone, height, radius, color, process_noise, bob_amplitude
+                 phone, height, radius, color, process_noise, bob_amplitude, vary
 
 ``walkers.count`` walkers are made: the first from ``walkers.people`` (in order), the rest from
 the ``[walkers]`` template. The last ``phoneless`` walkers carry no phone.
@@ -94,10 +94,10 @@ KEYS: dict[str, frozenset[str]] = {
     "sensors": frozenset(SensorSpec.__dataclass_fields__),
     "render": frozenset({"shadows"}),
     "walkers": frozenset(
-        {"count", "motion", "speed", "pause", "pause_probability", "height", "radius", "phoneless", "process_noise", "bob_amplitude", "people"}
+        {"count", "motion", "speed", "pause", "pause_probability", "height", "radius", "phoneless", "process_noise", "bob_amplitude", "vary", "people"}
     ),
     "walkers.people": frozenset(
-        {"name", "motion", "waypoints", "loop", "start", "speed", "pause", "pause_probability", "phone", "height", "radius", "color", "process_noise", "bob_amplitude"}
+        {"name", "motion", "waypoints", "loop", "start", "speed", "pause", "pause_probability", "phone", "height", "radius", "color", "process_noise", "bob_amplitude", "vary"}
     ),
 }
 
@@ -478,6 +478,10 @@ class _Validator:
         if phoneless > count:
             self.fail("walkers.phoneless", f"{phoneless} phoneless walkers but only {count} walkers")
         colours = dict(PALETTE)
+        # a walker without a colour of its own takes the first palette colour nobody has (given or
+        # taken); two walkers share a colour only where the scene gives both the same one
+        given = [people[i].get("color") if i < len(people) and isinstance(people[i], dict) else None for i in range(count)]
+        taken = {c for c in given if isinstance(c, str)}
         out = []
         for i in range(count):
             p = people[i] if i < len(people) else {}
@@ -485,7 +489,9 @@ class _Validator:
             self.table(p, where, KEYS["walkers.people"])
             merged = {k: v for k, v in node.items() if k not in ("count", "phoneless", "people")}
             merged.update(p)
-            cname = self.string(merged, "color", where, default=PALETTE[i][0], choices=list(colours))
+            default = next((c for c, _ in PALETTE if c not in taken), PALETTE[i][0])
+            cname = self.string(merged, "color", where, default=default, choices=list(colours))
+            taken.add(cname)
             motion = self.string(merged, "motion", where, default="random_waypoint", choices=MOTION_MODELS)
             speed = self.vector(merged, "speed", where, 2, default=(0.5, 1.5), nonneg=True) if isinstance(merged.get("speed", []), list) else (self.number(merged, "speed", where, nonneg=True),) * 2
             pause = self.vector(merged, "pause", where, 2, default=(0.0, 5.0), nonneg=True)
@@ -519,14 +525,12 @@ class _Validator:
                     phone=self.boolean(merged, "phone", where, True) and i < count - phoneless,
                     gauss_markov=GaussMarkovParams(*pn),
                     bob_amplitude=self.number(merged, "bob_amplitude", where, 0.03, nonneg=True),
+                    vary=self.boolean(merged, "vary", where, True),
                 )
             )
         names = [w.name for w in out]
         if len(set(names)) != len(names):
             self.fail("walkers.people", f"duplicate walker names {names}")
-        cols = [w.color_name for w in out]
-        if len(set(cols)) != len(cols):
-            self.fail("walkers.people", f"two walkers share a colour: {cols}")
         return tuple(out)
 
 

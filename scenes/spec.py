@@ -193,6 +193,11 @@ class WalkerSpec:
     start: initial floor position (None: drawn at random in free space).
     gauss_markov: process noise of the ``gauss_markov`` model (also kept in the recording's
     metadata, so an estimator can be handed the matched prior).
+    vary: scripted walkers (``waypoints``, ``standing`` with a ``start``) get seeded variation of
+    pace, waypoints, start phase and standing spot (``sim/walkers.py``); False replays the file
+    exactly on every seed.
+    color_name: the appearance class cameras report as a bearing ``label``; two walkers share one
+    only where the scene gives both the same ``color``.
     """
 
     name: str
@@ -210,17 +215,23 @@ class WalkerSpec:
     phone: bool = True
     gauss_markov: GaussMarkovParams = field(default_factory=GaussMarkovParams)
     bob_amplitude: float = 0.03  # gait bob, metres peak-to-peak
+    vary: bool = True
 
 
 @dataclass(frozen=True)
 class SensorSpec:
-    """Sensor rates and noise (all one-sigma).
+    """Sensor rates and noise (all one-sigma), and the simulated detectors' behaviour.
+
+    Recordings carry the rates and noise levels in ``calibration.noise`` (what a user would have
+    measured); ``still_speed`` and ``flow_min_px_s`` configure the simulator only and are not
+    written there (``sim.simulate.SIMULATOR_ONLY``).
 
     bearing_sigma_px: horizontal image coordinate noise (bearing cameras), pixels.
     box_sigma_px: tracking-window edge noise (oblique cameras), pixels.
     floor_sigma_m: overhead floor position noise per axis (Teixeira: 0.15 m).
     privacy_quantum_m: privacy-camera position quantisation (Teixeira: 0.15 m).
-    still_speed: speed (m/s) below which a privacy camera does not see a person.
+    still_speed: speed (m/s) below which a privacy camera does not see a person, and truth's
+    ``walking`` is false (simulator only).
     imu_rate: phone sample rate, Hz. accel_sigma (m/s^2), gyro_sigma (rad/s), mag_sigma
     (field units; MuJoCo's default field has magnitude 0.5).
     magnetic_field: ``option.magnetic`` (world frame).
@@ -230,7 +241,7 @@ class SensorSpec:
     windows on occlusion_lab measure a robust spread of ~6 px/s in u, ~8 px/s in v).
     flow_min_px_s: image speed (px/s) of a person's centre below which an optical-flow tracker
     finds no moving region, so an oblique camera reports no window (a person standing still);
-    3 px/s = the rendered tracker's 0.3 px/frame at 10 fps.
+    3 px/s = the rendered tracker's 0.3 px/frame at 10 fps (simulator only).
     """
 
     bearing_sigma_px: float = 1.0

@@ -66,13 +66,14 @@ from trackroom.scenes.camera import Camera
 # (top 1.3, bottom 1.5 px); window centroid u against the body axis ``box_u_sigma_px`` (3.4 px; a
 # key of its own: ``bearing_sigma_px`` stays the horizontal cameras' bearing noise, which the QP
 # smoother and EKF read, ~0.2 px rendered); region flow against the body centre's image velocity
-# ``flow_sigma_px_s`` (u 2.6, v 5.1 px/s per axis; standard deviations 13 and 12 px/s: heavy tails);
-# ``box_width_ratio_threshold``: the eq. 8 (Tsutsui et al.) width ratio (w - w_c) / w_c above which a
-# window holds more than one person: the windows of isolated, fully visible walkers have a ratio
-# <= 0.10 in 99 % of frames and never above 0.5, two people merged side by side reach 0.7-1.3.
+# ``flow_sigma_px_s`` (u 2.6, v 5.1 px/s per axis; standard deviations 13 and 12 px/s: heavy tails).
 # Measured with ``python scripts/experiment_tsutsui.py --recording DIR --window-errors``.
-# ``sim.simulate.simulate(..., sensing="rendered")`` merges these into ``calibration.noise``.
-RENDERED_WINDOW_NOISE = {"box_sigma_px": 1.5, "box_u_sigma_px": 3.5, "flow_sigma_px_s": 5.0, "box_width_ratio_threshold": 0.5}
+# ``sim.simulate.simulate(..., sensing="rendered")`` merges these into ``calibration.noise``: noise
+# levels only. (The eq. 8 width ratio (w - w_c) / w_c of these windows - isolated, fully visible
+# walkers <= 0.10 in 99 % of frames and never above 0.5, two people merged side by side 0.7-1.3 -
+# informs an estimator's decision threshold, ``target_planes``' ``width_ratio_threshold``, which
+# lives in its Config, not in the calibration.)
+RENDERED_WINDOW_NOISE = {"box_sigma_px": 1.5, "box_u_sigma_px": 3.5, "flow_sigma_px_s": 5.0}
 
 
 @dataclass(frozen=True)

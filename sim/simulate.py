@@ -7,10 +7,11 @@
    (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
-5. Calibration noise: the scene's ``sensors`` figures; a rendered recording's ``boxes`` come from
-   the flow detector, so its measured window noise (``sim.perception_flow.RENDERED_WINDOW_NOISE``:
-   ``box_sigma_px``, ``box_u_sigma_px``, ``flow_sigma_px_s``, ``box_width_ratio_threshold``)
-   replaces / adds to them.
+5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
+   levels, the field) - not ``SIMULATOR_ONLY``, which describe how the simulated detectors behave;
+   a rendered recording's ``boxes`` come from the flow detector, so its measured window noise
+   (``sim.perception_flow.RENDERED_WINDOW_NOISE``: ``box_sigma_px``, ``box_u_sigma_px``,
+   ``flow_sigma_px_s``) replaces / adds to them.
 
 Randomness: one ``numpy.random.default_rng(seed)`` spawns independent streams, in this fixed
 order: motion, imu, cameras (one child per camera, scene order), rendering. The same scene and
@@ -33,6 +34,22 @@ from trackroom.provenance import versions
 from trackroom.recording import SENSING_MODES, Calibration, Observations, Recording, Truth
 from .walkers import GM_DISCRETISATION, Trajectories, plan_trajectories
 from .world import build_world
+
+# ``SensorSpec`` fields that configure the simulated detectors (a privacy camera's blindness to
+# people slower than ``still_speed``, the flow tracker's ``flow_min_px_s``): the simulator's own
+# knobs, not measurements, so they stay out of ``calibration.noise`` (calibration/sensors.json).
+SIMULATOR_ONLY = ("still_speed", "flow_min_px_s")
+
+
+def calibration_noise(scene: Scene, sensing: str = "analytic") -> dict:
+    """``calibration.noise`` of a recording of ``scene``: the ``sensors`` figures but
+    ``SIMULATOR_ONLY``, with a rendered recording's measured window noise."""
+    noise = {k: v for k, v in dataclasses.asdict(scene.sensors).items() if k not in SIMULATOR_ONLY}
+    if sensing == "rendered":
+        # the rendered boxes come from the flow detector: declare its measured window noise
+        noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
+    return noise
+
 
 def phone_ids(scene: Scene) -> list[str]:
     """``phone{i}`` for walker i with a phone, "" without."""
@@ -180,10 +197,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         ],
         "versions": versions(),
     }
-    noise = dataclasses.asdict(scene.sensors)
-    if sensing == "rendered":
-        # the rendered boxes come from the flow detector: declare its measured window noise
-        noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
-    calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan, noise=noise)
+    calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan,
+                              noise=calibration_noise(scene, sensing))
     return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta,
                      scene_toml=scene_toml(scene))

@@ -38,6 +38,24 @@ random process):
   returns to the first waypoint and repeats; otherwise the walker stands at the last one.
 - ``standing``: stands still at ``start`` (or a random free spot).
 
+Seeded variation of scripted walkers (``WalkerSpec.vary``, on by default; scene key ``vary``), so
+that every seed is a different scenario rather than the same paths with new sensor noise, drawn
+from the walker's own stream when its model is made:
+
+- pace: the walker's speed is multiplied by p ~ U(VARY_PACE) for the whole run (each leg's speed
+  is still drawn uniformly in ``speed``);
+- waypoints: each is moved by a point uniform in a disc of VARY_JITTER m, redrawn (at most
+  VARY_TRIES times, else kept) until the new point keeps the clearance the written one had (up to
+  radius + MARGIN) and every leg that was a straight free segment stays one (the scene's
+  choreography around obstacles is kept);
+- start phase (looped paths): the walker starts U(0, VARY_PHASE) m along the planned first leg
+  instead of at the first waypoint (bounded, so that who walks beside whom, and roughly when,
+  survives);
+- standing people with a given ``start``: moved as a waypoint is, within VARY_JITTER m.
+
+With ``vary = false`` a scripted walker replays the file exactly on every seed: it starts at its
+first waypoint and walks every leg at the middle of its ``speed`` range (no draws at all).
+
 Planning. Walls, obstacles and people standing still are obstacles on a floor grid of
 ``GRID`` metres; a cell is free when its clearance is at least radius + MARGIN. A leg goes
 straight when the segment is free, otherwise along the shortest 8-connected grid path
@@ -102,6 +120,12 @@ WALKING_SPEED_BOB = 0.35  # m/s: the gait bob has 63 % of its amplitude at this 
 # 0.5 m/s), with 1 cm/sqrt(s) position jitter. Measured in bearing_hall: ~6 draws per 2 s chunk,
 # mean speed 0.6 m/s, 95th percentile acceleration 1.4 m/s^2 (tests/test_walkers.py bounds the draws).
 DEFAULT_WALKER_GM = GaussMarkovParams(q_pos=1e-4, q_vel=0.05)
+# Seeded variation of scripted walkers (module docstring): speed factor range, waypoint and
+# standing-spot jitter radius (m), start offset along a loop's first leg (m), draws per point.
+VARY_PACE = (0.85, 1.15)
+VARY_JITTER = 0.3
+VARY_PHASE = 2.0
+VARY_TRIES = 20
 
 
 @dataclass
@@ -293,6 +317,41 @@ class FreeSpace:
         return self.centres.reshape(-1, 2)[cells[rng.integers(cells.size)]]
 
 
+# ----------------------------------------------------------------------------- variation
+def jitter_points(free: FreeSpace, points: list, legs: list, inflate: float, rng: np.random.Generator) -> list:
+    """Each point (2,) moved by a draw uniform in a disc of VARY_JITTER m, in order.
+
+    A draw is kept when the moved point keeps the clearance the given one had (capped at
+    ``inflate``) and every leg (a, b) in ``legs`` (indices into ``points``) touching it that was a
+    free straight segment stays one (checked against the neighbours as already moved); otherwise
+    it is redrawn, and after VARY_TRIES draws the point stays where it was.
+    """
+    given = [np.asarray(p, float) for p in points]
+    out = [p.copy() for p in given]
+    straight = {leg: free.segment_free(given[leg[0]], given[leg[1]], inflate) for leg in legs}
+    for k, p in enumerate(given):
+        need = min(inflate, float(free.clearance(p)))
+        mine = [leg for leg in legs if k in leg and straight[leg]]
+        for _ in range(VARY_TRIES):
+            r, h = VARY_JITTER * np.sqrt(rng.uniform()), rng.uniform(-np.pi, np.pi)
+            q = p + r * np.array([np.cos(h), np.sin(h)])
+            if not free.is_free(q, need, 0.0)[0]:
+                continue
+            ends = [[q if j == k else out[j] for j in leg] for leg in mine]
+            if all(free.segment_free(a, b, inflate) for a, b in ends):
+                out[k] = q
+                break
+    return out
+
+
+def point_along(poly: np.ndarray, s: float) -> np.ndarray:
+    """The point ``s`` m along a polyline (M, 2), at most to 0.1 m before its end."""
+    seglen = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seglen)])
+    s = float(np.clip(s, 0.0, max(0.0, cum[-1] - 0.1)))
+    return np.array([np.interp(s, cum, poly[:, 0]), np.interp(s, cum, poly[:, 1])])
+
+
 # ----------------------------------------------------------------------------- speed profile
 def follow_path(poly: np.ndarray, speed: float, dt: float) -> np.ndarray:
     """Samples (n, 2) every dt s along a polyline, from rest to rest, at most ``speed``.
@@ -361,6 +420,11 @@ class _Model:
 
 
 class _Standing(_Model):
+    def start(self):
+        if self.spec.start is not None and self.spec.vary:
+            return jitter_points(self.free, [np.asarray(self.spec.start, float)], [], self.inflate, self.rng)[0]
+        return super().start()
+
     def propose(self, pos, t):
         return self.wait_leg(pos, 3600.0)
 
@@ -380,16 +444,26 @@ class _Waypoints(_Model):
     def __init__(self, *a):
         super().__init__(*a)
         self.targets = [np.asarray(w, float) for w in self.spec.waypoints]
+        self.pace = 1.0
+        if self.spec.vary:
+            self.pace = float(self.rng.uniform(*VARY_PACE))
+            n = len(self.targets)
+            legs = [(k, k + 1) for k in range(n - 1)] + ([(n - 1, 0)] if self.spec.loop and n > 2 else [])
+            self.targets = jitter_points(self.free, self.targets, legs, self.inflate, self.rng)
         self.next = 1
         self.done = False
 
     def start(self):
+        if self.spec.vary and self.spec.loop:  # start phase: somewhere along the first leg
+            first = self.free.plan(self.targets[0], self.targets[1], self.inflate)
+            return point_along(first, self.rng.uniform(0.0, VARY_PHASE))
         return self.targets[0].copy()
 
     def propose(self, pos, t):
         if self.done:
             return self.wait_leg(pos, 3600.0)
-        speed = self.rng.uniform(*self.spec.speed)
+        lo, hi = self.spec.speed
+        speed = self.pace * (self.rng.uniform(lo, hi) if self.spec.vary else 0.5 * (lo + hi))
         self._goal_next = self.next + 1
         return follow_path(self.free.plan(pos, self.targets[self.next % len(self.targets)], self.inflate), speed, self.dt)
 

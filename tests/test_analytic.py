@@ -26,6 +26,7 @@ OCCLUSION = {
     ],
     "walkers": {
         "count": 3,
+        "vary": False,  # the standing spots exactly as written (the geometry above depends on them)
         "people": [
             {"name": "hidden", "motion": "standing", "start": [8.0, 4.5]},
             {"name": "open", "motion": "standing", "start": [3.0, 3.3]},
@@ -119,3 +120,22 @@ def test_same_scene_and_seed_give_identical_tables():
     frames = np.round(boxes.t.to_numpy() * 10).astype(int)
     for _, g in boxes.assign(f=frames).groupby("track"):
         assert (np.diff(np.sort(g.f.to_numpy())) == 1).all()
+
+
+def test_look_alikes_given_one_colour_share_the_label():
+    """Two walkers the scene gives the same ``color`` are one appearance class: the loader accepts
+    it (a walker without a colour takes one nobody has), analytic bearings label both alike, and
+    rendered perception knows the colour once (its labels are ``Appearance.names``)."""
+    from trackroom.sim.perception import Appearance
+
+    raw = {**OCCLUSION, "walkers": {"count": 3, "vary": False, "people": [
+        {"name": "open", "motion": "standing", "start": [3.0, 3.3], "color": "blue"},
+        {"name": "twin", "motion": "standing", "start": [3.0, 4.7], "color": "blue"},
+        {"name": "other", "motion": "standing", "start": [8.0, 1.0]},
+    ]}}
+    scene = parse_scene(raw)
+    assert [w.color_name for w in scene.walkers] == ["blue", "blue", "red"]
+    assert Appearance.from_scene(scene).names == ("blue", "red")
+    west = simulate(scene, seed=0, duration=1.0).observations["bearings"].query("camera == 'west'")
+    per_frame = west.groupby("t")["label"].apply(sorted)
+    assert len(per_frame) == 10 and all(v[:2] == ["blue", "blue"] for v in per_frame)

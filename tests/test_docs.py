@@ -237,6 +237,7 @@ def test_format_doc_matches_real_recordings(recordings):
             problems += [f"{xml.name}: documented node {n} not written" for n in sorted(doc - nodes)]
         noise = json.loads((folder / "calibration" / "sensors.json").read_text())
         problems += [f"sensors.json: key {k} not documented" for k in sorted(set(noise) - set(tables["calibration/sensors.json"]))]
+        seen.setdefault("calibration/sensors.json", set()).update(noise)
         doc_manifest = set(tables["manifest.json"])
         problems += [f"manifest.json: key {k} not documented" for k in sorted(set(manifest) - doc_manifest)]
         problems += [f"manifest.json: documented key {k} not written" for k in sorted(doc_manifest - set(manifest))]
@@ -245,6 +246,8 @@ def test_format_doc_matches_real_recordings(recordings):
         gt = pd.read_csv(folder / "gt_world.csv")
         if list(gt.columns) != list(tables["gt_world.csv"]):
             problems.append(f"gt_world.csv columns {list(gt.columns)}, documented {list(tables['gt_world.csv'])}")
+    never = sorted(set(tables["calibration/sensors.json"]) - seen.get("calibration/sensors.json", set()))
+    problems += [f"sensors.json: documented key {k} written by no recording" for k in never]
     for rel, doc in tables.items():
         if rel.endswith(".parquet"):
             never = sorted(set(doc) - seen.get(rel, set()))

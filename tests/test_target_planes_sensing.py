@@ -2,6 +2,8 @@
 reports a window only for a person whose image moves (``sensors.flow_min_px_s``)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from trackroom.scenes.loader import load_scene
@@ -37,7 +39,9 @@ def test_windows_follow_only_the_walker():
 def test_rendered_recordings_declare_the_flow_detectors_noise():
     """A rendered recording's calibration carries the flow detector's measured window noise
     (its own keys: the horizontal cameras' ``bearing_sigma_px`` is left alone), and the
-    estimator picks it up; analytic recordings fall back to the bearing noise and eq. 8's 1."""
+    estimator picks it up; analytic recordings fall back to the bearing noise. The eq. 8
+    threshold is the estimator's own parameter in both (never a calibration entry), and the
+    simulator's detector settings (``still_speed``, ``flow_min_px_s``) are not in the calibration."""
     from trackroom.estimators.target_planes import TargetPlanes
     from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
 
@@ -50,10 +54,16 @@ def test_rendered_recordings_declare_the_flow_detectors_noise():
     cfg = TargetPlanes(multi_person=True).resolved_config(rec.calibration)
     assert (cfg.box_sigma_px, cfg.box_u_sigma_px, cfg.flow_sigma_px_s, cfg.width_ratio_threshold) == (
         RENDERED_WINDOW_NOISE["box_sigma_px"], RENDERED_WINDOW_NOISE["box_u_sigma_px"],
-        RENDERED_WINDOW_NOISE["flow_sigma_px_s"], RENDERED_WINDOW_NOISE["box_width_ratio_threshold"])
+        RENDERED_WINDOW_NOISE["flow_sigma_px_s"], TargetPlanes.Config().width_ratio_threshold)
+    for key in ("still_speed", "flow_min_px_s", "box_width_ratio_threshold"):
+        assert key not in noise
     assert TargetPlanes(multi_person=True, width_ratio_threshold=0.8).resolved_config(rec.calibration).width_ratio_threshold == 0.8
 
     analytic = simulate(scene, seed=0, duration=0.2).calibration
     assert "box_u_sigma_px" not in analytic.noise
     cfg = TargetPlanes(multi_person=True).resolved_config(analytic)
-    assert cfg.box_u_sigma_px == analytic.noise["bearing_sigma_px"] and cfg.width_ratio_threshold == 1.0
+    assert cfg.box_u_sigma_px == analytic.noise["bearing_sigma_px"] and cfg.width_ratio_threshold == 0.5
+    assert not {"still_speed", "flow_min_px_s"} & set(analytic.noise)
+    # a calibration that still carries a threshold (an old recording) does not steer the estimator
+    old = dataclasses.replace(analytic, noise={**analytic.noise, "box_width_ratio_threshold": 2.0})
+    assert TargetPlanes(multi_person=True).resolved_config(old).width_ratio_threshold == 0.5

@@ -27,13 +27,13 @@ def test_no_walker_inside_walls_or_obstacles_over_ten_minutes(name):
             assert d.min() > scene.walkers[a].radius + scene.walkers[b].radius
     assert np.isfinite(traj.acc).all()
     # walking speeds as specified (the smoothing may overshoot a little) and plausible accelerations
-    top = max(w.speed[1] for w in scene.walkers)
+    top = max(w.speed[1] * (walkers.VARY_PACE[1] if w.vary and w.motion == "waypoints" else 1.0) for w in scene.walkers)
     assert traj.speed().max() <= 1.1 * top + 0.05
     assert np.percentile(np.linalg.norm(traj.acc[..., :2], axis=-1), 99) < 3.0
 
 
 def test_scripted_loop_visits_waypoints_and_returns():
-    scene = load_scene("office_floor")
+    scene = load_scene("office_floor", ["walkers.vary=false"])  # the waypoints exactly as written
     traj = plan_trajectories(scene, 200.0, np.random.default_rng(0))
     xy = traj.pos[0, :, :2]
     for wp in scene.walkers[0].waypoints:
@@ -139,6 +139,55 @@ def test_follow_path_speed_profile():
     far = np.linalg.norm(xy[:-21] - poly[1], axis=1) > 0.2
     acc = (v[20:-1] - v[:-21]) / 0.2
     assert np.abs(acc[far[: len(acc)]]).max() < walkers.MAX_ACCEL * 1.2
+
+
+SCRIPTED = [n for n in bundled_scenes() if any(w.motion in ("waypoints", "standing") for w in load_scene(n).walkers)]
+
+
+def test_bundled_scripted_scenes_exist():
+    assert {"occlusion_lab", "office_floor"} <= set(SCRIPTED)
+
+
+@pytest.mark.parametrize("name", SCRIPTED)
+def test_scripted_scenes_vary_with_the_seed_unless_replayed(name):
+    """Two seeds give different paths (> 0.2 m apart somewhere) for every scripted walker
+    (standing spots: different, within 2 x 0.3 m); ``vary = false`` gives the same paths on both
+    seeds; the same seed gives the same paths."""
+    scene = load_scene(name)
+    scripted = [i for i, w in enumerate(scene.walkers) if w.motion == "waypoints" or (w.motion == "standing" and w.start)]
+    a, b = (plan_trajectories(scene, 30.0, np.random.default_rng(s)) for s in (0, 1))
+    for i in scripted:
+        gap = np.linalg.norm(a.pos[i, :, :2] - b.pos[i, :, :2], axis=1).max()
+        if scene.walkers[i].motion == "waypoints":
+            assert gap > 0.2, f"{scene.walkers[i].name}: seeds 0 and 1 at most {gap:.3f} m apart"
+        else:
+            assert 0 < gap <= 2 * walkers.VARY_JITTER, f"{scene.walkers[i].name}: standing spots {gap:.3f} m apart"
+    assert np.array_equal(a.pos, plan_trajectories(scene, 30.0, np.random.default_rng(0)).pos)
+    replay = load_scene(name, ["walkers.vary=false"])
+    c, d = (plan_trajectories(replay, 30.0, np.random.default_rng(s)) for s in (0, 1))
+    assert np.array_equal(c.pos[:, :, :2], d.pos[:, :, :2])
+    # a per-person override: only that person is replayed
+    one = load_scene(name, [f"walkers.people.{scripted[0]}.vary=false"])
+    e, f = (plan_trajectories(one, 30.0, np.random.default_rng(s)) for s in (0, 1))
+    assert np.array_equal(e.pos[scripted[0], :, :2], f.pos[scripted[0], :, :2])
+
+
+def test_jittered_points_keep_clearance_and_straight_legs():
+    """Hand-checkable: in a 4 m x 2 m room, a waypoint 0.36 m from the south wall (radius 0.2 +
+    margin 0.15 = 0.35 m needed) moves at most VARY_JITTER and keeps >= 0.35 m; a point 0.25 m
+    from the wall (already short of the margin) keeps at least its 0.25 m; a straight leg stays a
+    free straight segment."""
+    from trackroom.scenes.loader import parse_scene
+
+    scene = parse_scene({"scene": {"name": "j"}, "room": {"outline": [[0, 0], [4, 0], [4, 2], [0, 2]]}})
+    free = walkers.FreeSpace(scene.floorplan)
+    pts = [np.array([1.0, 0.36 + 0.05]), np.array([3.0, 0.25 + 0.05])]  # wall half-thickness 0.05
+    for seed in range(20):
+        out = walkers.jitter_points(free, pts, [(0, 1)], 0.35, np.random.default_rng(seed))
+        assert all(np.linalg.norm(o - p) <= walkers.VARY_JITTER + 1e-12 for o, p in zip(out, pts))
+        assert free.clearance(out[0]) >= 0.35 - 1e-9 and free.clearance(out[1]) >= 0.25 - 1e-9
+        if free.segment_free(pts[0], pts[1], 0.35):
+            assert free.segment_free(out[0], out[1], 0.35)
 
 
 def test_same_seed_same_trajectories():
