@@ -55,6 +55,15 @@ def test_generate_estimate_score_round_trip(tmp_path):
     assert scores["mota"] > 0.8
     r = run_cli("show", str(rec))
     assert r.returncode == 0 and (rec / "topdown.png").exists()
+    # `trackroom score ... | head` and `trackroom estimators | head`: the reader is gone before the
+    # first line is written (closed at once, so it is gone whatever the timing); the command ends
+    # quietly with SIGPIPE's status, no BrokenPipeError traceback
+    for args in (["score", str(rec), str(tracks)], ["estimators"]):
+        p = subprocess.Popen([sys.executable, "-m", "trackroom", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+        p.stdout.close()
+        err = p.stderr.read()
+        assert p.wait(timeout=300) == 141 and err == "", (args, err)
 
 
 def test_rendered_frames_and_contact_sheets(tmp_path):

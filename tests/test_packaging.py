@@ -46,10 +46,14 @@ def test_site_packages_holds_trackroom_and_nothing_generic(installed):
 
 def test_installed_copy_runs_outside_the_checkout(installed, tmp_path):
     py, site = installed
-    code = ("import sys, trackroom, trackroom.recording, trackroom.dataset, trackroom.metrics.score;"
-            "print(trackroom.__file__); print('mujoco' in sys.modules)")
+    code = ("import sys, trackroom, trackroom.recording, trackroom.dataset, trackroom.metrics.score,"
+            " trackroom.metrics.thresholds, trackroom.metrics.aggregate, trackroom.estimators;"
+            "trackroom.estimators.available();"
+            "print(trackroom.__file__); print('mujoco' in sys.modules);"
+            "print(any(m.startswith(('trackroom.cli', 'trackroom.compare')) for m in sys.modules))")
     out = subprocess.run([py, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True).stdout.split()
     assert out[0].startswith(str(site)), out
-    assert out[1] == "False", "reading and scoring a recording must not import the simulator"
+    assert out[1] == "False", "reading, estimating and scoring a recording must not import the simulator"
+    assert out[2] == "False", "the recording contract, estimators and metrics never import the command line"
     r = subprocess.run([py, "-m", "trackroom", "--version"], cwd=tmp_path, capture_output=True, text=True)
     assert r.returncode == 0 and r.stdout.startswith("trackroom "), r.stdout + r.stderr
