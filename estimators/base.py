@@ -33,7 +33,7 @@ from typing import Any, ClassVar, Literal, Union
 import numpy as np
 import pandas as pd
 
-from trackroom.recording import OBSERVATION_COLUMNS, Calibration, Observations, RecordingError
+from trackroom.recording import OBSERVATION_COLUMNS, STRING_COLUMNS, Calibration, Observations, RecordingError
 
 TRACK_COLUMNS = ["t", "track_id", "x", "y"]
 OPTIONAL_TRACK_COLUMNS = ["vx", "vy", "pxx", "pxy", "pyy", "phone_id"]
@@ -153,8 +153,6 @@ def check_tracks(df: pd.DataFrame, name: str = "tracks", first_line: int | None 
     return df[cols].sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)
 
 
-# Columns of the observation tables that hold names (text); every other column is a number.
-TEXT_COLUMNS = ("camera", "label", "phone_id")
 TIME_TOL = 1e-6  # s: an observation this far outside [0, duration] is still taken as inside
 # Image coordinates (pixels) and the camera dimension they run along.
 IMAGE_COLUMNS = {
@@ -195,7 +193,7 @@ def check_observations(observations: Observations, calibration: Calibration) -> 
             tables[kind] = df
             continue
         for c in cols:
-            if c in TEXT_COLUMNS:
+            if c in STRING_COLUMNS:  # names (text); every other observation column is a number
                 bad = df[c].isna().to_numpy()
                 if bad.any():
                     raise RecordingError(f"{kind}: missing value in column {c!r} (first at row {int(np.argmax(bad))})")

@@ -339,15 +339,17 @@ def stale_reason(folder: Path, key: dict[str, Any]) -> str | None:
     return None
 
 
-def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cache: str | None, command: list[str] | None = None):
+def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cache: str | None, command: list[str] | None = None,
+                  resolved=None):
     """Read the cached recording when its key matches, or simulate it (and write it to the cache);
-    returns (recording, simulation seconds, 0 when read)."""
+    returns (recording, simulation seconds, 0 when read). ``resolved``: the scene already loaded."""
     from trackroom.scenes import load_scene
     from trackroom.dataset import read_recording, write_recording
     from trackroom.recording import RecordingError
     from trackroom.sim.simulate import simulate
 
-    resolved = load_scene(scene.name, list(scene.overrides))
+    if resolved is None:
+        resolved = load_scene(scene.name, list(scene.overrides))
     folder = recording_folder(cache, scene, seed, duration, sensing) if cache else None
     if folder is not None and folder.exists():
         reason = stale_reason(folder, cache_key(resolved, seed, duration, sensing))
@@ -445,7 +447,8 @@ def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path 
     from trackroom.scenes.loader import scene_sha256
 
     load_plugins(spec.plugins)  # a worker process started afresh knows only the bundled estimators
-    scene_hash = scene_sha256(load_scene(scene.name, list(scene.overrides)))
+    resolved = load_scene(scene.name, list(scene.overrides))
+    scene_hash = scene_sha256(resolved)
     rec = sim_s = None
     rows, series, reused = [], [], 0
     for est in spec.estimators:
@@ -460,7 +463,7 @@ def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path 
             reused += 1
             continue
         if rec is None:
-            rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings, command)
+            rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings, command, resolved)
         base = {"scene": scene.key, "seed": seed, "sensing": spec.sensing, "estimator": est.key,
                 "duration": spec.duration, "overrides": ";".join(scene.overrides),
                 "params": ";".join(f"{k}={_text(v)}" for k, v in est.params), "sim_s": sim_s}

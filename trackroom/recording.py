@@ -58,7 +58,7 @@ class RecordingError(ValueError):
 
 def empty_table(kind: str) -> pd.DataFrame:
     cols = OBSERVATION_COLUMNS.get(kind) or TRUTH_COLUMNS[kind]
-    return pd.DataFrame({c: pd.Series(dtype=object if c in ("camera", "label", "phone_id", "person_id") else float) for c in cols})
+    return pd.DataFrame({c: pd.Series(dtype=object if c in STRING_COLUMNS else float) for c in cols})
 
 
 def check_table(kind: str, df: pd.DataFrame) -> pd.DataFrame:

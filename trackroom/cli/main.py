@@ -40,11 +40,23 @@ def _version_line() -> str:
     return f"trackroom {v['trackroom']}{commit}"
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: the version line is computed only when asked for (it runs git)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help="show the version (and the git commit of a checkout) and exit"):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version_line())
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     import trackroom.cli.commands as pkg
 
     parser = argparse.ArgumentParser(prog="trackroom", description="Tracking testbed: scenes, simulation, estimators, metrics.")
-    parser.add_argument("--version", action="version", version=_version_line())
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
         mod = importlib.import_module(f"{pkg.__name__}.{info.name}")
