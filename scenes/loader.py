@@ -402,6 +402,10 @@ class _Validator:
                 continue
             if k == "magnetic_field":
                 kw[k] = self.vector(node, k, "sensors", 3)
+            elif k == "perception":
+                kw[k] = self.string(node, k, "sensors")
+                if not kw[k].strip():
+                    self.fail("sensors.perception", "expected \"fitted\", \"ideal\" or a perception model file, got an empty string")
             else:
                 positive = k.endswith("rate")
                 kw[k] = self.number(node, k, "sensors", getattr(d, k), positive=positive, nonneg=True)

@@ -242,6 +242,12 @@ class SensorSpec:
     flow_min_px_s: image speed (px/s) of a person's centre below which an optical-flow tracker
     finds no moving region, so an oblique camera reports no window (a person standing still);
     3 px/s = the rendered tracker's 0.3 px/frame at 10 fps (simulator only).
+    perception: how analytic sensing turns geometry into detections (simulator only):
+    ``"fitted"`` (default) the bundled perception model fitted on rendered recordings
+    (``sim/perception_model.py``: misses, merges, label confusion, false detections, tracker ids,
+    measured error distributions), ``"ideal"`` every visible person detected with exact labels and
+    the Gaussian noise above, or the path of a model file written by ``trackroom calibrate-sensing``
+    (relative to the working directory).
     """
 
     bearing_sigma_px: float = 1.0
@@ -257,6 +263,7 @@ class SensorSpec:
     sim_rate: float = 100.0
     flow_sigma_px_s: float = 5.0
     flow_min_px_s: float = 3.0
+    perception: str = "fitted"
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,8 @@ class CameraGeometry:
     uv: np.ndarray  # (F, P, 2) projected body centre
     depth: np.ndarray  # (F, P)
     in_fov: np.ndarray  # (F, P) bool
-    edges: np.ndarray | None = None  # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique)
+    edges: np.ndarray | None = None  # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique), clipped to the image
+    span: np.ndarray | None = None  # (F, P, 2) u extent of the projected cylinder, not clipped (horizontal, oblique)
     flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
 
 
@@ -90,7 +91,7 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
         lo, hi = np.minimum(v_foot, v_head), np.maximum(v_foot, v_head)
         in_fov = (depth > 1e-6) & (uv[..., 0] >= 0) & (uv[..., 0] < cam.width) & (hi >= 0) & (lo < cam.height)
     geo = CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov)
-    if cam.kind == "oblique":
+    if cam.kind != "overhead":
         ang = np.linspace(0, 2 * np.pi, CIRCLE_SAMPLES, endpoint=False)
         ring = np.stack([np.cos(ang), np.sin(ang)], -1)  # (S, 2)
         base = c[..., None, :2] + radii[None, :, None, None] * ring  # (F, P, S, 2)
@@ -103,6 +104,9 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
             axis=-2,
         )
         puv, _ = cam.project(pts)
+        geo.span = np.stack([puv[..., 0].min(-1), puv[..., 0].max(-1)], -1)
+        if cam.kind == "horizontal":
+            return geo
         edges = np.stack(
             [puv[..., 0].min(-1), puv[..., 0].max(-1), puv[..., 1].min(-1), puv[..., 1].max(-1)], -1
         )
@@ -133,6 +137,7 @@ class Occlusion:
         self.world, self.scene, self.traj, self.geometry = world, scene, traj, geometry
         self.heights = np.array([w.height for w in scene.walkers])
         self.visible = {name: np.zeros_like(g.in_fov) for name, g in geometry.items()}
+        self.fraction = {name: np.zeros(g.in_fov.shape) for name, g in geometry.items()}  # share of rays that reach the person
         self.cams = [scene.camera(name) for name in geometry]
         V = len(VIS_FRACTIONS)
         self._own = np.asarray(world.person_geom, np.int32)
@@ -173,12 +178,16 @@ class Occlusion:
             ray(m, d, origin, vec, None, 1, -1, geomid, dist, None, nray, cutoff)
         self.done.add(k)
 
-    def _seen(self, geomid, dist, length, people) -> np.ndarray:
-        """A person is seen when any of their V rays first hits their own capsule, hits nothing,
-        or hits something only beyond the target point."""
+    def _rays(self, geomid, dist, length, people) -> np.ndarray:
+        """(R, V) bool: a ray reaches its point when it first hits the person's own capsule, hits
+        nothing, or hits something only beyond the point."""
         own = np.repeat(self._own[people], len(VIS_FRACTIONS))
         seen = (geomid == own) | (geomid < 0) | (dist >= length.ravel() - 1e-6)
-        return seen.reshape(len(people), -1).any(axis=1)
+        return seen.reshape(len(people), -1)
+
+    def _seen(self, geomid, dist, length, people) -> np.ndarray:
+        """A person is seen when any of their V rays reaches them."""
+        return self._rays(geomid, dist, length, people).any(axis=1)
 
     def cast(self, cam: Camera, k: int, people: np.ndarray) -> np.ndarray:
         """Visible flags of ``people`` from ``cam`` with the world posed at step k (any step)."""
@@ -199,10 +208,13 @@ class Occlusion:
             self.world.set_pose(self.traj, k)
             self.on_step(k)
         for cam, (f_idx, p_idx, length, geomid, dist) in zip(self.cams, self._cams):
-            vis = self.visible[cam.name]
+            vis, frac = self.visible[cam.name], self.fraction[cam.name]
             vis[:] = False
+            frac[:] = 0.0
             if len(f_idx):
-                vis[f_idx, p_idx] = self._seen(geomid, dist, length, p_idx)
+                rays = self._rays(geomid, dist, length, p_idx)
+                vis[f_idx, p_idx] = rays.any(axis=1)
+                frac[f_idx, p_idx] = rays.mean(axis=1)
 
 
 def camera_geometry(scene: Scene, traj: Trajectories) -> dict[str, CameraGeometry]:
@@ -302,3 +314,36 @@ def visibility_table(scene: Scene, traj: Trajectories, geometry: dict[str, Camer
     if not frames:
         return pd.DataFrame({"t": pd.Series(dtype=float), "camera": pd.Series(dtype=object), "person_id": pd.Series(dtype=object), "in_fov": pd.Series(dtype=bool), "visible": pd.Series(dtype=bool)})
     return pd.concat(frames, ignore_index=True).sort_values(["t", "camera"], kind="mergesort", ignore_index=True)
+
+
+def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], fraction: dict[str, np.ndarray],
+                                rngs: dict[str, np.random.Generator], model) -> dict[str, pd.DataFrame]:
+    """bearings, boxes, floor_detections from the geometry through a fitted perception model
+    (``sim.perception_model``, ``sim.analytic_detectors``): misses, merges, label confusion,
+    false detections and tracker ids as the rendered detectors make them."""
+    from . import analytic_detectors as det
+
+    colours = [w.color_name for w in scene.walkers]
+    palette = sorted(set(colours))
+    outline = np.asarray(scene.floorplan.outline, float)
+    bounds = (*outline.min(axis=0), *outline.max(axis=0))
+    out: dict[str, list] = {"bearings": [], "boxes": [], "floor_detections": []}
+    for cam in scene.cameras:
+        g, frac, rng = geometry[cam.name], fraction[cam.name], rngs[cam.name]
+        t = traj.t[g.steps]
+        if cam.kind in ("horizontal", "oblique"):
+            out["bearings"].append(det.blobs(cam, g, frac, t, model[cam.kind], rng, colours, palette))
+        if cam.kind == "oblique":
+            out["boxes"].append(det.windows(cam, g, frac, t, model["windows"], rng))
+        if cam.kind == "overhead":
+            m = model["privacy" if cam.privacy else "overhead"]
+            out["floor_detections"].append(det.floor(cam, g, frac, traj, t, m, rng, bounds))
+    tables = {}
+    for kind, key in (("bearings", "u"), ("boxes", "u"), ("floor_detections", "x")):
+        parts = [d for d in out[kind] if d is not None]
+        if parts:
+            df = pd.concat(parts, ignore_index=True)
+            if kind == "boxes":
+                df["track"] = df["track"].astype(np.int64)
+            tables[kind] = _sorted(df, key)
+    return tables

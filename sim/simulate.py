@@ -38,13 +38,32 @@ from .world import build_world
 # ``SensorSpec`` fields that configure the simulated detectors (a privacy camera's blindness to
 # people slower than ``still_speed``, the flow tracker's ``flow_min_px_s``): the simulator's own
 # knobs, not measurements, so they stay out of ``calibration.noise`` (calibration/sensors.json).
-SIMULATOR_ONLY = ("still_speed", "flow_min_px_s")
+SIMULATOR_ONLY = ("still_speed", "flow_min_px_s", "perception")
 
 
-def calibration_noise(scene: Scene, sensing: str = "analytic") -> dict:
+def perception_model(scene: Scene):
+    """The perception model analytic sensing of ``scene`` uses (``sensors.perception``); a file
+    that cannot be used is a ValueError naming the option."""
+    from .perception_model import ModelError, load_model
+
+    try:
+        return load_model(scene.sensors.perception)
+    except ModelError as e:
+        raise ValueError(f"sensors.perception: {e}") from None
+
+
+def calibration_noise(scene: Scene, sensing: str = "analytic", model=None) -> dict:
     """``calibration.noise`` of a recording of ``scene``: the ``sensors`` figures but
-    ``SIMULATOR_ONLY``, with a rendered recording's measured window noise."""
+    ``SIMULATOR_ONLY``, with a rendered recording's measured window noise, or, for analytic
+    sensing through a fitted perception ``model``, the model's measured noise figures."""
     noise = {k: v for k, v in dataclasses.asdict(scene.sensors).items() if k not in SIMULATOR_ONLY}
+    if sensing == "analytic" and model is not None and not model.ideal:
+        figures = model.noise_figures({c.kind for c in scene.cameras})
+        overhead = [c for c in scene.cameras if c.kind == "overhead"]
+        privacy = figures.pop("privacy_floor_sigma_m")
+        if overhead and all(c.privacy for c in overhead):
+            figures["floor_sigma_m"] = privacy
+        noise.update(figures)
     if sensing == "rendered":
         # the rendered boxes come from the flow detector: declare its measured window noise
         noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
@@ -136,6 +155,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be a positive, finite number of seconds, got {duration}")
+    model = perception_model(scene) if sensing == "analytic" else None
     rng = np.random.default_rng(seed)
     motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)
     cam_rngs = dict(zip([c.name for c in scene.cameras], cam_rng.spawn(len(scene.cameras))))
@@ -164,7 +184,10 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     truth_tables = {"people": truth_people(scene, traj)}
     if sensing == "analytic":
         occlusion.finish()
-        tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
+        if model.ideal:
+            tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
+        else:
+            tables.update(analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model))
         truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
     else:
         try:
@@ -198,6 +221,6 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         "versions": versions(),
     }
     calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan,
-                              noise=calibration_noise(scene, sensing))
+                              noise=calibration_noise(scene, sensing, model))
     return Recording(calibration=calibration, observations=Observations(tables, float(duration)), truth=Truth(truth_tables), meta=meta,
                      scene_toml=scene_toml(scene))

@@ -1,0 +1,299 @@
+"""Analytic detectors: a fitted perception model (``sim.perception_model``) applied to analytic
+geometry (``sim.analytic``), one camera at a time.
+
+Per camera frame: the people in the field of view are detected with P(detect | features) (misses
+correlated from frame to frame), detected people whose images overlap (floor positions lie close,
+overhead) merge into one detection with P(merge | overlap), each detection gets its measurement
+error from the fitted error quantiles, labels are confused with the scene's other appearance
+classes, false detections are added; oblique windows carry the camera tracker's ids (continued,
+restarted, merged, swapped at a split). The tables keep the detectors' columns only.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from trackroom.scenes.camera import Camera
+
+from .perception_model import DetectorModel, correlated_uniforms
+
+
+def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: float) -> np.ndarray:
+    """(F, P) bool: candidates kept where the copula uniform falls below P(detect)."""
+    if not cand.any():
+        return cand.copy()
+    return cand & (correlated_uniforms(rng, cand.shape, rho) < p)
+
+
+def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, eligible: np.ndarray,
+                m: DetectorModel) -> np.ndarray:
+    """(F, P) index of the detection each person is reported in: p itself, or the lowest index of
+    the group of overlapping detected people it merged with. ``feature`` and ``eligible`` are
+    (F, pairs) over ``np.triu_indices(P, 1)``; pair merges chain into groups."""
+    F, P = det.shape
+    root = np.broadcast_to(np.arange(P), (F, P)).copy()
+    if P < 2 or not eligible.any():
+        return root
+    iu, ju = np.triu_indices(P, 1)
+    u = correlated_uniforms(rng, eligible.shape, m.rho)
+    merge = eligible & det[:, iu] & det[:, ju] & (u < m.merge(feature))
+    for f, k in zip(*np.nonzero(merge)):
+        r = root[f]
+        a, b = r[iu[k]], r[ju[k]]
+        if a != b:
+            lo, hi = min(a, b), max(a, b)
+            r[r == hi] = lo
+    return root
+
+
+def span_pairs(lo: np.ndarray, hi: np.ndarray):
+    """Overlap of two intervals / the narrower one, over all pairs: (F, pairs), and > 0 flags."""
+    P = lo.shape[1]
+    iu, ju = np.triu_indices(P, 1)
+    inter = np.minimum(hi[:, iu], hi[:, ju]) - np.maximum(lo[:, iu], lo[:, ju])
+    width = np.maximum(np.minimum(hi[:, iu] - lo[:, iu], hi[:, ju] - lo[:, ju]), 1e-9)
+    o = inter / width
+    return o, o > 0
+
+
+def _groups(root: np.ndarray, det: np.ndarray):
+    """(frame, root person) of each reported detection, and per-person (F, P) group membership."""
+    f, p = np.nonzero(det & (root == np.arange(root.shape[1])))
+    return f, p
+
+
+def visible_span(g, width: float):
+    """Clipped image span [a, b] of each person, its clip share and centre."""
+    a = np.clip(g.span[..., 0], 0, width)
+    b = np.clip(g.span[..., 1], 0, width)
+    full = np.maximum(g.span[..., 1] - g.span[..., 0], 1e-9)
+    return a, b, np.clip((b - a) / full, 0, 1)
+
+
+def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
+          colours: list[str], palette: list[str]) -> pd.DataFrame | None:
+    """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
+    a, b, clip = visible_span(g, cam.width)
+    cand = g.in_fov & (clip > 0)
+    det = detected(rng, cand, m.detect(frac, clip), m.rho)
+    o, ok = span_pairs(a, b)
+    root = merge_roots(rng, det, o, ok, m)
+    F, P = det.shape
+    lo, hi = a.copy(), b.copy()
+    for r in range(P):  # a merged detection spans its members
+        member = det & (root == r)
+        grp = member.any(axis=1)
+        if grp.any():
+            lo[grp, r] = np.where(member[grp], a[grp], np.inf).min(axis=1)
+            hi[grp, r] = np.where(member[grp], b[grp], -np.inf).max(axis=1)
+    f, p = _groups(root, det)
+    n = len(f)
+    clipped = clip[f, p] < 0.999
+    err = np.where(clipped, m.error("u_clip").sample(rng, n), m.error("u").sample(rng, n))
+    u = 0.5 * (lo[f, p] + hi[f, p]) + err
+    lab_idx = np.array([palette.index(c) for c in colours], int)[p] if n else np.zeros(0, int)
+    lab_idx = _confuse(rng, lab_idx, m.label, len(palette))
+    # false detections
+    k = rng.poisson(m.clutter, len(g.steps)) if m.clutter > 0 else np.zeros(len(g.steps), int)
+    fc = np.repeat(np.arange(len(g.steps)), k)
+    u = np.concatenate([u, rng.uniform(0, cam.width, len(fc))])
+    lab_idx = np.concatenate([lab_idx, rng.integers(0, len(palette), len(fc))])
+    f = np.concatenate([f, fc])
+    keep = (u >= 0) & (u < cam.width)
+    if not keep.any():
+        return None
+    from .analytic import str_column
+
+    return pd.DataFrame({"t": t[f[keep]], "camera": cam.name, "u": u[keep], "label": str_column(palette, lab_idx[keep])})
+
+
+def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarray:
+    """Labels kept with probability ``accuracy``, else another class drawn uniformly."""
+    if n_classes < 2 or accuracy >= 1 or len(idx) == 0:
+        return idx
+    wrong = rng.random(len(idx)) >= accuracy
+    shift = rng.integers(1, n_classes, len(idx))
+    return np.where(wrong, (idx + shift) % n_classes, idx)
+
+
+def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator) -> pd.DataFrame | None:
+    """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
+    e = g.edges
+    _, _, clip = visible_span(g, cam.width)
+    speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
+    cand = g.in_fov & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    det = detected(rng, cand, m.detect(frac, speed), m.rho)
+    o, ok = span_pairs(e[..., 0], e[..., 1])
+    vo, vok = span_pairs(e[..., 2], e[..., 3])
+    root = merge_roots(rng, det, o, ok & vok, m)
+    F, P = det.shape
+    ids = WindowIds(P, m, rng)
+    out_f, out_e, out_fl, out_id = [], [], [], []
+    for f in range(F):
+        groups = {}
+        for p in np.nonzero(det[f])[0]:
+            groups.setdefault(int(root[f, p]), []).append(int(p))
+        members = list(groups.values())
+        tids = ids.step(f, members)
+        for mem, tid in zip(members, tids):
+            ee = e[f, mem]
+            out_f.append(f)
+            out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
+            out_fl.append(g.flow[f, mem].mean(axis=0))
+            out_id.append(tid)
+    n = len(out_f)
+    f = np.asarray(out_f, int)
+    edges = np.asarray(out_e, float).reshape(n, 4)
+    flow = np.asarray(out_fl, float).reshape(n, 2)
+    tid = np.asarray(out_id, np.int64)
+    for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
+        edges[:, j] += m.error(name).sample(rng, n)
+    flow[:, 0] += m.error("flow_u").sample(rng, n)
+    flow[:, 1] += m.error("flow_v").sample(rng, n)
+    cf, ce, cfl, cid = ids.clutter(F, cam)
+    f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf), (edges, ce), (flow, cfl), (tid, cid)))
+    edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
+    edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
+    keep = (edges[:, 1] > edges[:, 0]) & (edges[:, 3] > edges[:, 2])
+    if not keep.any():
+        return None
+    edges, f = edges[keep], f[keep]
+    return pd.DataFrame({
+        "t": t[f], "camera": cam.name, "track": tid[keep], "u": 0.5 * (edges[:, 0] + edges[:, 1]),
+        "u_left": edges[:, 0], "u_right": edges[:, 1], "v_top": edges[:, 2], "v_bottom": edges[:, 3],
+        "flow_u": flow[keep, 0], "flow_v": flow[keep, 1],
+    })
+
+
+class WindowIds:
+    """A flow tracker's window ids from who is in which window, frame by frame.
+
+    A window continues the id of the window its members were in within ``max_gap`` frames (a
+    merged window: the oldest such id); with ``restart`` per frame a continuing window gets a new
+    id. Two windows claiming one id (a merged window splitting): the id goes to the window holding
+    the person whose id it was, unless ``swap`` hands it to the other; the other window takes its
+    members' own earlier id if still alive, else a new one. Ids are never reused.
+    """
+
+    def __init__(self, n_people: int, m: DetectorModel, rng: np.random.Generator):
+        self.m, self.rng = m, rng
+        self.prev = np.full(n_people, -1, np.int64)  # id of the window each person was last in
+        self.prev_f = np.full(n_people, -(10**9))
+        self.own = np.full(n_people, -1, np.int64)  # id of each person's last window of their own
+        self.own_f = np.full(n_people, -(10**9))
+        self.owner: dict[int, int] = {}
+        self.next_id = 0
+
+    def _new(self) -> int:
+        self.next_id += 1
+        return self.next_id - 1
+
+    def step(self, f: int, groups: list[list[int]]) -> list[int]:
+        alive = lambda fr: f - fr <= self.m.max_gap + 1  # noqa: E731
+        claims = []
+        for mem in groups:
+            prior = sorted({int(self.prev[p]) for p in mem if self.prev[p] >= 0 and alive(self.prev_f[p])})
+            claims.append(prior)
+        out = [-1] * len(groups)
+        taken: set[int] = set()
+        # ids claimed by more than one window: a split
+        wanted: dict[int, list[int]] = {}
+        for gi, prior in enumerate(claims):
+            if prior:
+                wanted.setdefault(prior[0], []).append(gi)
+        for tid, gis in wanted.items():
+            if len(gis) == 1:
+                winner = gis[0]
+            else:
+                owner = self.owner.get(tid, -1)
+                holders = [gi for gi in gis if owner in groups[gi]]
+                others = [gi for gi in gis if gi not in holders]
+                if holders and (not others or self.rng.random() >= self.m.swap):
+                    winner = holders[0]
+                else:
+                    winner = others[int(self.rng.integers(len(others)))] if others else gis[0]
+            out[winner] = tid
+            taken.add(tid)
+        for gi, mem in enumerate(groups):
+            if out[gi] >= 0:
+                if len(mem) == 1 and len(claims[gi]) == 1 and self.m.restart > 0 and self.rng.random() < self.m.restart:
+                    out[gi] = self._new()
+                continue
+            back = [int(self.own[p]) for p in mem if self.own[p] >= 0 and alive(self.own_f[p]) and self.own[p] not in taken]
+            out[gi] = back[0] if back else self._new()
+            taken.add(out[gi])
+        for mem, tid in zip(groups, out):
+            for p in mem:
+                self.prev[p], self.prev_f[p] = tid, f
+            if len(mem) == 1:
+                self.own[mem[0]], self.own_f[mem[0]] = tid, f
+                self.owner[tid] = mem[0]
+            elif tid not in self.owner:
+                self.owner[tid] = mem[0]
+        return out
+
+    def clutter(self, n_frames: int, cam: Camera):
+        """False windows: born Poisson(clutter / clutter_frames) per frame, each living a
+        geometric number of frames (mean ``clutter_frames``) in place, with its own id."""
+        m, rng = self.m, self.rng
+        empty = (np.zeros(0, int), np.zeros((0, 4)), np.zeros((0, 2)), np.zeros(0, np.int64))
+        if m.clutter <= 0 or n_frames == 0:
+            return empty
+        births = rng.poisson(m.clutter / m.clutter_frames, n_frames)
+        f0 = np.repeat(np.arange(n_frames), births)
+        if len(f0) == 0:
+            return empty
+        life = rng.geometric(1.0 / m.clutter_frames, len(f0))
+        w = np.maximum(m.error("clutter_w").sample(rng, len(f0)), 2.0)
+        h = np.maximum(m.error("clutter_h").sample(rng, len(f0)), 2.0)
+        cu, cv = rng.uniform(0, cam.width, len(f0)), rng.uniform(0, cam.height, len(f0))
+        fl = np.stack([m.error("flow_u").sample(rng, len(f0)), m.error("flow_v").sample(rng, len(f0))], -1)
+        ids = np.array([self._new() for _ in f0], np.int64)
+        k = np.repeat(np.arange(len(f0)), life)
+        frame = f0[k] + (np.arange(len(k)) - np.repeat(np.cumsum(life) - life, life))
+        ok = frame < n_frames
+        k, frame = k[ok], frame[ok]
+        edges = np.stack([cu[k] - w[k] / 2, cu[k] + w[k] / 2, cv[k] - h[k] / 2, cv[k] + h[k] / 2], -1)
+        return frame, edges, fl[k], ids[k]
+
+
+def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
+          bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
+    """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
+    xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)  # (F, P, 2)
+    speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    det = detected(rng, g.in_fov, m.detect(frac, speed), m.rho)
+    F, P = det.shape
+    iu, ju = np.triu_indices(P, 1)
+    gap = np.hypot(*(xy[:, iu] - xy[:, ju]).transpose(2, 0, 1)) if P > 1 else np.zeros((F, 0))
+    edges = m.merge.edges[0]
+    reach = edges[-2] if len(edges) > 2 else 0.0
+    root = merge_roots(rng, det, gap, gap < reach, m)
+    f, p = _groups(root, det)
+    pos = xy[f, p]
+    grouped = det[f] & (root[f] == p[:, None])  # (n, P) members of each detection
+    cnt = grouped.sum(axis=1)
+    if (cnt > 1).any():
+        many = cnt > 1
+        pos[many] = (grouped[many][..., None] * xy[f[many]]).sum(axis=1) / cnt[many, None]
+    n = len(f)
+    err = m.error("xy")
+    e = np.stack([err.sample(rng, n), err.sample(rng, n)], -1)
+    if cam.quantum > 0 and err.sigma > 0:
+        # the fitted residuals of a quantising camera include its rounding (variance q^2 / 12),
+        # which the rounding below adds again: keep only the rest of the scatter
+        keep = np.sqrt(max(0.0, err.sigma**2 - cam.quantum**2 / 12)) / err.sigma
+        e = err.bias + (e - err.bias) * keep
+    pos = pos + e
+    k = rng.poisson(m.clutter, F) if m.clutter > 0 else np.zeros(F, int)
+    fc = np.repeat(np.arange(F), k)
+    x0, y0, x1, y1 = cam.region if cam.region is not None else bounds
+    clutter = np.stack([rng.uniform(x0, x1, len(fc)), rng.uniform(y0, y1, len(fc))], -1)
+    f = np.concatenate([f, fc])
+    pos = np.concatenate([pos, clutter])
+    keep_region = cam.in_region(pos)
+    if cam.quantum > 0:
+        pos = cam.quantum * np.round(pos / cam.quantum)
+    if not keep_region.any():
+        return None
+    return pd.DataFrame({"t": t[f[keep_region]], "camera": cam.name, "x": pos[keep_region, 0], "y": pos[keep_region, 1]})

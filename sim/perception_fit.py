@@ -1,0 +1,458 @@
+"""Fitting the perception model (``sim.perception_model``) to rendered recordings, and measuring
+any recording's detector statistics the same way.
+
+``measure(rec, scene)`` re-plans the recording's walkers from its seed (the motion stream does not
+depend on the sensing mode, so the paths are the rendered ones), computes the analytic features of
+every camera frame and person (``sim.analytic``: field of view, share of occlusion rays that reach
+the person, image span and its clipped share, window, image or floor speed), matches the
+recording's detections to people (``linear_sum_assignment``, per camera frame), and collects:
+
+  candidates  features and outcome (a detection of its own, merged into another's, or missed);
+  pairs       overlapping (image) or close (floor) detected people, and whether they merged;
+  errors      detection minus the analytic reference, for detections of one person;
+  labels      whether a blob's label is the person's colour;
+  ids         (windows) continuing windows whose id changed, and who inherits a merged window's id
+              when it splits;
+  clutter     detections nobody explains, per camera frame.
+
+``fit(stats)`` turns the rendered statistics into a model; ``summary(stats)`` gives the per-detector
+figures ``trackroom calibrate-sensing`` prints for rendered and analytic recordings side by side.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+
+from trackroom.scenes.spec import Scene
+
+from .analytic_detectors import span_pairs, visible_span
+from .perception_model import DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
+
+INF = float("inf")
+SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
+CLIP_EDGES = [-INF, 0.25, 0.5, 0.75, 0.999, INF]
+IMAGE_SPEED_EDGES = [-INF, 3, 6, 12, 25, 50, INF]  # px/s
+FLOOR_SPEED_EDGES = [-INF, 0.05, 0.1, 0.2, 0.4, 0.8, INF]  # m/s (privacy cameras)
+OVERLAP_EDGES = [-INF, 0.25, 0.5, 0.75, INF]
+GAP_EDGES = [0.0, 0.3, 0.45, 0.6, 0.8, 1.2, INF]  # m; pairs nearer than 1.2 m may merge
+GATE_PX = 10.0  # a blob explains a person when it lies within the person's span +- GATE_PX
+IOU_GATE = 0.1  # a window explains a person's projected window at this IoU
+FLOOR_GATE_M = 0.75
+REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
+RHO_GRID = (0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998)
+
+
+@dataclass
+class DetectorStats:
+    feats: list = field(default_factory=list)  # per candidate: feature tuple
+    hit: list = field(default_factory=list)
+    own: list = field(default_factory=list)  # a detection of its own (not merged)
+    runs: list = field(default_factory=list)  # (sequence key, frame, candidate index)
+    pair_feat: list = field(default_factory=list)
+    pair_merged: list = field(default_factory=list)
+    errors: dict = field(default_factory=lambda: defaultdict(list))
+    label_ok: list = field(default_factory=list)
+    frames: int = 0
+    clutter: int = 0
+    clutter_ids: set = field(default_factory=set)
+    continuing: int = 0
+    restarts: int = 0
+    splits: int = 0
+    swaps: int = 0
+
+    def arrays(self):
+        return np.asarray(self.feats, float).reshape(len(self.feats), -1), np.asarray(self.hit, bool)
+
+
+def scene_features(scene: Scene, seed: int, duration: float):
+    """(trajectories, camera geometry, ray fraction) of ``scene`` at ``seed``: the analytic view
+    of exactly the walkers a recording with that seed holds."""
+    from . import analytic
+    from .walkers import plan_trajectories
+    from .world import build_world
+
+    motion_rng = np.random.default_rng(seed).spawn(4)[0]  # the motion stream (sim.simulate)
+    traj = plan_trajectories(scene, duration, motion_rng)
+    world = build_world(scene)
+    geometry = analytic.camera_geometry(scene, traj)
+    occ = analytic.Occlusion(world, scene, traj, geometry)
+    occ.finish()
+    return traj, geometry, occ.fraction
+
+
+def _frames(df: pd.DataFrame, cam, n: int) -> dict[int, pd.DataFrame]:
+    if df is None or not len(df):
+        return {}
+    d = df[df["camera"] == cam.name]
+    j = np.rint(d["t"].to_numpy() * cam.fps).astype(int)
+    return {int(k): g for k, g in d.assign(_j=j).groupby("_j") if 0 <= k < n}
+
+
+def _assign(cost: np.ndarray, ok: np.ndarray):
+    """Rows and columns matched by minimum cost among allowed entries."""
+    if not ok.any():
+        return np.zeros(0, int), np.zeros(0, int)
+    c = np.where(ok, cost, 1e9)
+    r, k = linear_sum_assignment(c)
+    good = ok[r, k]
+    return r[good], k[good]
+
+
+def measure(rec, scene: Scene, features=None) -> dict[str, DetectorStats]:
+    """Detector statistics of a recording (see the module docstring)."""
+    seed, duration = int(rec.meta["seed"]), float(rec.meta["duration"])
+    traj, geometry, fraction = features or scene_features(scene, seed, duration)
+    obs = rec.observations.tables
+    stats = {k: DetectorStats() for k in DETECTORS}
+    colours = [w.color_name for w in scene.walkers]
+    for cam in scene.cameras:
+        g, frac = geometry[cam.name], fraction[cam.name]
+        if cam.kind in ("horizontal", "oblique"):
+            _measure_blobs(stats[cam.kind], cam, g, frac, obs.get("bearings"), colours)
+        if cam.kind == "oblique":
+            _measure_windows(stats["windows"], cam, g, frac, obs.get("boxes"))
+        if cam.kind == "overhead":
+            _measure_floor(stats["privacy" if cam.privacy else "overhead"], cam, g, frac, traj, obs.get("floor_detections"))
+    return stats
+
+
+def _candidates(s: DetectorStats, key, cand, feats, hit, own):
+    for f, p in zip(*np.nonzero(cand)):
+        s.runs.append((key, p, f, len(s.hit)))
+        s.feats.append(feats(f, p))
+        s.hit.append(bool(hit[f, p]))
+        s.own.append(bool(own[f, p]))
+
+
+def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
+    a, b, clip = visible_span(g, cam.width)
+    centre = 0.5 * (a + b)
+    cand = g.in_fov & (clip > 0)
+    F, P = cand.shape
+    by_frame = _frames(bearings, cam, F)
+    hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
+    o_all, ok_all = span_pairs(a, b)
+    iu, ju = np.triu_indices(P, 1)
+    s.frames += F
+    for f in range(F):
+        d = by_frame.get(f)
+        u = d["u"].to_numpy() if d is not None else np.zeros(0)
+        lab = d["label"].to_numpy() if d is not None else np.zeros(0, object)
+        people = np.nonzero(cand[f])[0]
+        cost = np.abs(u[:, None] - centre[f, people][None])
+        ok = (u[:, None] >= a[f, people][None] - GATE_PX) & (u[:, None] <= b[f, people][None] + GATE_PX)
+        r, k = _assign(cost, ok)
+        match = {int(people[kk]): int(rr) for rr, kk in zip(r, k)}
+        merged_with = {}
+        for p in people:
+            if p in match:
+                continue
+            for q, kk in match.items():
+                lo, hi = min(a[f, p], a[f, q]) - GATE_PX, max(b[f, p], b[f, q]) + GATE_PX
+                if min(b[f, p], b[f, q]) > max(a[f, p], a[f, q]) and lo <= u[kk] <= hi:
+                    merged_with[int(p)] = q
+                    break
+        for p, rr in match.items():
+            hit[f, p] = True
+            own[f, p] = True
+        for p, q in merged_with.items():
+            hit[f, p] = True
+            own[f, p] = own[f, q] = False
+        for p, rr in match.items():
+            if own[f, p]:
+                err = u[rr] - centre[f, p]
+                s.errors["u" if clip[f, p] >= 0.999 else "u_clip"].append(err)
+                s.label_ok.append(lab[rr] == colours[p])
+        s.clutter += len(u) - len(match)
+        # pairs of detected people whose spans overlap
+        both = hit[f, iu] & hit[f, ju] & ok_all[f]
+        for k in np.nonzero(both)[0]:
+            i, j = int(iu[k]), int(ju[k])
+            s.pair_feat.append(o_all[f, k])
+            s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], clip[f, p]), hit, own)
+
+
+def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    """IoU of windows (n, 4) x (m, 4) [u_left, u_right, v_top, v_bottom]."""
+    w = np.clip(np.minimum(e1[:, None, 1], e2[None, :, 1]) - np.maximum(e1[:, None, 0], e2[None, :, 0]), 0, None)
+    h = np.clip(np.minimum(e1[:, None, 3], e2[None, :, 3]) - np.maximum(e1[:, None, 2], e2[None, :, 2]), 0, None)
+    inter = w * h
+    area = lambda e: (e[:, 1] - e[:, 0]) * (e[:, 3] - e[:, 2])  # noqa: E731
+    return inter / np.maximum(area(e1)[:, None] + area(e2)[None] - inter, 1e-9), inter / np.maximum(area(e2)[None], 1e-9)
+
+
+def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
+    e = g.edges
+    _, _, clip = visible_span(g, cam.width)
+    speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
+    cand = g.in_fov & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    F, P = cand.shape
+    by_frame = _frames(boxes, cam, F)
+    hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
+    o_all, ok_all = span_pairs(e[..., 0], e[..., 1])
+    iu, ju = np.triu_indices(P, 1)
+    window_of = np.full((F, P), -1, np.int64)  # track id of the window each person is in
+    members = [dict() for _ in range(F)]  # track id -> people in it
+    s.frames += F
+    cols = ["u_left", "u_right", "v_top", "v_bottom"]
+    for f in range(F):
+        d = by_frame.get(f)
+        people = np.nonzero(cand[f])[0]
+        if d is None:
+            continue
+        W = d[cols].to_numpy(float)
+        fl = d[["flow_u", "flow_v"]].to_numpy(float)
+        tid = d["track"].to_numpy(np.int64)
+        iou, cover = _iou(W, e[f, people]) if len(people) else (np.zeros((len(W), 0)), np.zeros((len(W), 0)))
+        r, k = _assign(1 - iou, iou >= IOU_GATE)
+        match = {int(people[kk]): int(rr) for rr, kk in zip(r, k)}
+        merged_with = {}
+        for pi, p in enumerate(people):
+            if p in match:
+                continue
+            for q, rr in match.items():
+                if cover[rr, pi] >= 0.5 and min(e[f, p, 1], e[f, q, 1]) > max(e[f, p, 0], e[f, q, 0]):
+                    merged_with[int(p)] = q
+                    break
+        for p, rr in match.items():
+            hit[f, p] = own[f, p] = True
+            window_of[f, p] = tid[rr]
+        for p, q in merged_with.items():
+            hit[f, p] = True
+            own[f, p] = own[f, q] = False
+            window_of[f, p] = window_of[f, q]
+        for p, rr in match.items():
+            if own[f, p]:
+                for j, c in enumerate(cols):
+                    s.errors[c].append(W[rr, j] - e[f, p, j])
+                s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
+                s.errors["flow_u"].append(fl[rr, 0] - g.flow[f, p, 0])
+                s.errors["flow_v"].append(fl[rr, 1] - g.flow[f, p, 1])
+        used = set(match.values())
+        for rr in range(len(W)):
+            if rr not in used:
+                s.clutter += 1
+                s.clutter_ids.add((cam.name, int(tid[rr])))
+                s.errors["clutter_w"].append(W[rr, 1] - W[rr, 0])
+                s.errors["clutter_h"].append(W[rr, 3] - W[rr, 2])
+        for p in np.nonzero(window_of[f] >= 0)[0]:
+            members[f].setdefault(int(window_of[f, p]), []).append(int(p))
+        both = hit[f, iu] & hit[f, ju] & ok_all[f]
+        for k in np.nonzero(both)[0]:
+            i, j = int(iu[k]), int(ju[k])
+            s.pair_feat.append(o_all[f, k])
+            s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+    _window_ids(s, window_of, members, own)
+    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit, own)
+
+
+def _window_ids(s: DetectorStats, window_of, members, own):
+    """Restarts (a person's own window in consecutive frames under two ids) and swaps (a merged
+    window splits and its id stays with someone other than the person whose window it was)."""
+    F, P = window_of.shape
+    owner: dict[int, int] = {}
+    for f in range(F):
+        if f:
+            for p in range(P):
+                if own[f, p] and own[f - 1, p]:
+                    s.continuing += 1
+                    s.restarts += int(window_of[f, p] != window_of[f - 1, p])
+            for tid, mem in members[f - 1].items():
+                if len(mem) < 2 or tid not in owner:
+                    continue
+                now = [p for p in mem if own[f, p]]
+                if len(now) == len(mem) and len({int(window_of[f, p]) for p in now}) == len(now):
+                    s.splits += 1
+                    s.swaps += int(window_of[f, owner[tid]] != tid)
+        for tid, mem in members[f].items():
+            if len(mem) == 1:
+                owner[tid] = mem[0]
+
+
+def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
+    xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
+    speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    cand = g.in_fov.copy()
+    F, P = cand.shape
+    inside = np.ones((F, P), bool)
+    if cam.region is not None:
+        x0, y0, x1, y1 = cam.region
+        m = REGION_MARGIN_M
+        inside = (xy[..., 0] >= x0 + m) & (xy[..., 0] < x1 - m) & (xy[..., 1] >= y0 + m) & (xy[..., 1] < y1 - m)
+    by_frame = _frames(det, cam, F)
+    hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
+    iu, ju = np.triu_indices(P, 1)
+    s.frames += F
+    for f in range(F):
+        d = by_frame.get(f)
+        D = d[["x", "y"]].to_numpy(float) if d is not None else np.zeros((0, 2))
+        people = np.nonzero(cand[f])[0]
+        dist = np.linalg.norm(D[:, None] - xy[f, people][None], axis=2)
+        r, k = _assign(dist, dist <= FLOOR_GATE_M)
+        match = {int(people[kk]): int(rr) for rr, kk in zip(r, k)}
+        merged_with = {}
+        for pi, p in enumerate(people):
+            if p in match:
+                continue
+            for q, rr in match.items():
+                if np.linalg.norm(xy[f, p] - xy[f, q]) < GAP_EDGES[-2] and dist[rr, pi] <= FLOOR_GATE_M:
+                    merged_with[int(p)] = q
+                    break
+        for p in match:
+            hit[f, p] = own[f, p] = True
+        for p, q in merged_with.items():
+            hit[f, p] = True
+            own[f, p] = own[f, q] = False
+        for p, rr in match.items():
+            if own[f, p]:
+                s.errors["xy"].extend((D[rr] - xy[f, p]).tolist())
+        s.clutter += len(D) - len(match)
+        both = hit[f, iu] & hit[f, ju]
+        for k in np.nonzero(both)[0]:
+            i, j = int(iu[k]), int(ju[k])
+            gap = float(np.linalg.norm(xy[f, i] - xy[f, j]))
+            if gap < GAP_EDGES[-2]:
+                s.pair_feat.append(gap)
+                s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+    _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p]), hit, own)
+
+
+# ----------------------------------------------------------------------------- fitting
+def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats]:
+    """One DetectorStats per detector from several recordings' (sequence keys kept apart)."""
+    out = {k: DetectorStats() for k in DETECTORS}
+    for i, stats in enumerate(many):
+        for k, s in stats.items():
+            o = out[k]
+            base = len(o.hit)
+            o.feats += s.feats
+            o.hit += s.hit
+            o.own += s.own
+            o.runs += [((i, key), p, f, base + idx) for key, p, f, idx in s.runs]
+            o.pair_feat += s.pair_feat
+            o.pair_merged += s.pair_merged
+            for name, v in s.errors.items():
+                o.errors[name] += v
+            o.label_ok += s.label_ok
+            o.clutter_ids |= {(i, *c) for c in s.clutter_ids}
+            for a in ("frames", "clutter", "continuing", "restarts", "splits", "swaps"):
+                setattr(o, a, getattr(o, a) + getattr(s, a))
+    return out
+
+
+def miss_runs(s: DetectorStats, hits: np.ndarray | None = None) -> float:
+    """Mean length (frames) of runs of misses within consecutive candidate frames."""
+    hits = np.asarray(s.hit, bool) if hits is None else hits
+    lengths = []
+    for seq in _sequences(s):
+        run = 0
+        for h in hits[seq]:
+            if not h:
+                run += 1
+            elif run:
+                lengths.append(run)
+                run = 0
+        if run:
+            lengths.append(run)
+    return float(np.mean(lengths)) if lengths else 0.0
+
+
+def _sequences(s: DetectorStats) -> list[np.ndarray]:
+    """Candidate indices of each (recording, camera, person) in unbroken runs of frames."""
+    by: dict = defaultdict(list)
+    for key, p, f, idx in s.runs:
+        by[(key, p)].append((f, idx))
+    out = []
+    for items in by.values():
+        items.sort()
+        f = np.array([x[0] for x in items])
+        idx = np.array([x[1] for x in items])
+        for chunk in np.split(idx, np.nonzero(np.diff(f) > 1)[0] + 1):
+            out.append(chunk)
+    return out
+
+
+def fit_rho(s: DetectorStats, p: np.ndarray, seed: int = 0) -> float:
+    """The copula correlation whose simulated mean miss run matches the measured one."""
+    target = miss_runs(s)
+    if target == 0 or not len(p):
+        return 0.0
+    seqs = _sequences(s)
+    rng = np.random.default_rng(seed)
+    best, best_err = 0.0, np.inf
+    for rho in RHO_GRID:
+        sims = []
+        for _ in range(3):
+            hits = np.zeros(len(p), bool)
+            for seq in seqs:
+                hits[seq] = correlated_uniforms(rng, (len(seq), 1), rho)[:, 0] < p[seq]
+            sims.append(miss_runs(s, hits))
+        err = abs(np.mean(sims) - target)
+        if err < best_err:
+            best, best_err = rho, err
+    return best
+
+
+def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionModel:
+    """A perception model from rendered statistics (``merge_stats`` of several recordings)."""
+    from .perception_flow import FlowParams
+
+    edges = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES], "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES],
+             "overhead": [SEEN_EDGES, [-INF, INF]], "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
+    out = {}
+    for k in DETECTORS:
+        s = stats[k]
+        X, hit = s.arrays()
+        detect = Table.fit(edges[k], [X[:, 0], X[:, 1]] if len(X) else [np.zeros(0), np.zeros(0)], hit)
+        p = detect(X[:, 0], X[:, 1]) if len(X) else np.zeros(0)
+        pair_edges = GAP_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
+        merge = Table.fit([pair_edges], [np.asarray(s.pair_feat, float)], np.asarray(s.pair_merged, bool))
+        errors = {}
+        for name, v in s.errors.items():
+            errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
+        if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:
+            errors["u_clip"] = errors["u"]
+        n_clutter_ids = max(len(s.clutter_ids), 1)
+        out[k] = DetectorModel(
+            detect=detect, rho=fit_rho(s, p), merge=merge, errors=errors,
+            label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
+            clutter=s.clutter / s.frames if s.frames else 0.0,
+            clutter_frames=max(1.0, s.clutter / n_clutter_ids) if k == "windows" else 1.0,
+            restart=s.restarts / s.continuing if s.continuing else 0.0,
+            swap=(s.swaps + 1) / (s.splits + 2),
+            max_gap=FlowParams().max_missed if k == "windows" else 0,
+        )
+    return PerceptionModel(out, list(fitted_on))
+
+
+# ----------------------------------------------------------------------------- summaries
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate",
+                   "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
+
+
+def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
+    """One row per detector of the statistics calibrate-sensing compares (NaN where none)."""
+    rows = []
+    for k in DETECTORS:
+        s = stats[k]
+        err_name = "xy" if k in ("overhead", "privacy") else "u"
+        e = np.abs(np.asarray(s.errors.get(err_name, []), float))
+        rows.append({
+            "detector": k,
+            "candidates": len(s.hit),
+            "detection_rate": np.mean(s.hit) if s.hit else np.nan,
+            "miss_run": miss_runs(s) if s.hit else np.nan,
+            "err_median": np.median(e) if len(e) else np.nan,
+            "err_p90": np.quantile(e, 0.9) if len(e) else np.nan,
+            "merge_rate": np.mean(s.pair_merged) if s.pair_merged else np.nan,
+            "id_restart_rate": s.restarts / s.continuing if s.continuing else np.nan,
+            "split_swap_rate": s.swaps / s.splits if s.splits else np.nan,
+            "label_accuracy": np.mean(s.label_ok) if s.label_ok else np.nan,
+            "clutter_per_frame": s.clutter / s.frames if s.frames else np.nan,
+        })
+    return pd.DataFrame(rows)

@@ -1,0 +1,293 @@
+"""The perception model of analytic sensing: what a rendered detector does, in statistics.
+
+Analytic sensing projects people through the camera model and casts occlusion rays; this model
+turns that geometry into what the rendered detectors (``sim.perception``, ``sim.perception_flow``,
+``sim.perception_privacy``) would have reported in the same situation, with parameters fitted from
+rendered recordings (``sim.perception_fit``, ``trackroom calibrate-sensing``). The observation
+tables keep the detectors' columns only: no column holds or encodes a person id (truth drives the
+simulation of misses, merges and id switches, as a simulator's truth does).
+
+Features, per camera frame and person in the field of view (``sim.analytic``):
+  seen     share of the three occlusion rays (body centre, chest, head) that reach the person:
+           0, 1/3, 2/3, 1 (0: in the field of view, all rays blocked; legs may still show);
+  clip     share of the person's image width (the projected cylinder) inside the image;
+  speed    image speed of the body centre (px/s, oblique windows) or floor speed (m/s, privacy);
+  overlap  for a pair of people in one image: overlap of their image spans / the narrower span;
+  gap      for a pair on the floor (overhead): their distance (m).
+
+Per detector (``DetectorModel``; bearing blobs of horizontal cameras, bearing blobs of oblique
+cameras, oblique flow windows, overhead regular and privacy floor detections):
+  detect   P(reported | features): a ``Table`` over bins, fitted as counts with shrinkage towards
+           the pooled rate. Misses come in runs as the rendered ones do: the uniforms compared with
+           P are a Gaussian AR(1) copula per person and camera with frame correlation ``rho``,
+           fitted so the mean run of misses matches the rendered one.
+  merge    P(two people give one detection | overlap or gap): the merged detection spans both
+           (union of their image spans / windows, mean floor position), and carries the merged
+           people's measurement errors once.
+  errors   ``Quantiles`` of the measurement error against the analytic reference (the centre of
+           the visible part of the person's image span; the clipped window edges; the projected
+           flow; the floor position): bias, scatter and tails in one inverse-CDF table.
+  label    P(the appearance label is the person's own colour); otherwise another colour of the
+           scene's palette, drawn uniformly (the label is an appearance class, never an id).
+  clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
+           region); windows of clutter live a geometric number of frames (``clutter_frames``).
+  ids      (flow windows) the camera tracker's id: kept while the person's window continues (gaps
+           up to ``max_gap`` frames), a new id after a longer gap or spontaneously with
+           ``restart`` per frame; a merged window keeps its oldest member's id, and when it splits
+           the id goes to the wrong person with ``swap``.
+
+The model is one JSON file (``PerceptionModel.save``); the bundled ``perception_default.json`` was
+fitted on the bundled scenes' development seeds (docs/sensing.md). ``load_model("ideal")`` is the
+old analytic sensing: every visible person detected, exact labels, Gaussian noise from the
+scene's ``sensors`` figures, per-person window ids.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.special import ndtr
+
+DEFAULT_FILE = Path(__file__).with_name("perception_default.json")
+FORMAT = "trackroom-perception-model/1"
+DETECTORS = ("horizontal", "oblique", "windows", "overhead", "privacy")
+# horizontal: bearing blobs of horizontal cameras; oblique: bearing blobs of oblique cameras;
+# windows: oblique cameras' flow windows; overhead, privacy: floor detections of overhead cameras
+
+# quantile levels of an error table (the ends are the 0.5 % and 99.5 % quantiles)
+LEVELS = (0.005, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.995)
+
+
+class ModelError(ValueError):
+    """A perception model file that cannot be used (names the file and the problem)."""
+
+
+@dataclass
+class Table:
+    """P(event | binned features): ``edges[i]`` are the bin edges of feature i; ``p`` has one
+    entry per bin combination. Values beyond the outer edges fall in the outer bins."""
+
+    edges: list[list[float]]
+    p: np.ndarray
+    n: np.ndarray | None = None  # trials per bin (fitted tables)
+
+    def __call__(self, *features: np.ndarray) -> np.ndarray:
+        idx = tuple(np.clip(np.searchsorted(np.asarray(e[1:-1]), np.asarray(f), side="right"), 0, len(e) - 2)
+                    for e, f in zip(self.edges, features))
+        return self.p[idx]
+
+    @classmethod
+    def fit(cls, edges, features: list[np.ndarray], hits: np.ndarray, strength: float = 4.0) -> "Table":
+        """Rates per bin, shrunk towards the pooled rate with ``strength`` pseudo-trials."""
+        shape = tuple(len(e) - 1 for e in edges)
+        k, n = np.zeros(shape), np.zeros(shape)
+        if len(hits):
+            idx = tuple(np.clip(np.searchsorted(np.asarray(e[1:-1]), np.asarray(f), side="right"), 0, len(e) - 2)
+                        for e, f in zip(edges, features))
+            np.add.at(n, idx, 1.0)
+            np.add.at(k, idx, np.asarray(hits, float))
+        pooled = k.sum() / n.sum() if n.sum() else 0.0
+        return cls([list(map(float, e)) for e in edges], (k + strength * pooled) / (n + strength), n)
+
+    def to_dict(self) -> dict:
+        d = {"edges": [[_num(x) for x in e] for e in self.edges], "p": np.round(self.p, 6).tolist()}
+        if self.n is not None:
+            d["n"] = self.n.astype(int).tolist()
+        return d
+
+    @classmethod
+    def from_dict(cls, d) -> "Table":
+        edges = [[float(x) for x in e] for e in d["edges"]]
+        p = np.asarray(d["p"], float)
+        if p.shape != tuple(len(e) - 1 for e in edges) or not np.all((p >= 0) & (p <= 1)):
+            raise ValueError("a probability table's p must have one value in [0, 1] per bin")
+        return cls(edges, p, np.asarray(d["n"], float) if "n" in d else None)
+
+
+def constant(p: float) -> Table:
+    return Table([[-math.inf, math.inf]], np.array([float(p)]))
+
+
+@dataclass
+class Quantiles:
+    """An error distribution as its quantiles at ``LEVELS`` (sampled by inverse CDF)."""
+
+    q: np.ndarray
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return np.interp(rng.random(n), LEVELS, self.q)
+
+    @property
+    def bias(self) -> float:
+        return float(self.q[LEVELS.index(0.5)])
+
+    @property
+    def sigma(self) -> float:
+        """Robust one-sigma: half the 15.9 %-84.1 % range."""
+        lo, hi = np.interp([0.1587, 0.8413], LEVELS, self.q)
+        return float(hi - lo) / 2
+
+    @classmethod
+    def fit(cls, x: np.ndarray, fallback: "Quantiles | None" = None, min_n: int = 30) -> "Quantiles":
+        x = np.asarray(x, float)
+        x = x[np.isfinite(x)]
+        if len(x) < min_n:
+            return fallback if fallback is not None else cls.gaussian(0.0)
+        return cls(np.quantile(x, LEVELS))
+
+    @classmethod
+    def gaussian(cls, sigma: float, bias: float = 0.0) -> "Quantiles":
+        from scipy.stats import norm
+
+        return cls(bias + sigma * norm.ppf(LEVELS))
+
+    def to_dict(self) -> list[float]:
+        return np.round(self.q, 4).tolist()
+
+    @classmethod
+    def from_dict(cls, d) -> "Quantiles":
+        q = np.asarray(d, float)
+        if q.shape != (len(LEVELS),) or not np.all(np.isfinite(q)) or np.any(np.diff(q) < 0):
+            raise ValueError(f"an error table must hold {len(LEVELS)} finite, non-decreasing quantiles")
+        return cls(q)
+
+
+@dataclass
+class DetectorModel:
+    """One detector's fitted behaviour (see the module docstring; unused parts stay default)."""
+
+    detect: Table = field(default_factory=lambda: constant(1.0))
+    rho: float = 0.0  # frame correlation of the miss copula
+    merge: Table = field(default_factory=lambda: constant(0.0))
+    errors: dict[str, Quantiles] = field(default_factory=dict)
+    label: float = 1.0
+    clutter: float = 0.0  # false detections per camera frame
+    clutter_frames: float = 1.0  # mean life of a clutter window, frames
+    restart: float = 0.0  # per frame, an id that continues is replaced by a new one
+    swap: float = 0.0  # at a split, the merged window's id goes to the other person
+    max_gap: int = 2  # frames a window's id survives without a window
+
+    def error(self, name: str) -> Quantiles:
+        return self.errors.get(name) or Quantiles.gaussian(0.0)
+
+    def to_dict(self) -> dict:
+        return {
+            "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "merge": self.merge.to_dict(),
+            "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
+            "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
+            "restart": round(self.restart, 6), "swap": round(self.swap, 6), "max_gap": int(self.max_gap),
+        }
+
+    @classmethod
+    def from_dict(cls, d) -> "DetectorModel":
+        m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), merge=Table.from_dict(d["merge"]),
+                errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
+                clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]), restart=float(d["restart"]),
+                swap=float(d["swap"]), max_gap=int(d["max_gap"]))
+        for name in ("rho", "label", "restart", "swap"):
+            if not 0.0 <= getattr(m, name) <= 1.0:
+                raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
+        if m.clutter < 0 or m.clutter_frames < 1 or m.max_gap < 0:
+            raise ValueError("clutter must be >= 0, clutter_frames >= 1 and max_gap >= 0")
+        return m
+
+
+@dataclass
+class PerceptionModel:
+    """Every detector's model, with where it came from (``fitted_on``)."""
+
+    detectors: dict[str, DetectorModel]
+    fitted_on: list[str] = field(default_factory=list)
+    ideal: bool = False
+
+    def __getitem__(self, name: str) -> DetectorModel:
+        return self.detectors[name]
+
+    def noise_figures(self, kinds=("horizontal",)) -> dict[str, float]:
+        """The measured noise a user of the network would quote (calibration.noise); the bearing
+        noise is the horizontal cameras' where ``kinds`` (camera kinds) has them, else the oblique."""
+        if self.ideal:
+            return {}
+        h, b, w, o, p = (self.detectors[k] for k in DETECTORS)
+        return {
+            "bearing_sigma_px": round((h if "horizontal" in kinds or "oblique" not in kinds else b).error("u").sigma, 3),
+            "box_sigma_px": round(float(np.mean([w.error(e).sigma for e in ("u_left", "u_right", "v_top", "v_bottom")])), 3),
+            "box_u_sigma_px": round(w.error("u").sigma, 3),
+            "flow_sigma_px_s": round(float(np.hypot(w.error("flow_u").sigma, w.error("flow_v").sigma) / math.sqrt(2)), 3),
+            "floor_sigma_m": round(o.error("xy").sigma, 4),
+            "privacy_floor_sigma_m": round(p.error("xy").sigma, 4),
+        }
+
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "fitted_on": list(self.fitted_on),
+                "detectors": {k: v.to_dict() for k, v in self.detectors.items()}}
+
+    def save(self, path: Path) -> None:
+        """Write the model as JSON, atomically (a temporary file renamed over ``path``)."""
+        import os
+
+        path = Path(path)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    @classmethod
+    def from_dict(cls, d, where: str = "perception model") -> "PerceptionModel":
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise ModelError(f"{where}: not a perception model (its 'format' must be {FORMAT!r})")
+        dets = d.get("detectors")
+        missing = [k for k in DETECTORS if not isinstance(dets, dict) or k not in dets]
+        if missing:
+            raise ModelError(f"{where}: no model for detector(s) {', '.join(missing)}")
+        out = {}
+        for k in DETECTORS:
+            try:
+                out[k] = DetectorModel.from_dict(dets[k])
+            except (KeyError, TypeError, ValueError) as e:
+                msg = f"missing key {e}" if isinstance(e, KeyError) else str(e)
+                raise ModelError(f"{where}: detector {k!r}: {msg}") from None
+        return cls(out, [str(s) for s in d.get("fitted_on", [])])
+
+
+def ideal_model() -> PerceptionModel:
+    """Every visible person detected, exact labels, no merges, ids per person (noise comes from
+    the scene's ``sensors`` figures; see ``sim.analytic``)."""
+    return PerceptionModel({k: DetectorModel(max_gap=0) for k in DETECTORS}, ["ideal"], ideal=True)
+
+
+def load_model(spec: str | Path) -> PerceptionModel:
+    """``"fitted"`` (the bundled default), ``"ideal"``, or a model file's path."""
+    if str(spec) == "ideal":
+        return ideal_model()
+    path = DEFAULT_FILE if str(spec) == "fitted" else Path(spec)
+    try:
+        data = json.loads(Path(path).read_text())
+    except OSError as e:
+        raise ModelError(f"perception model {spec}: cannot be read ({e.strerror or e})") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ModelError(f"perception model {spec}: not JSON ({e})") from None
+    return PerceptionModel.from_dict(data, f"perception model {spec}")
+
+
+# ----------------------------------------------------------------------------- sampling helpers
+def correlated_uniforms(rng: np.random.Generator, shape: tuple[int, int], rho: float) -> np.ndarray:
+    """(F, P) uniforms, each column a Gaussian AR(1) with lag-one correlation ``rho`` pushed
+    through the normal CDF: a miss (u > P(detect)) tends to last as long as rho makes it."""
+    F, P = shape
+    z = rng.standard_normal((F, P))
+    if rho > 0 and F > 1:
+        from scipy.signal import lfilter
+
+        z[1:] *= math.sqrt(1 - rho * rho)
+        z = lfilter([1.0], [1.0, -rho], z, axis=0)
+    return ndtr(z)
+
+
+def _num(x: float):
+    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")

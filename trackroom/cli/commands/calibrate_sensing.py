@@ -1,0 +1,146 @@
+"""trackroom calibrate-sensing: fit analytic sensing's perception model to rendered recordings.
+
+Reads rendered recordings (folders, or folders holding them; each keeps its resolved scene in
+``scene.toml``, its seed and duration in the manifest) or renders them first (``--render SCENE``
+with ``--seeds``), measures every detector against the analytic view of the same walkers
+(``sim.perception_fit``), fits the model and writes it (``--out``, JSON; a scene uses it with
+``sensors.perception = "PATH"``). Then it simulates analytic recordings with the fitted model on
+the same scenes and seeds, measures them the same way, and prints the fitted parameters and a
+table per detector, rendered beside analytic (``--table`` also writes it as CSV).
+"""
+from __future__ import annotations
+
+NAME = "calibrate-sensing"
+HELP = "fit analytic sensing's perception model to rendered recordings; print rendered vs analytic detector statistics"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("recordings", nargs="*", metavar="DIR",
+                   help="rendered recording folders, or folders holding them (searched for manifest.json)")
+    p.add_argument("--render", action="append", default=[], metavar="SCENE",
+                   help="render this scene first at --seeds (repeatable; written under --recordings)")
+    p.add_argument("--seeds", default="100,101", help="seeds to render, e.g. 100,101 or 100-104 (default 100,101)")
+    p.add_argument("--duration", type=float, default=30.0, help="seconds per rendered recording (default 30)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene field of the --render scenes (repeatable)")
+    p.add_argument("--recordings", dest="rec_dir", default="calibration_recordings",
+                   help="where --render writes its recordings (default calibration_recordings/)")
+    p.add_argument("--out", required=True, help="model file to write (JSON)")
+    p.add_argument("--table", help="also write the rendered-vs-analytic table here (CSV)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar while rendering")
+
+
+def parse_seeds(text: str) -> list[int]:
+    from trackroom.errors import CommandError
+
+    seeds = []
+    try:
+        for part in text.split(","):
+            a, _, b = part.strip().partition("-")
+            seeds += list(range(int(a), int(b) + 1)) if b else [int(a)]
+    except ValueError:
+        raise CommandError(f"--seeds: expected seeds like 100,101 or 100-104, got {text!r}") from None
+    if not seeds:
+        raise CommandError("--seeds: no seeds given")
+    return seeds
+
+
+def find_recordings(paths) -> list:
+    """Rendered recording folders under ``paths`` (a folder with manifest.json is one)."""
+    from pathlib import Path
+
+    from trackroom.errors import CommandError
+
+    out = []
+    for p in map(Path, paths):
+        if not p.is_dir():
+            raise CommandError(f"{p}: not a folder")
+        found = [p] if (p / "manifest.json").is_file() else sorted(m.parent for m in p.rglob("manifest.json"))
+        if not found:
+            raise CommandError(f"{p}: holds no recording (no manifest.json)")
+        out += found
+    return out
+
+
+def run(args) -> int:
+    import pandas as pd
+
+    from trackroom.cli.commands.generate import check_duration, generate_to
+    from trackroom.dataset import read_recording
+    from trackroom.errors import CommandError
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim import perception_fit as pf
+    from trackroom.sim.simulate import simulate
+
+    folders = find_recordings(args.recordings) if args.recordings else []
+    if args.render:
+        check_duration(args.duration)
+        from pathlib import Path
+
+        for name in args.render:
+            scene = load_scene(name, args.overrides)
+            for seed in parse_seeds(args.seeds):
+                out = Path(args.rec_dir) / f"{scene.name}_s{seed}"
+                if not (out / "manifest.json").is_file():
+                    generate_to(scene, seed, args.duration, "rendered", out, progress=not args.quiet,
+                                command=getattr(args, "_command", None))
+                folders.append(out)
+    if not folders:
+        raise CommandError("no recordings: give rendered recording folders or --render SCENE")
+    measured, names = [], []
+    for d in folders:
+        rec = read_recording(d)
+        if rec.meta.get("sensing") != "rendered":
+            raise CommandError(f"{d}: a {rec.meta.get('sensing')} recording; the model is fitted to rendered ones")
+        scene = load_scene(d / "scene.toml")
+        feats = pf.scene_features(scene, int(rec.meta["seed"]), float(rec.meta["duration"]))
+        measured.append((d, rec, scene, feats, pf.measure(rec, scene, feats)))
+        names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
+        print(f"measured {d}", flush=True)
+    model = pf.fit(pf.merge_stats([m[-1] for m in measured]), names)
+    model.save(args.out)
+    print(f"{args.out}: perception model fitted on {len(names)} rendered recording(s)")
+    print(parameter_text(model))
+    # the fitted model, analytic, on the same scenes and seeds
+    analytic = []
+    for d, rec, scene, feats, _ in measured:
+        sim = simulate(_with_model(scene, args.out), int(rec.meta["seed"]), float(rec.meta["duration"]))
+        analytic.append(pf.measure(sim, scene, feats))
+    r = pf.summary(pf.merge_stats([m[-1] for m in measured]))
+    a = pf.summary(pf.merge_stats(analytic))
+    table = pd.concat([r.assign(mode="rendered"), a.assign(mode="analytic")], ignore_index=True)
+    table = table[table["candidates"] > 0].sort_values(["detector", "mode"], ascending=[True, False], kind="mergesort")
+    table = table[["detector", "mode", *pf.SUMMARY_COLUMNS]]
+    if args.table:
+        from pathlib import Path
+
+        from trackroom.compare import _atomic
+
+        _atomic(Path(args.table), lambda p: table.to_csv(p, index=False, float_format="%.6g"))
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(table.round(3).to_string(index=False, na_rep="-"))
+    return 0
+
+
+def _with_model(scene, path):
+    """``scene`` with ``sensors.perception`` set to the model file ``path``."""
+    import dataclasses
+
+    return dataclasses.replace(scene, sensors=dataclasses.replace(scene.sensors, perception=str(path)))
+
+
+def parameter_text(model) -> str:
+    """The fitted parameters, one block per detector."""
+    lines = []
+    for name, m in model.detectors.items():
+        if m.detect.n is not None and m.detect.n.sum() == 0:
+            lines.append(f"  {name}: no data (defaults)")
+            continue
+        errs = ", ".join(f"{k} {q.bias:+.3g}/{q.sigma:.3g}" for k, q in m.errors.items())
+        lines.append(f"  {name}: detect {float(m.detect.p.min()):.2f}-{float(m.detect.p.max()):.2f} over "
+                     f"{int(m.detect.n.sum()) if m.detect.n is not None else 0} candidates, miss correlation {m.rho:.3f}, "
+                     f"merge {float(m.merge.p.min()):.2f}-{float(m.merge.p.max()):.2f}, label {m.label:.3f}, "
+                     f"clutter {m.clutter:.3f}/frame" + (f" (lives {m.clutter_frames:.1f} frames), id restart {m.restart:.4f}/frame, "
+                                                          f"swap at split {m.swap:.2f}" if name == "windows" else ""))
+        lines.append(f"      errors (bias/sigma): {errs}")
+    return "\n".join(lines)
