@@ -121,7 +121,12 @@ class QPSmoother(Estimator):
         T_rec = max(int(np.rint(observations.duration / dt)), int(k_all.max()) + 1)
         sigma = c.sigma_px if c.sigma_px is not None else float(calibration.noise.get("bearing_sigma_px", 1.0))
         frames = []
-        for label in sorted(set(bearings["label"].astype(str))):
+        # one trajectory per appearance label; a blob without a label ("": no colour votes, e.g. a
+        # false detection) cannot be told apart and is left out
+        labels = sorted(set(bearings["label"].astype(str)) - {""})
+        if not labels:
+            raise EstimatorError("qp_smoother: every bearing is unlabelled (label \"\"); it needs appearance labels to tell people apart")
+        for label in labels:
             m = (bearings["label"].astype(str) == label).to_numpy()
             k = k_all[m]
             k0, k1 = (0, T_rec) if c.span == "recording" else (int(k.min()), int(k.max()) + 1)

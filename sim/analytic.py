@@ -72,6 +72,7 @@ class CameraGeometry:
     in_fov: np.ndarray  # (F, P) bool
     edges: np.ndarray | None = None  # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique), clipped to the image
     span: np.ndarray | None = None  # (F, P, 2) u extent of the projected cylinder, not clipped (horizontal, oblique)
+    near: np.ndarray | None = None  # (F, P) bool: some of the person's image lies in the image (in_fov for overhead)
     flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
 
 
@@ -89,8 +90,9 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
         v_foot = cam.project(foot)[0][..., 1]
         v_head = cam.project(head)[0][..., 1]
         lo, hi = np.minimum(v_foot, v_head), np.maximum(v_foot, v_head)
-        in_fov = (depth > 1e-6) & (uv[..., 0] >= 0) & (uv[..., 0] < cam.width) & (hi >= 0) & (lo < cam.height)
-    geo = CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov)
+        rows = (depth > 1e-6) & (hi >= 0) & (lo < cam.height)
+        in_fov = rows & (uv[..., 0] >= 0) & (uv[..., 0] < cam.width)
+    geo = CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov, near=in_fov)
     if cam.kind != "overhead":
         ang = np.linspace(0, 2 * np.pi, CIRCLE_SAMPLES, endpoint=False)
         ring = np.stack([np.cos(ang), np.sin(ang)], -1)  # (S, 2)
@@ -105,6 +107,7 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
         )
         puv, _ = cam.project(pts)
         geo.span = np.stack([puv[..., 0].min(-1), puv[..., 0].max(-1)], -1)
+        geo.near = in_fov | (rows & (geo.span[..., 1] > 0) & (geo.span[..., 0] < cam.width))
         if cam.kind == "horizontal":
             return geo
         edges = np.stack(
@@ -146,7 +149,7 @@ class Occlusion:
         self.due: dict[int, list[tuple]] = {}
         for cam in self.cams:
             g = geometry[cam.name]
-            f_idx, p_idx = np.nonzero(g.in_fov)  # row-major: frame after frame
+            f_idx, p_idx = np.nonzero(g.near)  # row-major: frame after frame (near: in_fov and people cut by the border)
             pos = traj.pos[p_idx, g.steps[f_idx]]  # (R, 3) body centres
             z = (pos[:, 2] - 0.5 * self.heights[p_idx])[:, None] + self.heights[p_idx, None] * np.asarray(VIS_FRACTIONS)
             pts = np.concatenate([np.broadcast_to(pos[:, None, :2], z.shape + (2,)), z[..., None]], -1)  # (R, V, 3)
@@ -208,12 +211,13 @@ class Occlusion:
             self.world.set_pose(self.traj, k)
             self.on_step(k)
         for cam, (f_idx, p_idx, length, geomid, dist) in zip(self.cams, self._cams):
+            g_in_fov = self.geometry[cam.name].in_fov
             vis, frac = self.visible[cam.name], self.fraction[cam.name]
             vis[:] = False
             frac[:] = 0.0
             if len(f_idx):
                 rays = self._rays(geomid, dist, length, p_idx)
-                vis[f_idx, p_idx] = rays.any(axis=1)
+                vis[f_idx, p_idx] = rays.any(axis=1) & g_in_fov[f_idx, p_idx]
                 frac[f_idx, p_idx] = rays.mean(axis=1)
 
 

@@ -74,7 +74,7 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
           colours: list[str], palette: list[str]) -> pd.DataFrame | None:
     """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
     a, b, clip = visible_span(g, cam.width)
-    cand = g.in_fov & (clip > 0)
+    cand = g.near & (clip > 0)
     det = detected(rng, cand, m.detect(frac, clip), m.rho)
     o, ok = span_pairs(a, b)
     root = merge_roots(rng, det, o, ok, m)
@@ -93,18 +93,26 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     u = 0.5 * (lo[f, p] + hi[f, p]) + err
     lab_idx = np.array([palette.index(c) for c in colours], int)[p] if n else np.zeros(0, int)
     lab_idx = _confuse(rng, lab_idx, m.label, len(palette))
+    # fragments: extra blobs on detected people
+    fd, pd_ = np.nonzero(det)
+    kf = rng.poisson(m.fragment, len(fd)) if m.fragment > 0 else np.zeros(len(fd), int)
+    fd, pd_ = np.repeat(fd, kf), np.repeat(pd_, kf)
+    u_frag = 0.5 * (a[fd, pd_] + b[fd, pd_]) + m.error("frag_du").sample(rng, len(fd)) * (b[fd, pd_] - a[fd, pd_])
+    own_lab = np.array([palette.index(c) for c in colours], int)[pd_] if len(fd) else np.zeros(0, int)
+    frag_lab = np.where(rng.random(len(fd)) < m.fragment_label, own_lab, len(palette))
     # false detections
     k = rng.poisson(m.clutter, len(g.steps)) if m.clutter > 0 else np.zeros(len(g.steps), int)
     fc = np.repeat(np.arange(len(g.steps)), k)
-    u = np.concatenate([u, rng.uniform(0, cam.width, len(fc))])
-    lab_idx = np.concatenate([lab_idx, rng.integers(0, len(palette), len(fc))])
-    f = np.concatenate([f, fc])
+    u = np.concatenate([u, u_frag, rng.uniform(0, cam.width, len(fc))])
+    clutter_lab = np.where(rng.random(len(fc)) < m.clutter_unlabelled, len(palette), rng.integers(0, len(palette), len(fc)))
+    lab_idx = np.concatenate([lab_idx, frag_lab, clutter_lab])
+    f = np.concatenate([f, fd, fc])
     keep = (u >= 0) & (u < cam.width)
     if not keep.any():
         return None
     from .analytic import str_column
 
-    return pd.DataFrame({"t": t[f[keep]], "camera": cam.name, "u": u[keep], "label": str_column(palette, lab_idx[keep])})
+    return pd.DataFrame({"t": t[f[keep]], "camera": cam.name, "u": u[keep], "label": str_column([*palette, ""], lab_idx[keep])})
 
 
 def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarray:
@@ -121,7 +129,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     e = g.edges
     _, _, clip = visible_span(g, cam.width)
     speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
-    cand = g.in_fov & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    cand = g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
     det = detected(rng, cand, m.detect(frac, speed), m.rho)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])
@@ -151,7 +159,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     flow[:, 0] += m.error("flow_u").sample(rng, n)
     flow[:, 1] += m.error("flow_v").sample(rng, n)
     cf, ce, cfl, cid = ids.clutter(F, cam)
-    f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf), (edges, ce), (flow, cfl), (tid, cid)))
+    ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
+    f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff), (edges, ce, fe), (flow, cfl, ffl), (tid, cid, fid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
     edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
     keep = (edges[:, 1] > edges[:, 0]) & (edges[:, 3] > edges[:, 2])
@@ -232,6 +241,37 @@ class WindowIds:
                 self.owner[tid] = mem[0]
         return out
 
+    def fragments(self, det: np.ndarray, e: np.ndarray, flow: np.ndarray):
+        """Fragment windows: born on a detected person at rate fragment / fragment_frames per
+        frame, each living a geometric number of frames (mean ``fragment_frames``) at a fixed
+        place and size relative to the person's window, moving with the person's flow."""
+        m, rng = self.m, self.rng
+        empty = (np.zeros(0, int), np.zeros((0, 4)), np.zeros((0, 2)), np.zeros(0, np.int64))
+        f0, p0 = np.nonzero(det)
+        if m.fragment <= 0 or not len(f0):
+            return empty
+        births = rng.poisson(m.fragment / m.fragment_frames, len(f0))
+        f0, p0 = np.repeat(f0, births), np.repeat(p0, births)
+        if not len(f0):
+            return empty
+        n = len(f0)
+        life = rng.geometric(1.0 / m.fragment_frames, n)
+        du, dv = m.error("frag_du").sample(rng, n), m.error("frag_dv").sample(rng, n)
+        rw, rh = np.clip(m.error("frag_w").sample(rng, n), 0.05, None), np.clip(m.error("frag_h").sample(rng, n), 0.05, None)
+        ids = np.array([self._new() for _ in range(n)], np.int64)
+        k = np.repeat(np.arange(n), life)
+        frame = f0[k] + (np.arange(len(k)) - np.repeat(np.cumsum(life) - life, life))
+        ok = frame < det.shape[0]
+        k, frame = k[ok], frame[ok]
+        pe = e[frame, p0[k]]
+        pw, ph = pe[:, 1] - pe[:, 0], pe[:, 3] - pe[:, 2]
+        cu = 0.5 * (pe[:, 0] + pe[:, 1]) + du[k] * pw
+        cv = 0.5 * (pe[:, 2] + pe[:, 3]) + dv[k] * ph
+        w, h = rw[k] * pw, rh[k] * ph
+        edges = np.stack([cu - w / 2, cu + w / 2, cv - h / 2, cv + h / 2], -1)
+        fl = flow[frame, p0[k]] + np.stack([m.error("flow_u").sample(rng, len(k)), m.error("flow_v").sample(rng, len(k))], -1)
+        return frame, edges, fl, ids[k]
+
     def clutter(self, n_frames: int, cam: Camera):
         """False windows: born Poisson(clutter / clutter_frames) per frame, each living a
         geometric number of frames (mean ``clutter_frames``) in place, with its own id."""
@@ -262,7 +302,7 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
     xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)  # (F, P, 2)
     speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
-    det = detected(rng, g.in_fov, m.detect(frac, speed), m.rho)
+    det = detected(rng, g.near, m.detect(frac, speed), m.rho)
     F, P = det.shape
     iu, ju = np.triu_indices(P, 1)
     gap = np.hypot(*(xy[:, iu] - xy[:, ju]).transpose(2, 0, 1)) if P > 1 else np.zeros((F, 0))

@@ -58,6 +58,10 @@ class DetectorStats:
     label_ok: list = field(default_factory=list)
     frames: int = 0
     clutter: int = 0
+    clutter_unlabelled: int = 0
+    fragments: int = 0
+    fragment_ids: set = field(default_factory=set)
+    fragment_labelled: int = 0
     clutter_ids: set = field(default_factory=set)
     continuing: int = 0
     restarts: int = 0
@@ -131,7 +135,7 @@ def _candidates(s: DetectorStats, key, cand, feats, hit, own):
 def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
     a, b, clip = visible_span(g, cam.width)
     centre = 0.5 * (a + b)
-    cand = g.in_fov & (clip > 0)
+    cand = g.near & (clip > 0)
     F, P = cand.shape
     by_frame = _frames(bearings, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
@@ -167,7 +171,19 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
                 err = u[rr] - centre[f, p]
                 s.errors["u" if clip[f, p] >= 0.999 else "u_clip"].append(err)
                 s.label_ok.append(lab[rr] == colours[p])
-        s.clutter += len(u) - len(match)
+        matched = set(match.values())
+        for rr in range(len(u)):
+            if rr in matched:
+                continue
+            near = [p for p in people if a[f, p] - GATE_PX <= u[rr] <= b[f, p] + GATE_PX and hit[f, p]]
+            if near:  # a fragment of the nearest detected person
+                p = min(near, key=lambda q: abs(u[rr] - centre[f, q]))
+                s.fragments += 1
+                s.fragment_labelled += int(lab[rr] == colours[p])
+                s.errors["frag_du"].append((u[rr] - centre[f, p]) / max(b[f, p] - a[f, p], 1.0))
+            else:
+                s.clutter += 1
+                s.clutter_unlabelled += int(lab[rr] == "")
         # pairs of detected people whose spans overlap
         both = hit[f, iu] & hit[f, ju] & ok_all[f]
         for k in np.nonzero(both)[0]:
@@ -190,7 +206,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
     e = g.edges
     _, _, clip = visible_span(g, cam.width)
     speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
-    cand = g.in_fov & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    cand = g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
     F, P = cand.shape
     by_frame = _frames(boxes, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
@@ -235,7 +251,22 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
                 s.errors["flow_v"].append(fl[rr, 1] - g.flow[f, p, 1])
         used = set(match.values())
         for rr in range(len(W)):
-            if rr not in used:
+            if rr in used:
+                continue
+            cu, cv = 0.5 * (W[rr, 0] + W[rr, 1]), 0.5 * (W[rr, 2] + W[rr, 3])
+            pe = e[f]
+            pw, ph = np.maximum(pe[:, 1] - pe[:, 0], 1.0), np.maximum(pe[:, 3] - pe[:, 2], 1.0)
+            du, dv = (cu - 0.5 * (pe[:, 0] + pe[:, 1])) / pw, (cv - 0.5 * (pe[:, 2] + pe[:, 3])) / ph
+            near = [p for p in people if hit[f, p] and abs(du[p]) <= 1.0 and abs(dv[p]) <= 1.0]
+            if near:  # a fragment of the nearest detected person
+                p = min(near, key=lambda q: du[q] ** 2 + dv[q] ** 2)
+                s.fragments += 1
+                s.fragment_ids.add((cam.name, int(tid[rr])))
+                s.errors["frag_du"].append(du[p])
+                s.errors["frag_dv"].append(dv[p])
+                s.errors["frag_w"].append((W[rr, 1] - W[rr, 0]) / pw[p])
+                s.errors["frag_h"].append((W[rr, 3] - W[rr, 2]) / ph[p])
+            else:
                 s.clutter += 1
                 s.clutter_ids.add((cam.name, int(tid[rr])))
                 s.errors["clutter_w"].append(W[rr, 1] - W[rr, 0])
@@ -277,7 +308,7 @@ def _window_ids(s: DetectorStats, window_of, members, own):
 def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
     xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
     speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
-    cand = g.in_fov.copy()
+    cand = g.near.copy()
     F, P = cand.shape
     inside = np.ones((F, P), bool)
     if cam.region is not None:
@@ -340,7 +371,8 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
                 o.errors[name] += v
             o.label_ok += s.label_ok
             o.clutter_ids |= {(i, *c) for c in s.clutter_ids}
-            for a in ("frames", "clutter", "continuing", "restarts", "splits", "swaps"):
+            o.fragment_ids |= {(i, *c) for c in s.fragment_ids}
+            for a in ("frames", "clutter", "clutter_unlabelled", "fragments", "fragment_labelled", "continuing", "restarts", "splits", "swaps"):
                 setattr(o, a, getattr(o, a) + getattr(s, a))
     return out
 
@@ -423,6 +455,10 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
             clutter=s.clutter / s.frames if s.frames else 0.0,
             clutter_frames=max(1.0, s.clutter / n_clutter_ids) if k == "windows" else 1.0,
+            clutter_unlabelled=s.clutter_unlabelled / s.clutter if s.clutter else 0.0,
+            fragment=s.fragments / max(int(np.sum(hit)), 1),
+            fragment_frames=max(1.0, s.fragments / max(len(s.fragment_ids), 1)) if k == "windows" else 1.0,
+            fragment_label=s.fragment_labelled / s.fragments if s.fragments and k in ("horizontal", "oblique") else 1.0,
             restart=s.restarts / s.continuing if s.continuing else 0.0,
             swap=(s.swaps + 1) / (s.splits + 2),
             max_gap=FlowParams().max_missed if k == "windows" else 0,
@@ -431,7 +467,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
 
 
 # ----------------------------------------------------------------------------- summaries
-SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate",
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate", "fragment_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
 
 
@@ -450,6 +486,7 @@ def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
             "err_median": np.median(e) if len(e) else np.nan,
             "err_p90": np.quantile(e, 0.9) if len(e) else np.nan,
             "merge_rate": np.mean(s.pair_merged) if s.pair_merged else np.nan,
+            "fragment_rate": s.fragments / max(int(np.sum(s.hit)), 1) if s.hit else np.nan,
             "id_restart_rate": s.restarts / s.continuing if s.continuing else np.nan,
             "split_swap_rate": s.swaps / s.splits if s.splits else np.nan,
             "label_accuracy": np.mean(s.label_ok) if s.label_ok else np.nan,

@@ -30,7 +30,12 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
   label    P(the appearance label is the person's own colour); otherwise another colour of the
            scene's palette, drawn uniformly (the label is an appearance class, never an id).
   clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
-           region); windows of clutter live a geometric number of frames (``clutter_frames``).
+           region); windows of clutter live a geometric number of frames (``clutter_frames``);
+           a share of false blobs has no label (``clutter_unlabelled``: "" as the detector gives
+           a blob without colour votes).
+  fragment extra detections on a detected person (a blob split in two, a window on the legs):
+           per detected person-frame, placed relative to the person's image span / window
+           (``frag_*`` error tables); fragment windows live ``fragment_frames`` frames;
   ids      (flow windows) the camera tracker's id: kept while the person's window continues (gaps
            up to ``max_gap`` frames), a new id after a longer gap or spontaneously with
            ``restart`` per frame; a merged window keeps its oldest member's id, and when it splits
@@ -166,6 +171,10 @@ class DetectorModel:
     label: float = 1.0
     clutter: float = 0.0  # false detections per camera frame
     clutter_frames: float = 1.0  # mean life of a clutter window, frames
+    clutter_unlabelled: float = 0.0  # share of false blobs with no appearance label ("")
+    fragment: float = 0.0  # extra detections on a detected person, per detected person-frame
+    fragment_frames: float = 1.0  # mean life of a fragment window, frames
+    fragment_label: float = 1.0  # share of fragment blobs labelled with the person's colour (else "")
     restart: float = 0.0  # per frame, an id that continues is replaced by a new one
     swap: float = 0.0  # at a split, the merged window's id goes to the other person
     max_gap: int = 2  # frames a window's id survives without a window
@@ -178,6 +187,8 @@ class DetectorModel:
             "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "merge": self.merge.to_dict(),
             "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
             "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
+            "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
+            "fragment_frames": round(self.fragment_frames, 3), "fragment_label": round(self.fragment_label, 6),
             "restart": round(self.restart, 6), "swap": round(self.swap, 6), "max_gap": int(self.max_gap),
         }
 
@@ -185,13 +196,15 @@ class DetectorModel:
     def from_dict(cls, d) -> "DetectorModel":
         m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), merge=Table.from_dict(d["merge"]),
                 errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
-                clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]), restart=float(d["restart"]),
+                clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
+                clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
+                fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
                 swap=float(d["swap"]), max_gap=int(d["max_gap"]))
-        for name in ("rho", "label", "restart", "swap"):
+        for name in ("rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
-        if m.clutter < 0 or m.clutter_frames < 1 or m.max_gap < 0:
-            raise ValueError("clutter must be >= 0, clutter_frames >= 1 and max_gap >= 0")
+        if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
+            raise ValueError("clutter and fragment must be >= 0, clutter_frames and fragment_frames >= 1, max_gap >= 0")
         return m
 
 
