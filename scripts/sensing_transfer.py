@@ -54,9 +54,16 @@ MODES = ("analytic", "ideal", "rendered")
 
 def recording_for(folder: Path, mode: str, rendered_rec):
     """The rendered recording itself, or its analytic twin (same resolved scene and seed)."""
-    if mode == "rendered":
-        return rendered_rec
     from trackroom.scenes.loader import load_scene
+
+    if mode == "rendered":
+        # what a rendered recording declares now: the fitted model's measured noise (recordings
+        # written before the model declared the scene's figures)
+        from trackroom.sim.simulate import calibration_noise
+
+        scene = load_scene(folder / "scene.toml")
+        rendered_rec.calibration.noise = calibration_noise(scene, "rendered")
+        return rendered_rec
     from trackroom.sim.simulate import simulate
 
     scene = load_scene(folder / "scene.toml", [f"sensors.perception={'fitted' if mode == 'analytic' else 'ideal'}"])

@@ -42,6 +42,10 @@ GAP_EDGES = [0.0, 0.3, 0.45, 0.6, 0.8, 1.2, INF]  # m; pairs nearer than 1.2 m m
 GATE_PX = 10.0  # a blob explains a person when it lies within the person's span +- GATE_PX
 IOU_GATE = 0.1  # a window explains a person's projected window at this IoU
 FLOOR_GATE_M = 0.75
+# windows: a person is merged into another's window only when moving at least this fast in the
+# image (a flow tracker gives someone standing still no window, merged or not: their pixels inside
+# a walker's window are not a merge)
+MOVING_PX_S = 6.0
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
 RHO_GRID = (0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998)
 
@@ -230,6 +234,8 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
         merged_with = {}
         for pi, p in enumerate(people):
             if p in match:
+                continue
+            if speed[f, p] < MOVING_PX_S:  # someone standing has no window to merge
                 continue
             for q, rr in match.items():
                 if cover[rr, pi] >= 0.5 and min(e[f, p, 1], e[f, q, 1]) > max(e[f, p, 0], e[f, q, 0]):

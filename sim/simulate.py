@@ -54,17 +54,22 @@ def perception_model(scene: Scene):
 
 def calibration_noise(scene: Scene, sensing: str = "analytic", model=None) -> dict:
     """``calibration.noise`` of a recording of ``scene``: the ``sensors`` figures but
-    ``SIMULATOR_ONLY``, with a rendered recording's measured window noise, or, for analytic
-    sensing through a fitted perception ``model``, the model's measured noise figures."""
+    ``SIMULATOR_ONLY``; where the scene's perception model is a fitted one (``model``, or
+    ``sensors.perception`` when not given), the model's measured bearing and floor noise and the
+    flow detector's measured window noise replace them in both sensing modes (the model is fitted
+    to the rendered detectors, so these are what a user would have measured of them); with
+    ``"ideal"`` perception only a rendered recording declares the window noise."""
     noise = {k: v for k, v in dataclasses.asdict(scene.sensors).items() if k not in SIMULATOR_ONLY}
-    if sensing == "analytic" and model is not None and not model.ideal:
+    if model is None:
+        model = perception_model(scene)
+    if not model.ideal:
         figures = model.noise_figures({c.kind for c in scene.cameras})
         overhead = [c for c in scene.cameras if c.kind == "overhead"]
         privacy = figures.pop("privacy_floor_sigma_m")
         if overhead and all(c.privacy for c in overhead):
             figures["floor_sigma_m"] = privacy
         noise.update(figures)
-    if sensing == "rendered":
+    if not model.ideal or sensing == "rendered":
         # the rendered boxes come from the flow detector: declare its measured window noise
         noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
     return noise
@@ -155,7 +160,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be a positive, finite number of seconds, got {duration}")
-    model = perception_model(scene) if sensing == "analytic" else None
+    model = perception_model(scene)
     rng = np.random.default_rng(seed)
     motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)
     cam_rngs = dict(zip([c.name for c in scene.cameras], cam_rng.spawn(len(scene.cameras))))
