@@ -11,7 +11,7 @@ TOML format (every key optional except scenes; command-line options override)::
     duration = 20.0          # simulated seconds per recording
     sensing = "analytic"     # or "rendered"
     seeds = "0-4"            # or [0, 1, 2]
-    gate = 1.0               # CLEAR MOT / IDF1 gate, m
+    gate = 1.0               # CLEAR MOT / IDF1 gate, m; HOTA similarity max(0, 1 - d / gate)
     jobs = 2
     plugins = ["my_tracker", "extra/tracker.py"]   # estimator plug-ins: modules or .py files
                                      # (files relative to this TOML file); workers import them too
@@ -69,7 +69,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-PLOT_METRICS = ("mota", "rmse", "idf1")
+PLOT_METRICS = ("mota", "rmse", "idf1", "hota")
 
 
 class CompareError(ValueError):
