@@ -49,6 +49,9 @@ from .mot import DEFAULT_GATE, EvalFrames, MotResult, clear_mot
 from .position import position_errors
 
 TIME_TOL = 1e-3  # s: a track row this close to a frame is taken as that frame's
+# Bump when ``evaluate`` gains or changes a metric: a comparison's stored runs scored by another
+# revision are run again (``trackroom.compare.run_key``). 2: HOTA and its parts (issue 15).
+SCORE_REVISION = 2
 
 
 def evaluation_frames(recording: Recording) -> np.ndarray:
