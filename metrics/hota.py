@@ -157,8 +157,9 @@ def hota(frames: EvalFrames, gate: float = DEFAULT_GATE) -> HotaResult:
     s_iou = np.zeros_like(s)
     s_iou[ok] = s[ok] / denom[ok]
     # one entry per (truth id, track id) pair that ever shares a frame
-    keys, key_of_pair = np.unique(o_idx[pi].astype(np.int64) * max(len(h_ids), 1) + h_idx[pj], return_inverse=True)
-    key_o, key_h = keys // max(len(h_ids), 1), keys % max(len(h_ids), 1)
+    width = max(len(h_ids), 1)
+    keys, key_of_pair = np.unique(o_idx[pi].astype(np.int64) * width + h_idx[pj], return_inverse=True)
+    key_o, key_h = keys // width, keys % width
     potential = np.bincount(key_of_pair, weights=s_iou, minlength=len(keys))
     alignment = potential / (n_o[key_o] + n_h[key_h] - potential)
     score = alignment[key_of_pair] * s
