@@ -6,7 +6,7 @@ For a metric with values m_1..m_n over the seeds of one (scene, sensing, estimat
     95% interval = the 2.5th and 97.5th percentiles of the means of B = 2000 bootstrap resamples
                    (n values drawn with replacement; a fixed seed, so the same values give the
                    same interval), then clipped to the metric's valid range (``METRIC_RANGES``:
-                   MOTA <= 1, IDF1, recall, precision and ID accuracy in [0, 1], distances and
+                   MOTA <= 1, IDF1, HOTA and its parts, recall, precision and ID accuracy in [0, 1], distances and
                    counts >= 0). No interval when n < 2.
 
 A percentile interval of the mean lies within [min m_i, max m_i], so unlike the Student-t
@@ -24,14 +24,15 @@ import numpy as np
 import pandas as pd
 
 GROUP = ["scene", "sensing", "estimator"]
-SUMMARY_METRICS = ["mota", "motp", "idf1", "id_switches", "rmse", "p90", "id_accuracy", "runtime_s"]
+SUMMARY_METRICS = ["mota", "motp", "idf1", "hota", "deta", "assa", "id_switches", "rmse", "p90", "id_accuracy", "runtime_s"]
 
 _UNIT = (0.0, 1.0)
 _NONNEGATIVE = (0.0, np.inf)
 # (low, high) bounds of every metric a score row holds; metrics not listed are not clipped.
 METRIC_RANGES: dict[str, tuple[float, float]] = {
     "mota": (-np.inf, 1.0),
-    **{m: _UNIT for m in ("idf1", "idp", "idr", "recall", "precision", "id_accuracy", "id_accuracy_all")},
+    **{m: _UNIT for m in ("idf1", "idp", "idr", "recall", "precision", "id_accuracy", "id_accuracy_all",
+                          "hota", "deta", "assa", "loca", "detre", "detpr", "assre", "asspr")},
     **{m: _NONNEGATIVE for m in ("motp", "rmse", "p50", "p90", "p95", "rmse_cam0", "rmse_cam1", "rmse_cam2plus",
                                  "id_switches", "fp", "fn", "matches", "frames", "objects", "predictions",
                                  "tracks", "people", "n_cam0", "n_cam1", "n_cam2plus", "runtime_s", "gate")},

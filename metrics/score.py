@@ -19,8 +19,9 @@ an estimator chooses (usually camera frame times). Everything is compared on one
 - **Cameras that saw a person** (for the position-error split): from truth ``visibility``,
   the number of cameras with ``visible == True`` at their frame nearest the evaluation frame.
 
-Then CLEAR MOT (``mot.py``), IDF1 and identification accuracy (``identity.py``) and position
-error (``position.py``) are computed on those frames with the same gate (default 1 m).
+Then CLEAR MOT (``mot.py``), HOTA (``hota.py``: similarity max(0, 1 - d / gate)), IDF1 and
+identification accuracy (``identity.py``) and position error (``position.py``) are computed on
+those frames with the same gate (default 1 m).
 
 **One person** (``person=ID``): the truth is that person's alone, so a single-target tracker is
 scored against the person it follows: every track row is matched to that person or counts as
@@ -42,11 +43,15 @@ import pandas as pd
 from trackroom.estimators.base import check_tracks
 from trackroom.recording import Recording, RecordingError
 
+from .hota import HotaResult, hota
 from .identity import IdentificationResult, IdResult, claims_phones, idf1, identification_accuracy
 from .mot import DEFAULT_GATE, EvalFrames, MotResult, clear_mot
 from .position import position_errors
 
 TIME_TOL = 1e-3  # s: a track row this close to a frame is taken as that frame's
+# Bump when ``evaluate`` gains or changes a metric: a comparison's stored runs scored by another
+# revision are run again (``trackroom.compare.run_key``). 2: HOTA and its parts (issue 15).
+SCORE_REVISION = 2
 
 
 def evaluation_frames(recording: Recording) -> np.ndarray:
@@ -184,6 +189,7 @@ class Evaluation:
     frames: EvalFrames
     mot: MotResult
     ids: IdResult
+    hota: HotaResult
     identification: IdentificationResult | None
     position: dict[str, float]
 
@@ -206,6 +212,7 @@ class Evaluation:
             "idf1": i.idf1,
             "idp": i.idp,
             "idr": i.idr,
+            **self.hota.metrics(),
             "tracks": int(self.frames.tracks["track_id"].nunique()),
             "people": int(self.frames.truth["person_id"].nunique()),
         }
@@ -237,7 +244,7 @@ def evaluate(recording: Recording, tracks: pd.DataFrame, gate: float = DEFAULT_G
     frames = build_frames(recording, tracks, max_gap, person)
     mot = clear_mot(frames, gate)
     ident = identification_accuracy(frames, mot) if claims_phones(tracks) else None
-    return Evaluation(frames, mot, idf1(frames, gate), ident, position_errors(frames, mot))
+    return Evaluation(frames, mot, idf1(frames, gate), hota(frames, gate), ident, position_errors(frames, mot))
 
 
 KEY_COLUMNS = ["scene", "seed", "sensing", "estimator"]

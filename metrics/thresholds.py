@@ -5,7 +5,7 @@ The file has one row per bound, columns ``scene, sensing, estimator, metric, op,
 - ``scene``: a bundled scene; CI runs its small version, ``CI_RUNS[scene]`` (duration and
   overrides), for the seeds ``CI_SEEDS``, in the given ``sensing`` mode.
 - ``estimator``: a registered estimator name, or ``name[key=value;...]`` with parameters.
-- ``metric``: a column of the score rows (``metrics.score``: mota, motp, idf1, id_switches, rmse,
+- ``metric``: a column of the score rows (``metrics.score``: mota, motp, idf1, hota, deta, assa, id_switches, rmse,
   p90, id_accuracy, ...).
 - ``op`` and ``bound``: the mean over the CI seeds must satisfy ``mean op bound``, op ``>=`` or ``<=``.
 

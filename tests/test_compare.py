@@ -70,7 +70,7 @@ def test_comparison_rows_skips_and_outputs(tmp_path, needs_boxes):
     ok = r[r["estimator"] == "ekf"]
     assert (ok["status"] == "ok").all() and (ok["mota"] > 0.5).all()
     paths = write_outputs(comp, tmp_path / "out")
-    for name in ("results", "per_frame", "summary", "metric_mota", "metric_rmse", "error_over_time"):
+    for name in ("results", "per_frame", "summary", "metric_mota", "metric_rmse", "metric_hota", "error_over_time"):
         assert paths[name].exists() and paths[name].stat().st_size > 0
     md = paths["summary"].read_text()
     assert "| oh | analytic | ekf | 2 |" in md and "needs boxes observations" in md

@@ -45,6 +45,10 @@ def test_tracks_on_the_grid_with_offset_score_exactly():
     assert m["mota"] == 1.0 and m["fp"] == 0 and m["fn"] == 0
     assert m["rmse"] == pytest.approx(0.1) and m["motp"] == pytest.approx(0.1)
     assert m["idf1"] == 1.0
+    # HOTA: similarity 1 - 0.1 / gate in every frame, a true positive for the alphas up to it
+    assert m["hota"] == m["deta"] == m["assa"] == pytest.approx(18 / 19)  # 0.9: alphas 0.05-0.90
+    assert m["loca"] == pytest.approx((18 * 0.9 + 1) / 19)  # LocA is 1 where nothing is matched
+    assert evaluate(rec, tracks, gate=0.5).metrics()["hota"] == pytest.approx(16 / 19)  # 0.8: 0.05-0.80
     # visible to one camera in the frames at 0 and 0.25 s, to none at 0.5 and 0.75 s
     assert (m["n_cam1"], m["n_cam0"], m["n_cam2plus"]) == (2, 2, 0)
 
@@ -106,11 +110,12 @@ def test_estimate_and_score_commands(tmp_path, capsys):
     capsys.readouterr()
     assert main(["score", str(folder), str(out), "--json"]) == 0
     js = json.loads(capsys.readouterr().out)
-    for k in ("mota", "motp", "id_switches", "idf1", "fp", "fn", "rmse"):
+    for k in ("mota", "motp", "id_switches", "idf1", "fp", "fn", "rmse", "hota", "deta", "assa", "loca"):
         assert k in js
     assert "id_accuracy" not in js and js["mota"] > 0.8
     assert main(["score", str(folder), str(out), "--gate", "0.5"]) == 0
-    assert "MOTA" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "MOTA" in text and "HOTA" in text and "DetA / AssA" in text
     assert main(["score", str(folder), str(out), "--gate", "-1"]) == 2
     assert main(["estimate", str(folder), "--estimator", "ekf", "--param", "nonsense=1", "--out", str(out)]) == 2
     assert "unknown parameter" in capsys.readouterr().err

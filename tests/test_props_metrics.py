@@ -1,4 +1,4 @@
-"""Property-based tests of the metrics: CLEAR MOT, IDF1, scoring a tracks table, intervals, tracks CSVs.
+"""Property-based tests of the metrics: CLEAR MOT, IDF1, HOTA, scoring a tracks table, intervals, tracks CSVs.
 
 Hypothesis builds truth and tracks (empty, disjoint or shared ids, tracks at times with no truth,
 huge and tiny coordinates, single rows, duplicated or empty ids, text where numbers belong).
@@ -8,7 +8,11 @@ Every case must end in a result that keeps the invariants below or in one ``Esti
 Invariants: G truth and H track appearances give matches + FN = G and matches + FP = H;
 MOTA <= 1 (NaN exactly when G = 0); 0 <= MOTP <= gate; 0 <= IDF1 <= 1 (NaN exactly when
 G + H = 0), IDTP <= min(G, H); renaming the tracks (any bijection) changes neither MOTA nor
-IDF1 when no two distances tie; an interval lies in its metric's range.
+IDF1 when no two distances tie; HOTA, DetA, AssA, LocA and their recall and precision parts lie
+in [0, 1], HOTA true positives <= min(G, H) at every alpha and fall as alpha rises, HOTA = DetA =
+AssA = 0 when G or H is 0; renaming the tracks changes no HOTA figure (no ties); tracks equal to
+the truth, under any names, score HOTA = DetA = AssA = LocA = 1; an interval lies in its
+metric's range.
 
 Case counts: ``examples(n)`` (tests/conftest.py), n in CI, >= 1000 with TRACKROOM_HYPOTHESIS=slow.
 """
@@ -27,6 +31,7 @@ from tests.test_metrics_score import tiny_recording
 from trackroom.errors import CommandError
 from trackroom.estimators.base import EstimatorError
 from trackroom.metrics.aggregate import METRIC_RANGES, mean_interval
+from trackroom.metrics.hota import HOTA_COLUMNS, hota
 from trackroom.metrics.identity import idf1
 from trackroom.metrics.mot import EvalFrames, clear_mot
 from trackroom.metrics.score import evaluate, evaluation_frames
@@ -83,7 +88,20 @@ def check_invariants(frames: EvalFrames, gate: float = GATE):
         assert math.isnan(ids.idf1)
     else:
         assert 0.0 <= ids.idf1 <= 1.0
+    check_hota(frames, gate)
     return mot, ids
+
+
+def check_hota(frames: EvalFrames, gate: float = GATE) -> dict:
+    h = hota(frames, gate)
+    G, H = len(frames.truth), len(frames.tracks)
+    m = h.metrics()
+    for k in HOTA_COLUMNS:
+        assert 0.0 <= m[k] <= 1.0, k
+    assert ((0 <= h.tp) & (h.tp <= min(G, H))).all() and (np.diff(h.tp) <= 0).all()
+    if G == 0 or H == 0:
+        assert m["hota"] == m["deta"] == m["assa"] == 0.0 and m["loca"] == 1.0
+    return m
 
 
 @settings(max_examples=examples(150))
@@ -102,6 +120,23 @@ def test_renaming_tracks_changes_neither_mota_nor_idf1(frames, perm, prefix):
     assert (mot2.fn, mot2.fp, mot2.num_switches) == (mot.fn, mot.fp, mot.num_switches)
     assert mot2.mota == mot.mota or (math.isnan(mot.mota) and math.isnan(mot2.mota))
     assert ids2.idtp == ids.idtp
+    h, h2 = check_hota(frames), check_hota(renamed)
+    assert all(math.isclose(h[k], h2[k], abs_tol=1e-12) for k in HOTA_COLUMNS)
+
+
+@settings(max_examples=examples(100))
+@given(eval_frames(coords=moderate), st.permutations(PEOPLE), st.sampled_from(["", "h", 100]),
+       st.floats(0.05, 3.0))
+def test_tracks_equal_to_the_truth_score_hota_one(frames, perm, prefix, gate):
+    # every person in a lane of their own, farther than the gate from the others, tracked exactly
+    lane = {p: 20.0 * i for i, p in enumerate(PEOPLE)}  # |y| <= 6: lanes >= 8 m apart
+    truth = frames.truth.assign(y=frames.truth["y"] + frames.truth["person_id"].map(lane))
+    name = {old: (f"{prefix}{new}" if isinstance(prefix, str) else prefix + i) for i, (old, new) in enumerate(zip(PEOPLE, perm))}
+    exact = EvalFrames(frames.times, truth, truth.rename(columns={"person_id": "track_id"}).assign(
+        track_id=truth["person_id"].map(name)))
+    m = check_hota(exact, gate)
+    if len(truth):
+        assert m["hota"] == m["deta"] == m["assa"] == m["loca"] == 1.0
 
 
 @settings(max_examples=examples(40))
@@ -111,6 +146,7 @@ def test_disjoint_frames_score_nothing_matched(frames):
     far = EvalFrames(frames.times, frames.truth, frames.tracks.assign(x=frames.tracks["x"] + 100.0))
     mot, ids = check_invariants(far)
     assert (mot.num_detections, mot.fn, mot.fp, ids.idtp) == (0, len(far.truth), len(far.tracks), 0)
+    assert check_hota(far)["hota"] == 0.0
 
 
 # --------------------------------------------------------------------- scoring a tracks table

@@ -231,6 +231,13 @@ def test_resume_reuses_finished_runs(tmp_path, monkeypatch):
     assert main(["compare", "--resume", "--scenes", "overhead_lab", "--set", "walkers.count=2", "--seeds", "0",
                  "--estimators", "ekf", "--duration", "2", "--gate", "0.5", "--out", str(out), "--quiet"]) == 0
     assert calls == [(0, "ekf")]
+    # runs scored before the metrics changed (SCORE_REVISION) are run again, so every row has every metric
+    import trackroom.metrics.score as scoring
+
+    calls.clear()
+    monkeypatch.setattr(scoring, "SCORE_REVISION", scoring.SCORE_REVISION + 1)
+    assert main(["compare", "--resume", "--out", str(out), "--quiet"]) == 0
+    assert calls == [(0, "ekf")] and pd.read_csv(out / "results.csv")["hota"].notna().all()
 
 
 # ----------------------------------------------------------------------------- generate's limits

@@ -33,11 +33,12 @@ def test_an_impossible_bound_fails_with_a_table():
         {"scene": scene, "sensing": sensing, "estimator": "ekf", "metric": "rmse", "op": "<=", "bound": 1e-4},
         {"scene": scene, "sensing": sensing, "estimator": "ekf", "metric": "mota", "op": ">=", "bound": 0.5},
         {"scene": scene, "sensing": sensing, "estimator": "nobody", "metric": "mota", "op": ">=", "bound": 0.5},
+        {"scene": scene, "sensing": sensing, "estimator": "ekf", "metric": "hota", "op": ">=", "bound": 0.99},
     ])
     checked = check_thresholds(ci_results(scene, sensing), impossible)
-    assert checked["passed"].tolist() == [False, True, False]
+    assert checked["passed"].tolist() == [False, True, False, False]
     table = failure_table(checked)
-    assert "2 accuracy threshold(s) not met" in table and "rmse" in table and "not run" in table
+    assert "3 accuracy threshold(s) not met" in table and "rmse" in table and "not run" in table and "hota" in table
 
 
 def test_skipped_estimator_fails_its_bound():

@@ -11,7 +11,7 @@ TOML format (every key optional except scenes; command-line options override)::
     duration = 20.0          # simulated seconds per recording
     sensing = "analytic"     # or "rendered"
     seeds = "0-4"            # or [0, 1, 2]
-    gate = 1.0               # CLEAR MOT / IDF1 gate, m
+    gate = 1.0               # CLEAR MOT / IDF1 gate, m; HOTA similarity max(0, 1 - d / gate)
     jobs = 2
     plugins = ["my_tracker", "extra/tracker.py"]   # estimator plug-ins: modules or .py files
                                      # (files relative to this TOML file); workers import them too
@@ -45,8 +45,9 @@ line on stderr saying so.
 Finished runs (``runs_dir``, ``OUT/runs`` from the command line): each (scene, seed, estimator)
 run is stored as it finishes, written atomically: ``<scene>/seed<seed>/<estimator>.json`` (the
 result row and the run's key), ``.per_frame.parquet`` and ``.tracks.csv``. A run whose stored key
-matches (scene hash, seed, duration, sensing, gate, estimator and parameters, version) is reused,
-not re-run (``compare --resume``).
+matches (scene hash, seed, duration, sensing, gate, estimator and parameters, version, and the
+scoring's revision, ``metrics.score.SCORE_REVISION``, so runs stored before a metric was added
+are scored again) is reused, not re-run (``compare --resume``).
 """
 from __future__ import annotations
 
@@ -69,7 +70,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-PLOT_METRICS = ("mota", "rmse", "idf1")
+PLOT_METRICS = ("mota", "rmse", "idf1", "hota")
 
 
 class CompareError(ValueError):
@@ -370,12 +371,13 @@ def get_recording(scene: SceneRun, seed: int, duration: float, sensing: str, cac
 
 def run_key(scene: SceneRun, scene_hash: str, seed: int, est: EstimatorRun, spec: CompareSpec) -> dict[str, Any]:
     """What a stored run must match to be reused."""
+    from trackroom.metrics.score import SCORE_REVISION
     from trackroom.provenance import versions
 
     return {"scene": scene.key, "scene_name": scene.name, "overrides": list(scene.overrides), "scene_sha256": scene_hash,
             "seed": int(seed), "duration": float(spec.duration), "sensing": spec.sensing, "gate": float(spec.gate),
             "estimator": est.key, "estimator_name": est.name, "params": [[k, _jsonable(v)] for k, v in est.params],
-            "trackroom_version": versions().get("trackroom")}
+            "trackroom_version": versions().get("trackroom"), "score_revision": SCORE_REVISION}
 
 
 def _jsonable(v: Any) -> Any:
@@ -552,8 +554,8 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, com
     _atomic(paths["per_frame"], lambda p: comp.per_frame.to_csv(p, index=False, float_format="%.6g"))
     s = comp.spec
     head = (f"# Comparison\n\n{len(s.scenes)} scene(s) x {len(s.seeds)} seed(s) ({_seed_text(s.seeds)}) x "
-            f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m. "
-            f"{INTERVAL_NOTE}\n\n")
+            f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m "
+            f"(HOTA: similarity max(0, 1 - d / {s.gate:g} m), mean over alpha 0.05-0.95). {INTERVAL_NOTE}\n\n")
     _atomic(paths["summary"], lambda p: p.write_text(head + summary_markdown(comp.results) + "\n"))
     _atomic(paths["spec"], lambda p: p.write_text(spec_to_toml(s)))
     _atomic(paths["provenance"], lambda p: p.write_text(json.dumps(provenance_record(comp, command), indent=2) + "\n"))

@@ -22,7 +22,7 @@ def add_arguments(p) -> None:
     p.add_argument("--sensing", choices=["analytic", "rendered"])
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="scene override for every scene, e.g. --set walkers.count=5 (repeatable)")
-    p.add_argument("--gate", type=float, help="match gate in metres (default 1)")
+    p.add_argument("--gate", type=float, help="match gate in metres (default 1); HOTA similarity max(0, 1 - d / gate)")
     p.add_argument("--jobs", type=int, help="parallel processes (default 1)")
     p.add_argument("--recordings", help="recordings cache folder (default OUT/recordings)")
     p.add_argument("--no-cache", action="store_true", help="simulate every recording, keep none")

@@ -106,7 +106,7 @@ def _run_demo(args, work: Path, root: Path) -> str:
             if r.status == "ok":
                 r.tracks.to_csv(folder / f"tracks_{est}.csv", index=False, float_format="%.6f")
                 row.update(evaluate(rec, r.tracks).metrics())
-                print(f"  {est}: MOTA {row['mota']:.3f}, RMSE {row['rmse']:.3f} m, {r.seconds:.1f} s", flush=True)
+                print(f"  {est}: MOTA {row['mota']:.3f}, HOTA {row['hota']:.3f}, RMSE {row['rmse']:.3f} m, {r.seconds:.1f} s", flush=True)
             else:
                 print(f"  {est}: {r.status} ({r.reason})", flush=True)
             rows.append(row)

@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 NAME = "score"
-HELP = "score tracks.csv against a recording's truth (CLEAR MOT, IDF1, position error, ID accuracy)"
+HELP = "score tracks.csv against a recording's truth (CLEAR MOT, HOTA, IDF1, position error, ID accuracy)"
 
 TABLE = [
     ("MOTA", "mota", "{:.3f}"), ("MOTP (m)", "motp", "{:.3f}"), ("ID switches", "id_switches", "{:d}"),
     ("false positives", "fp", "{:d}"), ("misses", "fn", "{:d}"), ("IDF1", "idf1", "{:.3f}"),
+    ("HOTA", "hota", "{:.3f}"), ("  DetA / AssA", ("deta", "assa"), "{:.3f} / {:.3f}"),
+    ("  LocA (similarity)", "loca", "{:.3f}"),
     ("recall", "recall", "{:.3f}"), ("precision", "precision", "{:.3f}"),
     ("position RMSE (m)", "rmse", "{:.3f}"), ("  median / p90 (m)", ("p50", "p90"), "{:.3f} / {:.3f}"),
     ("  seen by 0 cameras", "rmse_cam0", "{:.3f}"), ("  seen by 1 camera", "rmse_cam1", "{:.3f}"),
@@ -18,7 +20,7 @@ TABLE = [
 def add_arguments(p) -> None:
     p.add_argument("recording", metavar="DIR", help="recording folder with truth")
     p.add_argument("tracks", help="tracks CSV (t, track_id, x, y [, phone_id])")
-    p.add_argument("--gate", type=float, default=1.0, help="match distance gate in metres (default 1)")
+    p.add_argument("--gate", type=float, default=1.0, help="match distance gate in metres (default 1); HOTA's similarity is max(0, 1 - d / gate)")
     p.add_argument("--person", metavar="ID", default=None,
                    help="score against this person's truth alone (a single-target tracker; ids as in truth/people)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
