@@ -73,7 +73,8 @@ class DetectorStats:
     swaps: int = 0
 
     def arrays(self):
-        return np.asarray(self.feats, float).reshape(len(self.feats), -1), np.asarray(self.hit, bool)
+        X = np.asarray(self.feats, float).reshape(-1, 2) if self.feats else np.zeros((0, 2))
+        return X, np.asarray(self.hit, bool)
 
 
 def scene_features(scene: Scene, seed: int, duration: float):

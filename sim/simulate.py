@@ -43,13 +43,15 @@ SIMULATOR_ONLY = ("still_speed", "flow_min_px_s", "perception")
 
 def perception_model(scene: Scene):
     """The perception model analytic sensing of ``scene`` uses (``sensors.perception``); a file
-    that cannot be used is a ValueError naming the option."""
+    that cannot be used is a SceneError naming the scene and the option."""
+    from trackroom.scenes.loader import SceneError
+
     from .perception_model import ModelError, load_model
 
     try:
         return load_model(scene.sensors.perception)
     except ModelError as e:
-        raise ValueError(f"sensors.perception: {e}") from None
+        raise SceneError(f"{scene.source or scene.name}: sensors.perception: {e}") from None
 
 
 def calibration_noise(scene: Scene, sensing: str = "analytic", model=None) -> dict:

@@ -15,8 +15,11 @@ from trackroom.sim.simulate import simulate
 
 # A 10 m x 6 m room: a horizontal camera on the west wall looking east, a wall segment in the
 # middle hiding "hidden" (behind it), "open" in plain view, and "shadowed" behind "open".
+# These tests check the geometry, so the detectors are ideal (every visible person, exact labels);
+# the fitted perception model is tested in test_perception_model.py.
 OCCLUSION = {
     "scene": {"name": "occlusion_test"},
+    "sensors": {"perception": "ideal"},
     "room": {"outline": [[0, 0], [10, 0], [10, 6], [0, 6]]},
     "walls": [{"start": [5.0, 3.5], "end": [5.0, 5.5]}],
     "cameras": [

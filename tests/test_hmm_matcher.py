@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
+from trackroom.sim.simulate import SIMULATOR_ONLY
 from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.gait import GaitModel
 from trackroom.estimators.hmm_matcher import HMMMatcher
@@ -85,7 +86,7 @@ def synthetic_recording(people: dict[str, list], phones: dict[str, str], duratio
             }))
     sort = lambda parts: pd.concat(parts, ignore_index=True).sort_values("t", kind="stable").reset_index(drop=True)
     cams = {c.name: c for c in scene.cameras}
-    noise = dataclasses.asdict(scene.sensors)
+    noise = {k: v for k, v in dataclasses.asdict(scene.sensors).items() if k not in SIMULATOR_ONLY}
     noise.update(floor_sigma_m=floor_sigma, magnetic_field=list(FIELD))
     return Recording(
         calibration=Calibration(cameras=cams, floorplan=scene.floorplan, noise=noise),

@@ -152,6 +152,8 @@ def valid_scenes(draw) -> dict:
         sensors["imu_rate"] = sim_rate / draw(st.integers(1, 10))
     if draw(st.booleans()):
         sensors["magnetic_field"] = [draw(_num(-1, 1)) for _ in range(3)]
+    if draw(st.booleans()):
+        sensors["perception"] = draw(st.sampled_from(["fitted", "ideal", "my_model.json"]))
     raw["sensors"] = sensors
     if draw(st.booleans()):
         raw["render"] = {"shadows": draw(st.booleans())}
@@ -400,7 +402,8 @@ def check_scene(scene: Scene, source: str) -> None:
     assert len({c.name for c in scene.cameras}) == len(scene.cameras)
     assert len({w.name for w in scene.walkers}) == len(scene.walkers)
     s = scene.sensors
-    assert _finite(*[getattr(s, f) for f in s.__dataclass_fields__])
+    assert _finite(*[getattr(s, f) for f in s.__dataclass_fields__ if f != "perception"])
+    assert isinstance(s.perception, str) and s.perception.strip()
     # the resolved raw scene reproduces the scene, also through TOML text (provenance stores it so)
     assert summary(parse_scene(scene.raw, source=source)) == summary(scene)
     assert summary(parse_scene(tomllib.loads(to_toml(scene.raw)), source=source)) == summary(scene)

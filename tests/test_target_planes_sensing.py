@@ -1,5 +1,7 @@
 """Analytic windows for the target-plane tracker: like an optical-flow tracker, an oblique camera
-reports a window only for a person whose image moves (``sensors.flow_min_px_s``)."""
+reports a window only for a person whose image moves (``sensors.flow_min_px_s``). The geometry
+tests use ideal perception (the fitted model's misses and false windows are tested in
+test_perception_model.py)."""
 from __future__ import annotations
 
 import dataclasses
@@ -14,14 +16,15 @@ WALKER = "{motion='waypoints', waypoints=[[1.0, 4.0], [3.0, 6.3]], speed=[1.0, 1
 
 
 def test_people_standing_still_give_no_windows():
-    scene = load_scene("occlusion_lab", ["walkers.count=2", f"walkers.people=[{STANDING}, {{motion='standing', start=[6.0, 4.2]}}]"])
+    scene = load_scene("occlusion_lab", ["walkers.count=2", f"walkers.people=[{STANDING}, {{motion='standing', start=[6.0, 4.2]}}]",
+                                         "sensors.perception=ideal"])
     rec = simulate(scene, seed=0, duration=1.0)
     assert len(rec.observations["bearings"]) > 0  # they are seen ...
     assert "boxes" not in rec.observations.tables or len(rec.observations["boxes"]) == 0  # ... but no flow window
 
 
 def test_windows_follow_only_the_walker():
-    scene = load_scene("occlusion_lab", ["walkers.count=2", f"walkers.people=[{STANDING}, {WALKER}]"])
+    scene = load_scene("occlusion_lab", ["walkers.count=2", f"walkers.people=[{STANDING}, {WALKER}]", "sensors.perception=ideal"])
     rec = simulate(scene, seed=0, duration=2.0)
     boxes, people = rec.observations["boxes"], rec.truth.people
     walker = people[people.person_id == scene.walkers[1].name]
@@ -38,8 +41,9 @@ def test_windows_follow_only_the_walker():
 
 def test_rendered_recordings_declare_the_flow_detectors_noise():
     """A rendered recording's calibration carries the flow detector's measured window noise
-    (its own keys: the horizontal cameras' ``bearing_sigma_px`` is left alone), and the
-    estimator picks it up; analytic recordings fall back to the bearing noise. The eq. 8
+    (its own keys) and the fitted perception model's bearing noise, and the estimator picks it
+    up; an analytic recording through the fitted model declares the same; with ideal perception
+    an analytic recording falls back to the bearing noise. The eq. 8
     threshold is the estimator's own parameter in both (never a calibration entry), and the
     simulator's detector settings (``still_speed``, ``flow_min_px_s``) are not in the calibration."""
     from trackroom.estimators.target_planes import TargetPlanes
@@ -50,7 +54,10 @@ def test_rendered_recordings_declare_the_flow_detectors_noise():
     noise = rec.calibration.noise
     for key, value in RENDERED_WINDOW_NOISE.items():
         assert noise[key] == value
-    assert noise["bearing_sigma_px"] == scene.sensors.bearing_sigma_px  # not overloaded
+    from trackroom.sim.perception_model import load_model
+
+    assert noise["bearing_sigma_px"] == load_model("fitted").noise_figures({"oblique"})["bearing_sigma_px"]
+    assert simulate(scene, seed=0, duration=0.2).calibration.noise == noise  # analytic, fitted: the same
     cfg = TargetPlanes(multi_person=True).resolved_config(rec.calibration)
     assert (cfg.box_sigma_px, cfg.box_u_sigma_px, cfg.flow_sigma_px_s, cfg.width_ratio_threshold) == (
         RENDERED_WINDOW_NOISE["box_sigma_px"], RENDERED_WINDOW_NOISE["box_u_sigma_px"],
@@ -59,8 +66,10 @@ def test_rendered_recordings_declare_the_flow_detectors_noise():
         assert key not in noise
     assert TargetPlanes(multi_person=True, width_ratio_threshold=0.8).resolved_config(rec.calibration).width_ratio_threshold == 0.8
 
-    analytic = simulate(scene, seed=0, duration=0.2).calibration
+    ideal = load_scene("occlusion_lab", ["sensors.perception=ideal"])
+    analytic = simulate(ideal, seed=0, duration=0.2).calibration
     assert "box_u_sigma_px" not in analytic.noise
+    assert analytic.noise["bearing_sigma_px"] == scene.sensors.bearing_sigma_px
     cfg = TargetPlanes(multi_person=True).resolved_config(analytic)
     assert cfg.box_u_sigma_px == analytic.noise["bearing_sigma_px"] and cfg.width_ratio_threshold == 0.5
     assert not {"still_speed", "flow_min_px_s"} & set(analytic.noise)

@@ -1,0 +1,204 @@
+"""Analytic sensing through the fitted perception model (sim/perception_model.py): merges, label
+confusion, determinism, fitting that recovers known parameters, model-file errors, and the
+calibrate-sensing command on a short rendered recording."""
+from __future__ import annotations
+
+import copy
+import json
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from trackroom.recording import OBSERVATION_COLUMNS
+from trackroom.scenes.loader import load_scene, parse_scene
+from trackroom.sim import perception_fit as pf
+from trackroom.sim.perception_model import DETECTORS, ModelError, Table, constant, load_model
+from trackroom.sim.simulate import simulate
+
+# A 10 m x 8 m room seen by one oblique camera from the west wall; "front" walks away from the
+# camera along its axis and "behind" follows 0.6 m behind it, so their images overlap all along.
+ROOM = {
+    "scene": {"name": "merge_test"},
+    "room": {"outline": [[0, 0], [10, 0], [10, 8], [0, 8]]},
+    "cameras": [{"name": "cam", "kind": "oblique", "position": [0.1, 4.0, 2.8], "look_at": [6.0, 4.0, 0.9],
+                 "fovy_deg": 60, "resolution": [320, 240], "fps": 10}],
+    "walkers": {"count": 2, "vary": False, "people": [
+        {"name": "front", "motion": "waypoints", "waypoints": [[2.6, 4.0], [9.0, 4.0]], "loop": True, "speed": [1.0, 1.0], "color": "red"},
+        {"name": "behind", "motion": "waypoints", "waypoints": [[2.0, 4.0], [8.4, 4.0]], "loop": True, "speed": [1.0, 1.0], "color": "blue"},
+    ]},
+}
+
+
+def _model_file(tmp_path, edit) -> str:
+    m = copy.deepcopy(load_model("fitted"))
+    edit(m)
+    path = tmp_path / "model.json"
+    m.save(path)
+    return str(path)
+
+
+def test_fitted_sensing_is_deterministic_and_keeps_the_detector_columns():
+    scene = load_scene("occlusion_lab")
+    a, b, c = (simulate(scene, seed=s, duration=4.0) for s in (5, 5, 6))
+    for kind, df in a.observations.tables.items():
+        pd.testing.assert_frame_equal(df, b.observations.tables[kind], check_exact=True)
+        assert list(df.columns) == OBSERVATION_COLUMNS[kind]  # nothing but what the detector outputs
+    assert not a.observations["boxes"].equals(c.observations["boxes"])
+
+
+def test_oblique_windows_merge_when_two_people_overlap_in_the_image():
+    scene = parse_scene(ROOM)
+    rec = simulate(scene, seed=0, duration=6.0)
+    boxes = rec.observations["boxes"]
+    cam = scene.camera("cam")
+    ppl = rec.truth.people
+    merged = both_seen = 0
+    for t, g in boxes.groupby("t"):
+        at = ppl[np.isclose(ppl.t, t)]
+        uv, depth = cam.project(at[["x", "y", "z"]].to_numpy(float))
+        if not ((uv[:, 0] > 0) & (uv[:, 0] < cam.width)).all():
+            continue
+        both_seen += 1
+        # one window whose span holds both people's body axes
+        spans = ((g.u_left.to_numpy()[:, None] <= uv[None, :, 0] + 2) & (g.u_right.to_numpy()[:, None] >= uv[None, :, 0] - 2)
+                 & (g.v_top.to_numpy()[:, None] <= uv[None, :, 1] + 2) & (g.v_bottom.to_numpy()[:, None] >= uv[None, :, 1] - 2))
+        merged += bool(spans.all(axis=1).any())
+    assert both_seen > 20
+    assert merged / both_seen > 0.3  # fitted: 0.6-0.8 of overlapping pairs merge per frame
+    # a merged window is one tracker id, not one per person
+    assert boxes.groupby("t").size().max() <= 2 + 1  # two people, at most a fragment or false window more
+
+
+def test_ideal_perception_never_merges_the_same_pair(tmp_path):
+    scene = parse_scene({**ROOM, "sensors": {"perception": "ideal"}})
+    boxes = simulate(scene, seed=0, duration=6.0).observations["boxes"]
+    per_frame = boxes.groupby("t").size()
+    assert (per_frame == 2).mean() > 0.8  # one window per moving person (the old analytic sensing)
+
+
+def test_person_ids_cannot_be_recovered_beyond_the_label_confusion(tmp_path):
+    """A lookup from each bearing's label to a person, fitted on the same recording (the best any
+    rule on that column can do), is right no more often than the model's label accuracy allows;
+    look-alikes sharing a colour cannot be told apart by label at all."""
+    path = _model_file(tmp_path, lambda m: setattr(m["horizontal"], "label", 0.7))
+    raw = {
+        "scene": {"name": "labels"},
+        "room": {"outline": [[0, 0], [10, 0], [10, 8], [0, 8]]},
+        "cameras": [{"name": "w", "kind": "horizontal", "position": [0.1, 4.0, 1.5], "yaw_deg": 0, "fovy_deg": 90,
+                     "resolution": [320, 240], "fps": 10}],
+        "sensors": {"perception": path},
+        "walkers": {"count": 4, "people": [{"color": "red"}, {"color": "red"}, {"color": "green"}, {"color": "blue"}]},
+    }
+    scene = parse_scene(raw)
+    rec = simulate(scene, seed=3, duration=40.0)
+    stats = pf.measure(rec, scene)["horizontal"]
+    assert len(stats.label_ok) > 200
+    acc = np.mean(stats.label_ok)
+    assert abs(acc - 0.7) < 0.06  # labels confused as the model says
+    # the best label -> person lookup: for each label, the person most often behind it
+    feats = pf.scene_features(scene, 3, 40.0)
+    traj, geometry, _ = feats
+    b = rec.observations["bearings"]
+    a_, b_, _ = pf.visible_span(geometry["w"], 320)
+    centre = 0.5 * (a_ + b_)
+    f = np.rint(b.t.to_numpy() * 10).astype(int)
+    person = np.abs(centre[f] - b.u.to_numpy()[:, None]).argmin(axis=1)
+    table = pd.crosstab(b.label.to_numpy(), person)
+    best = table.max(axis=1).sum() / table.to_numpy().sum()
+    # two of four people share "red": a lookup cannot beat ~ (label accuracy) x (share of rows not red-ambiguous)
+    red_rows = table.loc["red"].sum() / table.to_numpy().sum() if "red" in table.index else 0.0
+    assert red_rows > 0.2
+    assert best <= 1.0 - 0.5 * red_rows * 0.5 + 0.05
+
+
+def test_fit_recovers_known_parameters(tmp_path):
+    """Recordings simulated through a known model, measured and fitted like rendered ones, give that
+    model's detection rate and error scatter back."""
+    def edit(m):
+        m["oblique"].detect = constant(0.75)
+        m["oblique"].rho = 0.0
+        m["oblique"].label = 0.9
+        m["oblique"].fragment = 0.0
+        m["oblique"].clutter = 0.0
+    path = _model_file(tmp_path, edit)
+    # one walker: no one to merge with, so a miss is a miss (with several people, a missed person
+    # overlapping a detected one cannot be told from a merged one)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={path}", "walkers.count=1"])
+    stats = [pf.measure(simulate(scene, seed=s, duration=20.0), scene) for s in (0, 1)]
+    fitted = pf.fit(pf.merge_stats(stats), ["test"])
+    o = fitted["oblique"]
+    assert o.detect.n.sum() > 500
+    assert abs(float(np.average(o.detect.p, weights=np.maximum(o.detect.n, 1e-9))) - 0.75) < 0.04
+    assert o.label == 1.0  # one person, one colour: nothing to confuse (label confusion: the test above)
+    assert o.error("u").sigma == pytest.approx(load_model("fitted")["oblique"].error("u").sigma, rel=0.5)
+
+
+@pytest.mark.parametrize("content, problem", [
+    ("{", "not JSON"),
+    ('{"format": "other"}', "not a perception model"),
+    ('{"format": "trackroom-perception-model/1", "detectors": {}}', "no model for detector"),
+])
+def test_a_bad_model_file_is_one_clear_error(tmp_path, content, problem):
+    path = tmp_path / "m.json"
+    path.write_text(content)
+    with pytest.raises(ModelError, match=problem):
+        load_model(path)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={path}"])
+    with pytest.raises(ValueError, match="sensors.perception"):
+        simulate(scene, seed=0, duration=0.5)
+
+
+def test_a_bad_probability_names_the_detector(tmp_path):
+    d = load_model("fitted").to_dict()
+    d["detectors"]["windows"]["swap"] = 1.5
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(d))
+    with pytest.raises(ModelError, match="windows.*swap"):
+        load_model(path)
+    with pytest.raises(ModelError, match="cannot be read"):
+        load_model(tmp_path / "missing.json")
+
+
+def test_the_bundled_model_round_trips_and_covers_every_detector():
+    m = load_model("fitted")
+    assert set(m.detectors) == set(DETECTORS) and m.fitted_on
+    again = type(m).from_dict(json.loads(json.dumps(m.to_dict())))
+    for k in DETECTORS:
+        np.testing.assert_allclose(again[k].detect.p, m[k].detect.p)
+    t = Table([[0.0, 1.0, 2.0]], np.array([0.2, 0.8]))
+    np.testing.assert_allclose(t(np.array([-5.0, 0.5, 1.5, 9.0])), [0.2, 0.2, 0.8, 0.8])  # outer bins extend
+
+
+def test_generate_with_a_missing_model_is_one_line(tmp_path, capsys):
+    from trackroom.cli.main import main
+
+    code = main(["generate", "occlusion_lab", "--duration", "1", "--out", str(tmp_path / "r"),
+                 "--set", f"sensors.perception={tmp_path / 'nope.json'}", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "sensors.perception" in err and "Traceback" not in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_calibrate_sensing_fits_a_rendered_recording(tmp_path, capsys):
+    from trackroom.cli.main import main
+
+    rec_dir = tmp_path / "rendered"
+    assert main(["generate", "occlusion_lab", "--duration", "1.5", "--sensing", "rendered", "--out", str(rec_dir), "--quiet"]) == 0
+    out, table = tmp_path / "model.json", tmp_path / "table.csv"
+    assert main(["calibrate-sensing", str(tmp_path), "--out", str(out), "--table", str(table)]) == 0
+    printed = capsys.readouterr().out
+    model = load_model(out)
+    assert model.fitted_on and "occlusion_lab" in model.fitted_on[0]
+    t = pd.read_csv(table)
+    assert {"windows", "oblique"} <= set(t.detector) and set(t["mode"]) == {"rendered", "analytic"}
+    assert "detection_rate" in printed and "windows" in printed
+    # the model drives analytic sensing
+    scene = load_scene("occlusion_lab", [f"sensors.perception={out}"])
+    assert len(simulate(scene, seed=0, duration=1.0).observations["bearings"]) > 0
+    # an analytic recording is refused: the model is fitted to rendered ones
+    assert main(["generate", "occlusion_lab", "--duration", "1", "--out", str(tmp_path / "an"), "--quiet"]) == 0
+    assert main(["calibrate-sensing", str(tmp_path / "an"), "--out", str(out)]) == 2
