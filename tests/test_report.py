@@ -126,13 +126,13 @@ def test_report_shows_every_metric_column_results_csv_holds(comparison, tmp_path
     d = tmp_path / "cmp"
     shutil.copytree(comparison, d)
     results = pd.read_csv(d / "results.csv")
-    results.insert(len(results.columns), "hota", np.where(results["status"] == "ok", 0.5 + 0.01 * results["seed"], np.nan))
+    results.insert(len(results.columns), "my_score", np.where(results["status"] == "ok", 0.5 + 0.01 * results["seed"], np.nan))
     results.to_csv(d / "results.csv", index=False)
     assert main(["report", str(d), "--out", str(tmp_path / "r.html")]) == 0
     assert capsys.readouterr().out.startswith(f"wrote {tmp_path / 'r.html'}")
     page = Page((tmp_path / "r.html").read_text())
     header = page.tables["summary-table"]["header"][0]
-    col = [i for i, h in enumerate(header) if h.split()[0] == "hota"]
+    col = [i for i, h in enumerate(header) if h.split()[0] == "my_score"]
     assert len(col) == 1
     row = page.tables["summary-table"]["rows"][0]
     assert row[col[0]] == "0.505 [0.5, 0.51]"
