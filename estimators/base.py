@@ -37,6 +37,9 @@ from trackroom.recording import OBSERVATION_COLUMNS, STRING_COLUMNS, Calibration
 
 TRACK_COLUMNS = ["t", "track_id", "x", "y"]
 OPTIONAL_TRACK_COLUMNS = ["vx", "vy", "pxx", "pxy", "pyy", "phone_id"]
+# an estimator's per-camera status (``Estimator.estimate_with_status``): t (s), track_id, camera,
+# status (e.g. tracking / unreliable / lost), reason (free text, "" none)
+CAMERA_STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason"]
 
 REGISTRY: dict[str, type["Estimator"]] = {}
 
@@ -104,6 +107,13 @@ class Estimator:
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         raise NotImplementedError
+
+    def estimate_with_status(self, observations: Observations,
+                             calibration: Calibration) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+        """The tracks and, for an estimator that keeps one, its per-camera status table
+        (``CAMERA_STATUS_COLUMNS``: per frame, track and camera whether the camera tracks the
+        person, and why not); None for the others. Reports draw it as a timeline."""
+        return self.estimate(observations, calibration), None
 
 
 def _show(value) -> str:

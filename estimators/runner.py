@@ -4,6 +4,7 @@
     result.status   # "ok", "skipped" (does not apply: ``reason`` says why) or "error"
     result.tracks   # the validated tracks table (``check_tracks``), None unless ok
     result.seconds  # wall-clock time of ``estimate`` alone, s
+    result.camera_status  # the estimator's per-camera status table where it keeps one, else None
 
 Estimators get ``recording.observations`` and ``recording.calibration`` only, never the truth. The
 observations are checked first (``check_observations``: documented columns, finite numbers, times
@@ -33,6 +34,7 @@ class RunResult:
     reason: str = ""
     seconds: float = float("nan")
     tracks: pd.DataFrame | None = None
+    camera_status: pd.DataFrame | None = None  # ``Estimator.estimate_with_status``
 
 
 def parse_params(cls: type[Estimator], items: list[str] | dict[str, Any] | None) -> dict[str, Any]:
@@ -66,11 +68,11 @@ def run_estimator(recording: Recording, name: str, params: dict[str, Any] | list
         return RunResult(name, "skipped", reason)
     t0 = time.perf_counter()
     try:
-        tracks = est.estimate(obs, cal)
+        tracks, camera_status = est.estimate_with_status(obs, cal)
         seconds = time.perf_counter() - t0
         tracks = check_tracks(tracks, f"{name} tracks")
     except EstimatorError as e:
         if errors == "raise":
             raise
         return RunResult(name, "error", str(e), time.perf_counter() - t0)
-    return RunResult(name, "ok", "", seconds, tracks)
+    return RunResult(name, "ok", "", seconds, tracks, camera_status)

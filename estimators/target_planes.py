@@ -169,8 +169,11 @@ class TargetPlanes(Estimator):
         )
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
-        tr = self.run(observations, calibration).tracks
-        return check_tracks(tr[["t", "track_id", "x", "y", "vx", "vy"]], self.name)
+        return self.estimate_with_status(observations, calibration)[0]
+
+    def estimate_with_status(self, observations: Observations, calibration: Calibration) -> tuple[pd.DataFrame, pd.DataFrame]:
+        res = self.run(observations, calibration)
+        return check_tracks(res.tracks[["t", "track_id", "x", "y", "vx", "vy"]], self.name), res.status
 
     def run(self, observations: Observations, calibration: Calibration) -> TargetPlanesResult:
         cfg = self.resolved_config(calibration)

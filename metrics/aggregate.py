@@ -37,6 +37,26 @@ METRIC_RANGES: dict[str, tuple[float, float]] = {
                                  "id_switches", "fp", "fn", "matches", "frames", "objects", "predictions",
                                  "tracks", "people", "n_cam0", "n_cam1", "n_cam2plus", "runtime_s", "gate")},
 }
+# Units of score columns, for axis labels and table headers; a metric not listed is shown by name.
+_DISTANCES = ("motp", "rmse", "p50", "p90", "p95", "rmse_cam0", "rmse_cam1", "rmse_cam2plus", "gate")
+_COUNTS = ("id_switches", "fp", "fn", "matches", "frames", "objects", "predictions", "tracks", "people",
+           "n_cam0", "n_cam1", "n_cam2plus")
+METRIC_UNITS: dict[str, str] = {
+    "mota": "<= 1",
+    **{m: "0-1" for m in ("idf1", "idp", "idr", "recall", "precision", "id_accuracy", "id_accuracy_all",
+                          "hota", "deta", "assa", "loca", "detre", "detpr", "assre", "asspr")},
+    **{m: "m" for m in _DISTANCES},
+    **{m: "count" for m in _COUNTS},
+    "runtime_s": "s", "sim_s": "s", "duration": "s",
+}
+
+
+def metric_label(metric: str) -> str:
+    """``metric (unit)`` for an axis or a header, e.g. ``rmse (m)``; the name alone when no unit is known."""
+    unit = METRIC_UNITS.get(metric)
+    return f"{metric} ({unit})" if unit else metric
+
+
 BOOTSTRAP_RESAMPLES = 2000
 BOOTSTRAP_SEED = 0
 INTERVAL_NOTE = ("Mean [95% bootstrap percentile interval of the mean over seeds, 2000 seeded resamples, "

@@ -41,6 +41,7 @@ def test_site_packages_holds_trackroom_and_nothing_generic(installed):
     assert not (GENERIC & names), GENERIC & names
     assert (site / "trackroom" / "scenes" / "overhead_lab.toml").is_file()
     assert (site / "trackroom" / "metrics" / "thresholds.csv").is_file()
+    assert (site / "trackroom" / "templates" / "report.html.j2").is_file()  # the HTML report's template
     assert not (site / "trackroom" / "fig_rahimi.py").exists()
 
 

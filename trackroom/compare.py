@@ -44,7 +44,9 @@ line on stderr saying so.
 
 Finished runs (``runs_dir``, ``OUT/runs`` from the command line): each (scene, seed, estimator)
 run is stored as it finishes, written atomically: ``<scene>/seed<seed>/<estimator>.json`` (the
-result row and the run's key), ``.per_frame.parquet`` and ``.tracks.csv``. A run whose stored key
+result row and the run's key), ``.per_frame.parquet``, ``.tracks.csv`` and, for an estimator that
+keeps one (``Estimator.estimate_with_status``), its per-camera status ``.status.parquet``; the
+report (``trackroom report``) draws the tracks and status from them. A run whose stored key
 matches (scene hash, seed, duration, sensing, gate, estimator and parameters, version, and the
 scoring's revision, ``metrics.score.SCORE_REVISION``, so runs stored before a metric was added
 are scored again) is reused, not re-run (``compare --resume``).
@@ -71,6 +73,7 @@ import numpy as np
 import pandas as pd
 
 PLOT_METRICS = ("mota", "rmse", "idf1", "hota")
+PLOT_COLUMNS = 2  # scene panels per row of a metric plot
 
 
 class CompareError(ValueError):
@@ -385,10 +388,11 @@ def _jsonable(v: Any) -> Any:
 
 
 def run_paths(runs_dir: str | Path, scene: SceneRun, seed: int, est: EstimatorRun) -> dict[str, Path]:
-    """Where one finished run is stored: the row (json, written last), per-frame errors, tracks."""
+    """Where one finished run is stored: the row (json, written last), per-frame errors, tracks,
+    the per-camera status table."""
     base = Path(runs_dir) / _safe_name(scene.key) / f"seed{seed}" / _safe_name(est.key)
     return {"row": base.with_name(base.name + ".json"), "per_frame": base.with_name(base.name + ".per_frame.parquet"),
-            "tracks": base.with_name(base.name + ".tracks.csv")}
+            "tracks": base.with_name(base.name + ".tracks.csv"), "status": base.with_name(base.name + ".status.parquet")}
 
 
 def _safe_name(key: str) -> str:
@@ -409,11 +413,17 @@ def _load_run(paths: dict[str, Path], key: dict[str, Any]) -> tuple[dict, pd.Dat
         return None
 
 
-def _store_run(paths: dict[str, Path], key: dict[str, Any], row: dict, per_frame: pd.DataFrame, tracks) -> None:
+def _store_run(paths: dict[str, Path], key: dict[str, Any], row: dict, per_frame: pd.DataFrame, tracks,
+               camera_status: pd.DataFrame | None = None) -> None:
     """Write one finished run; the row file goes last, so it marks a complete run."""
+    from trackroom.estimators.base import CAMERA_STATUS_COLUMNS
+
     paths["row"].parent.mkdir(parents=True, exist_ok=True)
     if tracks is not None:
         _atomic(paths["tracks"], lambda p: tracks.to_csv(p, index=False, float_format="%.6f"))
+    if camera_status is not None:
+        st = camera_status[CAMERA_STATUS_COLUMNS].astype({"track_id": str, "camera": str, "status": str, "reason": str})
+        _atomic(paths["status"], lambda p: st.to_parquet(p, index=False))
     if len(per_frame):
         _atomic(paths["per_frame"], lambda p: per_frame.to_parquet(p, index=False))
     doc = {"key": key, "row": row, "per_frame": bool(len(per_frame))}
@@ -481,7 +491,8 @@ def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path 
             s.insert(0, "scene", scene.key)
             series.append(s)
         if paths is not None:
-            _store_run(paths, key, row, s, r.tracks if r.status == "ok" else None)
+            ok = r.status == "ok"
+            _store_run(paths, key, row, s, r.tracks if ok else None, r.camera_status if ok else None)
         rows.append(row)
     per_frame = pd.concat(series, ignore_index=True) if series else pd.DataFrame()
     return rows, per_frame, reused
@@ -538,7 +549,8 @@ def run_comparison(spec: CompareSpec, progress: bool = True, runs_dir: str | Pat
 
 
 # ----------------------------------------------------------------------------- outputs
-OUTPUT_FILES = ("results.csv", "per_frame.csv", "summary.md", "spec.toml", "provenance.json", "error_over_time.png")
+OUTPUT_FILES = ("results.csv", "per_frame.csv", "summary.md", "spec.toml", "provenance.json", "error_over_time.png",
+                "report.html")
 
 
 def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, command: list[str] | None = None) -> dict[str, Path]:
@@ -609,7 +621,7 @@ def _pyplot():
 
 def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict[str, Path]:
     """One figure per metric: a panel per scene, a bar (mean, 95% interval) and dots (seeds) per estimator."""
-    from trackroom.metrics.aggregate import mean_interval
+    from trackroom.metrics.aggregate import mean_interval, metric_label
 
     plt = _pyplot()
     ok = results[results["status"] == "ok"] if "status" in results else results
@@ -619,8 +631,12 @@ def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict
     for m in metrics:
         if m not in ok.columns or not ok[m].notna().any():
             continue
-        fig, axes = plt.subplots(1, len(scenes), figsize=(max(4.0, 1.2 * len(ests) + 1.5) * len(scenes), 3.6), squeeze=False)
-        for ax, sc in zip(axes[0], scenes):
+        cols = min(len(scenes), PLOT_COLUMNS)  # scenes wrap onto rows, so the text stays legible on a page
+        rows = -(-len(scenes) // cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(max(4.0, 1.2 * len(ests) + 1.5) * cols, 3.6 * rows), squeeze=False)
+        for ax in axes.ravel()[len(scenes):]:
+            ax.set_visible(False)
+        for ax, sc in zip(axes.ravel(), scenes):
             g = ok[ok["scene"] == sc]
             for i, e in enumerate(ests):
                 v = g.loc[g["estimator"] == e, m].to_numpy(float)
@@ -633,7 +649,7 @@ def plot_metrics(results: pd.DataFrame, out: Path, metrics=PLOT_METRICS) -> dict
                 ax.plot(np.full(len(v), i) + np.linspace(-0.15, 0.15, len(v)), v, "k.", ms=4)
             ax.set_xticks(range(len(ests)), ests, rotation=20, ha="right", fontsize=8)
             ax.set_title(sc, fontsize=9)
-            ax.set_ylabel(m)
+            ax.set_ylabel(metric_label(m))
         fig.tight_layout()
         p = out / f"metric_{m}.png"
         fig.savefig(p, dpi=100)

@@ -1,5 +1,6 @@
 """Top-down pictures of scenes and recordings (matplotlib, Agg): walls, obstacles, cameras and
-their fields of view, true paths, and detections."""
+their fields of view, true paths, and detections; an estimator's tracks over the truth, with the
+identity switches the CLEAR MOT matching (``metrics.mot``) finds."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -110,6 +111,99 @@ def plot_recording(rec, out: Path, max_bearing_rays: int = 150) -> Path:
             line.set_clip_path(clip)
     title = f"{rec.meta.get('scene', '')}  seed {rec.meta.get('seed')}  {rec.duration:g} s  ({rec.meta.get('sensing', '')})"
     ax.legend(loc="upper right", fontsize=6, framealpha=0.7)
+    _finish(ax, fig, title, out)
+    return out
+
+
+TRUTH_GREY = "0.55"
+MAX_SWITCH_LABELS = 12  # more switch markers than this are drawn unlabelled
+
+
+def identity_switches(evaluation) -> "pd.DataFrame":
+    """The identity switches of a scored run: ``t, person_id, track_id, previous, x, y`` (the
+    person's true floor position at that frame, m), from the CLEAR MOT matches of
+    ``metrics.score.evaluate`` (a person matched to a track other than its last)."""
+    import pandas as pd
+
+    m = evaluation.mot.matches.sort_values("frame", kind="stable")
+    m = m.assign(previous=m.groupby("person_id", sort=False)["track_id"].shift())
+    sw = m[m["switch"]]
+    truth = evaluation.frames.truth[["frame", "person_id", "x", "y"]]
+    out = sw.merge(truth, on=["frame", "person_id"], how="left")
+    return pd.DataFrame(out[["t", "person_id", "track_id", "previous", "x", "y"]]).reset_index(drop=True)
+
+
+def draw_tracks(ax, rec, tracks, gate: float = 1.0, legend: bool = True, label_tracks: bool = True) -> int:
+    """The truth (grey), each track (a colour per track, its id at its start) and the identity
+    switches (red crosses at the person's true position, ``person: old -> new``). Returns the
+    number of switches."""
+    from trackroom.metrics.score import evaluate
+
+    for pid, g in rec.truth.people.groupby("person_id", sort=False):
+        ax.plot(g["x"], g["y"], "-", lw=2.2, color=TRUTH_GREY, alpha=0.6, zorder=3,
+                label="truth" if pid == rec.truth.people["person_id"].iloc[0] else None)
+        ax.plot(g["x"].iloc[0], g["y"].iloc[0], "o", ms=3.5, color=TRUTH_GREY, zorder=3)  # a person standing still shows too
+        ax.annotate(str(pid), (g["x"].iloc[0], g["y"].iloc[0]), xytext=(-3, -9), textcoords="offset points",
+                    fontsize=6, color="0.35", zorder=3)
+    ids = list(dict.fromkeys(tracks["track_id"]))
+    colours = track_colours(len(ids))
+    for i, (tid, g) in enumerate(tracks.groupby("track_id", sort=False)):
+        g = g.sort_values("t", kind="stable")
+        col = colours[i % len(colours)]
+        ax.plot(g["x"], g["y"], "-", lw=0.9, color=col, zorder=4, label=f"track {tid}" if len(ids) <= 10 else None)
+        if label_tracks:
+            ax.annotate(f"#{tid}", (g["x"].iloc[0], g["y"].iloc[0]), xytext=(3, 3), textcoords="offset points",
+                        fontsize=6, color=col, zorder=6)
+    sw = identity_switches(evaluate(rec, tracks, gate))
+    if len(sw):
+        ax.plot(sw["x"], sw["y"], "X", color="red", mec="white", mew=0.6, ms=8, zorder=7, label="identity switch")
+        _place_labels(ax, [(f"{r.person_id}: {r.previous}\u2192{r.track_id}", (r.x, r.y))
+                           for r in sw.head(MAX_SWITCH_LABELS).itertuples()], color="red")
+    if legend:  # beside the room, where it hides no camera or path
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+    return len(sw)
+
+
+def track_colours(n: int) -> list:
+    """Distinct colours for n tracks, none of them grey (grey is the truth's)."""
+    cmap = plt.get_cmap("tab20" if n > 9 else "tab10")
+    return [cmap(i) for i in range(cmap.N) if not _greyish(cmap(i))]
+
+
+def _greyish(rgba) -> bool:
+    r, g, b = rgba[:3]
+    return max(r, g, b) - min(r, g, b) < 0.08
+
+
+def _place_labels(ax, labels, color, fontsize: int = 6) -> None:
+    """Annotate each (text, (x, y)) at the first of a few offsets where it overlaps no text already
+    on the axes (camera, obstacle and track labels, earlier ones of these)."""
+    ax.set_aspect("equal")
+    ax.apply_aspect()  # the final data-to-display scale, so the overlap test holds in the picture
+    renderer = ax.figure.canvas.get_renderer()
+    offsets = [(5, -10), (5, 5), (-5, -10), (-5, 5), (5, -20), (5, 15), (-5, -20), (-5, 15)]
+    placed = [t.get_window_extent(renderer) for t in ax.texts]
+    for text, xy in labels:
+        for k, (dx, dy) in enumerate(offsets):
+            a = ax.annotate(text, xy, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize, color=color,
+                            ha="left" if dx > 0 else "right", zorder=8)
+            box = a.get_window_extent(renderer).expanded(1.1, 1.3)  # a margin for later layout changes
+            if not any(box.overlaps(b) for b in placed) or k == len(offsets) - 1:
+                placed.append(box)
+                break
+            a.remove()
+
+
+def plot_tracks(rec, tracks, out: Path, gate: float = 1.0, name: str = "tracks") -> Path:
+    """Walls, cameras, the truth in grey, the tracks in colour and their identity switches."""
+    fig, ax = plt.subplots(figsize=(8.5, 7))
+    fig.subplots_adjust(left=0.08, right=0.8, bottom=0.08, top=0.94)  # near the final layout, for label placement
+    fp = rec.calibration.floorplan
+    draw_floorplan(ax, fp)
+    draw_cameras(ax, rec.calibration.cameras.values(), fp)
+    n = draw_tracks(ax, rec, tracks, gate)
+    title = (f"{rec.meta.get('scene', '')} seed {rec.meta.get('seed')} ({rec.meta.get('sensing', '')}): {name}, "
+             f"{tracks['track_id'].nunique()} tracks, {n} identity switch{'es' if n != 1 else ''} (gate {gate:g} m)")
     _finish(ax, fig, title, out)
     return out
 

@@ -1,7 +1,7 @@
 """trackroom compare: scenes x seeds x estimators -> results.csv, summary.md and plots.
 
 Beside its results it writes ``spec.toml`` (the resolved comparison) and ``provenance.json``
-(command line, versions, times). An existing ``--out`` is refused unless ``--force`` (replace its
+(command line, versions, times); with ``--html`` also ``report.html`` (``trackroom report``). An existing ``--out`` is refused unless ``--force`` (replace its
 results; the recordings cache stays, checked entry by entry) or ``--resume`` (reuse the finished
 runs stored in OUT/runs; without a TOML file or --scenes it reruns OUT/spec.toml).
 """
@@ -30,6 +30,8 @@ def add_arguments(p) -> None:
     p.add_argument("--force", action="store_true", help="replace the results in an existing --out")
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted comparison in --out: finished runs that match are reused, not re-run")
+    p.add_argument("--html", action="store_true",
+                   help="also write OUT/report.html, the self-contained report (as trackroom report OUT does)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_plugin_argument(p)
 
@@ -94,6 +96,10 @@ def run(args) -> int:
     _atomic(out / "spec.toml", lambda p: p.write_text(spec_to_toml(spec)))  # first, so --resume finds it
     comp = run_comparison(spec, progress=not args.quiet, runs_dir=out / "runs", command=command)
     paths = write_outputs(comp, out, command=command)
+    if args.html:
+        from trackroom.report import write_report
+
+        paths["report"] = write_report(out)
     print(paths["summary"].read_text())
     reused = f"; reused {comp.reused} finished run(s)" if comp.reused else ""
     print(f"took {comp.seconds:.1f} s{reused}; wrote {', '.join(str(p) for p in paths.values())}")

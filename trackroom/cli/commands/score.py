@@ -27,26 +27,10 @@ def add_arguments(p) -> None:
 
 
 def load_tracks(path):
-    """A tracks CSV (``t, track_id, x, y`` [+ ``vx, vy, pxx, pxy, pyy, phone_id``]), validated by
-    ``check_tracks``: a bad value ends in one line naming the column and the file line."""
-    import pandas as pd
+    """A tracks CSV, validated (``trackroom.dataset.read_tracks``)."""
+    from trackroom.dataset import read_tracks
 
-    from trackroom.estimators.base import check_tracks
-
-    try:
-        df = pd.read_csv(path, dtype={"phone_id": str, "track_id": str}, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        from trackroom.errors import CommandError
-
-        raise CommandError(f"{path}: not a readable CSV: {' '.join(str(e).split())}") from None
-    if "track_id" in df.columns:
-        # integer ids stay integers ("3" -> 3, as estimators write them); others stay text
-        ids = pd.to_numeric(df["track_id"], errors="coerce")
-        if ids.notna().all() and (ids == ids.round()).all():
-            df["track_id"] = ids.astype("int64")
-    if "phone_id" in df.columns:
-        df["phone_id"] = df["phone_id"].fillna("")
-    return check_tracks(df, str(path), first_line=2)
+    return read_tracks(path)
 
 
 def _nan(v) -> bool:
