@@ -1,7 +1,7 @@
 """Benchmark: analytic ``overhead_lab`` with 10 walkers, speed as a multiple of real time and
 memory per simulated minute.
 
-    python scripts/bench_analytic.py [--duration 60] [--repeats 3] [--walkers 10] [--profile]
+    python scripts/bench_analytic.py [--duration 60] [--repeats 3] [--walkers 10] [--perception fitted|ideal] [--profile]
 
 Speed = simulated seconds / CPU seconds of this process (``time.process_time``; the process is
 single-threaded, so this is "on one core" and is not inflated by other jobs on a shared
@@ -36,8 +36,9 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--walkers", type=int, default=10)
     ap.add_argument("--profile", action="store_true", help="print the top functions of one run by CPU time")
+    ap.add_argument("--perception", default="fitted", help='analytic perception: "fitted" (default), "ideal" or a model file')
     args = ap.parse_args(argv)
-    scene = load_scene("overhead_lab", [f"walkers.count={args.walkers}"])
+    scene = load_scene("overhead_lab", [f"walkers.count={args.walkers}", f"sensors.perception={args.perception}"])
     simulate(scene, 0, 2.0)  # warm up imports and caches
     load_before = os.getloadavg()[0]
     cpu, wall, plan = [], [], []

@@ -25,6 +25,12 @@ def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: flo
     return cand & (correlated_uniforms(rng, cand.shape, rho) < p)
 
 
+def error_uniforms(rng: np.random.Generator, shape: tuple[int, int], m: DetectorModel, count: int) -> list[np.ndarray]:
+    """``count`` (F, P) grids of uniforms for measurement errors, each person's column correlated
+    from frame to frame with ``err_rho``."""
+    return [correlated_uniforms(rng, shape, m.err_rho) for _ in range(count)]
+
+
 def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, eligible: np.ndarray,
                 m: DetectorModel) -> np.ndarray:
     """(F, P) index of the detection each person is reported in: p itself, or the lowest index of
@@ -89,7 +95,8 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     f, p = _groups(root, det)
     n = len(f)
     clipped = clip[f, p] < 0.999
-    err = np.where(clipped, m.error("u_clip").sample(rng, n), m.error("u").sample(rng, n))
+    (uu,) = error_uniforms(rng, det.shape, m, 1)
+    err = np.where(clipped, m.error("u_clip").at(uu[f, p]), m.error("u").at(uu[f, p]))
     u = 0.5 * (lo[f, p] + hi[f, p]) + err
     lab_idx = np.array([palette.index(c) for c in colours], int)[p] if n else np.zeros(0, int)
     lab_idx = _confuse(rng, lab_idx, m.label, len(palette))
@@ -136,7 +143,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     root = merge_roots(rng, det, o, ok & vok, m)
     F, P = det.shape
     ids = WindowIds(P, m, rng)
-    out_f, out_e, out_fl, out_id = [], [], [], []
+    grids = error_uniforms(rng, det.shape, m, 6)
+    out_f, out_p, out_e, out_fl, out_id = [], [], [], [], []
     for f in range(F):
         groups = {}
         for p in np.nonzero(det[f])[0]:
@@ -146,6 +154,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
         for mem, tid in zip(members, tids):
             ee = e[f, mem]
             out_f.append(f)
+            out_p.append(mem[0])
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
@@ -154,10 +163,13 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     edges = np.asarray(out_e, float).reshape(n, 4)
     flow = np.asarray(out_fl, float).reshape(n, 2)
     tid = np.asarray(out_id, np.int64)
-    for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
-        edges[:, j] += m.error(name).sample(rng, n)
-    flow[:, 0] += m.error("flow_u").sample(rng, n)
-    flow[:, 1] += m.error("flow_v").sample(rng, n)
+    pp = np.asarray(out_p, int)
+    for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v")):
+        e_j = m.error(name).at(grids[j][f, pp])
+        if j < 4:
+            edges[:, j] += e_j
+        else:
+            flow[:, j - 4] += e_j
     cf, ce, cfl, cid = ids.clutter(F, cam)
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff), (edges, ce, fe), (flow, cfl, ffl), (tid, cid, fid)))
@@ -316,9 +328,9 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     if (cnt > 1).any():
         many = cnt > 1
         pos[many] = (grouped[many][..., None] * xy[f[many]]).sum(axis=1) / cnt[many, None]
-    n = len(f)
     err = m.error("xy")
-    e = np.stack([err.sample(rng, n), err.sample(rng, n)], -1)
+    gx, gy = error_uniforms(rng, det.shape, m, 2)
+    e = np.stack([err.at(gx[f, p]), err.at(gy[f, p])], -1)
     if cam.quantum > 0 and err.sigma > 0:
         # the fitted residuals of a quantising camera include its rounding (variance q^2 / 12),
         # which the rounding below adds again: keep only the rest of the scatter

@@ -59,6 +59,7 @@ class DetectorStats:
     pair_feat: list = field(default_factory=list)
     pair_merged: list = field(default_factory=list)
     errors: dict = field(default_factory=lambda: defaultdict(list))
+    err_seq: list = field(default_factory=list)  # (sequence key, person, frame, main error) for err_rho
     label_ok: list = field(default_factory=list)
     frames: int = 0
     clutter: int = 0
@@ -175,6 +176,7 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
             if own[f, p]:
                 err = u[rr] - centre[f, p]
                 s.errors["u" if clip[f, p] >= 0.999 else "u_clip"].append(err)
+                s.err_seq.append((cam.name, p, f, err))
                 s.label_ok.append(lab[rr] == colours[p])
         matched = set(match.values())
         for rr in range(len(u)):
@@ -254,6 +256,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
                 for j, c in enumerate(cols):
                     s.errors[c].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
+                s.err_seq.append((cam.name, p, f, s.errors["u"][-1]))
                 s.errors["flow_u"].append(fl[rr, 0] - g.flow[f, p, 0])
                 s.errors["flow_v"].append(fl[rr, 1] - g.flow[f, p, 1])
         used = set(match.values())
@@ -349,6 +352,7 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
         for p, rr in match.items():
             if own[f, p]:
                 s.errors["xy"].extend((D[rr] - xy[f, p]).tolist())
+                s.err_seq.append((cam.name, p, f, float(D[rr, 0] - xy[f, p, 0])))
         s.clutter += len(D) - len(match)
         both = hit[f, iu] & hit[f, ju]
         for k in np.nonzero(both)[0]:
@@ -372,6 +376,7 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             o.hit += s.hit
             o.own += s.own
             o.runs += [((i, key), p, f, base + idx) for key, p, f, idx in s.runs]
+            o.err_seq += [((i, key), p, f, v) for key, p, f, v in s.err_seq]
             o.pair_feat += s.pair_feat
             o.pair_merged += s.pair_merged
             for name, v in s.errors.items():
@@ -437,6 +442,24 @@ def fit_rho(s: DetectorStats, p: np.ndarray, seed: int = 0) -> float:
     return best
 
 
+def fit_err_rho(s: DetectorStats) -> float:
+    """Lag-one correlation of a person's errors in consecutive frames, on normal scores (the
+    Gaussian copula the sampler uses); 0 without enough pairs."""
+    if len(s.err_seq) < 30:
+        return 0.0
+    from scipy.special import ndtri
+    from scipy.stats import rankdata
+
+    seq = sorted(s.err_seq, key=lambda r: (str(r[0]), r[1], r[2]))
+    v = np.array([r[3] for r in seq], float)
+    z = ndtri((rankdata(v) - 0.5) / len(v))
+    same = np.array([str(a[0]) == str(b[0]) and a[1] == b[1] and b[2] == a[2] + 1 for a, b in zip(seq[:-1], seq[1:])])
+    if same.sum() < 30:
+        return 0.0
+    r = float(np.corrcoef(z[:-1][same], z[1:][same])[0, 1])
+    return float(np.clip(r, 0.0, 0.999)) if np.isfinite(r) else 0.0
+
+
 def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings)."""
     from .perception_flow import FlowParams
@@ -458,7 +481,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             errors["u_clip"] = errors["u"]
         n_clutter_ids = max(len(s.clutter_ids), 1)
         out[k] = DetectorModel(
-            detect=detect, rho=fit_rho(s, p), merge=merge, errors=errors,
+            detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s), merge=merge, errors=errors,
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
             clutter=s.clutter / s.frames if s.frames else 0.0,
             clutter_frames=max(1.0, s.clutter / n_clutter_ids) if k == "windows" else 1.0,

@@ -26,7 +26,10 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            people's measurement errors once.
   errors   ``Quantiles`` of the measurement error against the analytic reference (the centre of
            the visible part of the person's image span; the clipped window edges; the projected
-           flow; the floor position): bias, scatter and tails in one inverse-CDF table.
+           flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
+           errors persist from frame to frame as the rendered ones do (the same silhouette gives
+           the same error): the uniforms behind them are a Gaussian AR(1) copula per person and
+           camera with the fitted lag-one correlation ``err_rho``.
   label    P(the appearance label is the person's own colour); otherwise another colour of the
            scene's palette, drawn uniformly (the label is an appearance class, never an id).
   clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
@@ -123,7 +126,11 @@ class Quantiles:
     q: np.ndarray
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        return np.interp(rng.random(n), LEVELS, self.q)
+        return self.at(rng.random(n))
+
+    def at(self, u: np.ndarray) -> np.ndarray:
+        """The errors at uniforms ``u`` (inverse CDF)."""
+        return np.interp(u, LEVELS, self.q)
 
     @property
     def bias(self) -> float:
@@ -166,6 +173,7 @@ class DetectorModel:
 
     detect: Table = field(default_factory=lambda: constant(1.0))
     rho: float = 0.0  # frame correlation of the miss copula
+    err_rho: float = 0.0  # frame correlation of a person's measurement errors (Gaussian copula)
     merge: Table = field(default_factory=lambda: constant(0.0))
     errors: dict[str, Quantiles] = field(default_factory=dict)
     label: float = 1.0
@@ -184,7 +192,7 @@ class DetectorModel:
 
     def to_dict(self) -> dict:
         return {
-            "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "merge": self.merge.to_dict(),
+            "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "err_rho": round(self.err_rho, 4), "merge": self.merge.to_dict(),
             "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
             "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
@@ -194,13 +202,13 @@ class DetectorModel:
 
     @classmethod
     def from_dict(cls, d) -> "DetectorModel":
-        m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), merge=Table.from_dict(d["merge"]),
+        m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), err_rho=float(d["err_rho"]), merge=Table.from_dict(d["merge"]),
                 errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
                 clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
                 fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
                 swap=float(d["swap"]), max_gap=int(d["max_gap"]))
-        for name in ("rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
+        for name in ("rho", "err_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
         if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
