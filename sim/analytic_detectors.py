@@ -286,8 +286,8 @@ class WindowIds:
 
     def clutter(self, n_frames: int, cam: Camera):
         """False windows: born Poisson(clutter / clutter_frames) per frame, each living a
-        geometric number of frames (mean ``clutter_frames``) in place, with its own id; place
-        (``clutter_u``, ``clutter_v``: shares of the image), size and flow from the rendered ones."""
+        geometric number of frames (mean ``clutter_frames``) in place, with its own id, placed
+        uniformly in the image, with the rendered ones' sizes and flows."""
         m, rng = self.m, self.rng
         empty = (np.zeros(0, int), np.zeros((0, 4)), np.zeros((0, 2)), np.zeros(0, np.int64))
         if m.clutter <= 0 or n_frames == 0:
@@ -299,9 +299,9 @@ class WindowIds:
         life = rng.geometric(1.0 / m.clutter_frames, len(f0))
         w = np.maximum(m.error("clutter_w").sample(rng, len(f0)), 2.0)
         h = np.maximum(m.error("clutter_h").sample(rng, len(f0)), 2.0)
-        # where the rendered tracker's false windows were (share of the image), and their flow
-        cu = cam.width * (m.errors["clutter_u"].sample(rng, len(f0)) if "clutter_u" in m.errors else rng.random(len(f0)))
-        cv = cam.height * (m.errors["clutter_v"].sample(rng, len(f0)) if "clutter_v" in m.errors else rng.random(len(f0)))
+        # placed uniformly: the rendered false windows' own places (their marginal distribution in
+        # the image) made transfer worse, see docs/sensing.md
+        cu, cv = rng.uniform(0, cam.width, len(f0)), rng.uniform(0, cam.height, len(f0))
         fl = np.stack([m.error("clutter_flow_u").sample(rng, len(f0)), m.error("clutter_flow_v").sample(rng, len(f0))], -1)
         ids = np.array([self._new() for _ in f0], np.int64)
         k = np.repeat(np.arange(len(f0)), life)

@@ -281,8 +281,6 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
                 s.clutter_ids.add((cam.name, int(tid[rr])))
                 s.errors["clutter_w"].append(W[rr, 1] - W[rr, 0])
                 s.errors["clutter_h"].append(W[rr, 3] - W[rr, 2])
-                s.errors["clutter_u"].append(cu / cam.width)  # where in the image (share of its width)
-                s.errors["clutter_v"].append(cv / cam.height)
                 s.errors["clutter_flow_u"].append(fl[rr, 0])
                 s.errors["clutter_flow_v"].append(fl[rr, 1])
         for p in np.nonzero(window_of[f] >= 0)[0]:
