@@ -33,12 +33,13 @@ def _env() -> dict[str, str]:
 
 
 def _stop(procs: list[subprocess.Popen]) -> None:
-    for p in procs:  # each started in its own session: its group holds it and anything it started
+    """Workers first, then the scheduler; each was started in its own session, so its process
+    group holds it and anything it started."""
+    for p in reversed(procs):
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGTERM)
-    for p in procs:
         try:
-            p.wait(timeout=15)
+            p.wait(timeout=5)
         except subprocess.TimeoutExpired:
             os.killpg(p.pid, signal.SIGKILL)
             p.wait()
