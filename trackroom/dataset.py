@@ -55,6 +55,7 @@ import json
 import math
 import os
 import shutil
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -99,10 +100,14 @@ def write_recording(rec: Recording, out_dir: str | Path, overwrite: bool = False
     aside = None
     try:
         for kind, df in rec.observations.tables.items():
-            _write_parquet(check_table(kind, df), tmp / f"{kind}.parquet")
-        for kind, df in rec.truth.tables.items():
-            _write_parquet(df, tmp / TRUTH_FILES[kind])
-        _write_gt_world(rec.truth.people, tmp / "gt_world.csv", gt_world_rate(rec))
+            check_table(kind, df)
+        # the tables are encoded, compressed and hashed in threads: pyarrow and hashlib release
+        # the GIL, so a 10-minute recording's tables take about the time of the largest one
+        writes = [(lambda df=df, p=tmp / f"{kind}.parquet": _write_parquet(df, p)) for kind, df in rec.observations.tables.items()]
+        writes += [(lambda df=df, p=tmp / TRUTH_FILES[kind]: _write_parquet(df, p)) for kind, df in rec.truth.tables.items()]
+        writes.append(lambda: _write_gt_world(rec.truth.people, tmp / "gt_world.csv", gt_world_rate(rec)))
+        with ThreadPoolExecutor(max_workers=min(len(writes), os.cpu_count() or 1)) as pool:
+            hashes = dict(pool.map(lambda write: _hashed(write()), writes))
         (tmp / "calibration").mkdir()
         for cam in rec.calibration.cameras.values():
             write_camera_xml(cam, tmp / "calibration" / f"{cam.name}.xml")
@@ -114,7 +119,8 @@ def write_recording(rec: Recording, out_dir: str | Path, overwrite: bool = False
             if src is not None and Path(src).exists():
                 shutil.move(str(src), str(tmp / name))
         files = sorted(p for p in tmp.rglob("*") if p.is_file())
-        _write_json(_manifest(rec, command, {str(p.relative_to(tmp)): _sha256(p) for p in files}), tmp / "manifest.json")
+        _write_json(_manifest(rec, command, {str(p.relative_to(tmp)): hashes.get(p) or _sha256(p) for p in files}),
+                    tmp / "manifest.json")
         if out.exists():
             # renamed aside, not deleted in place: a kill mid-way must not leave half a folder at out
             aside = out.parent / f".{out.name}.old-{os.getpid()}"
@@ -439,8 +445,13 @@ def read_camera_xml(path: Path) -> Camera:
 
 
 # ----------------------------------------------------------------------------- helpers
-def _write_parquet(df: pd.DataFrame, path: Path) -> None:
+def _write_parquet(df: pd.DataFrame, path: Path) -> Path:
     df.reset_index(drop=True).to_parquet(path, index=False, engine="pyarrow", compression="zstd")
+    return path
+
+
+def _hashed(path: Path) -> tuple[Path, str]:
+    return path, _sha256(path)
 
 
 def _read_parquet(path: Path, kind: str | None = None) -> pd.DataFrame:
@@ -497,7 +508,7 @@ def gt_world_rate(rec: Recording) -> float:
     return max(fps) if fps else float(rec.meta.get("sim_rate", 100.0))
 
 
-def _write_gt_world(people: pd.DataFrame, path: Path, rate: float) -> None:
+def _write_gt_world(people: pd.DataFrame, path: Path, rate: float) -> Path:
     """MOTChallenge-style world ground truth at ``rate`` (Hz; the truth times that fall on its
     frames): frame (1-based, t = (frame - 1) / rate), id (1-based, first-appearance order), x, y
     (m, 6 decimals). Written by pyarrow's CSV writer (the same text as pandas', ~10x faster)."""
@@ -514,6 +525,7 @@ def _write_gt_world(people: pd.DataFrame, path: Path, rate: float) -> None:
     with open(path, "wb") as out:
         out.write(b"frame,id,x,y\n")
         pa_csv.write_csv(table, out, pa_csv.WriteOptions(include_header=False))
+    return path
 
 
 def _write_json(obj, path: Path) -> None:
