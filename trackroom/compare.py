@@ -15,7 +15,7 @@ TOML format (every key optional except scenes; command-line options override)::
     sensing = "analytic"     # or "rendered"
     seeds = "0-4"            # or [0, 1, 2]
     gate = 1.0               # CLEAR MOT / IDF1 gate, m
-    jobs = 2
+    jobs = 2                 # 1: in this process; N > 1: a dask LocalCluster of N workers
     plugins = ["my_tracker", "extra/tracker.py"]   # estimator plug-ins: modules or .py files
                                      # (files relative to this TOML file); workers import them too
     set = ["walkers.count=3"]        # scene overrides for every scene
