@@ -128,9 +128,8 @@ def test_unreachable_scheduler_is_one_line(tmp_path, monkeypatch, capsys):
     assert "\n" not in err
 
 
-def test_commands_without_a_sweep_do_not_import_dask(tmp_path):
+def test_serial_compare_does_not_import_dask(tmp_path):
     code = ("import sys; from trackroom.cli import main; "
-            f"main(['generate', 'overhead_lab', '--duration', '1', '--out', {str(tmp_path / 'rec')!r}, '--quiet']); "
             "main(['compare', '--scenes', 'overhead_lab', '--set', 'walkers.count=1', '--estimators', 'ekf', "
             f"'--duration', '1', '--out', {str(tmp_path / 'cmp')!r}, '--quiet']); "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')))")
