@@ -128,6 +128,18 @@ def test_unreachable_scheduler_is_one_line(tmp_path, monkeypatch, capsys):
     assert "\n" not in err
 
 
+def test_urls_are_refused_in_one_line(tmp_path, capsys):
+    from trackroom.cli import main
+
+    base = ["compare", "--scenes", "overhead_lab", "--estimators", "ekf", "--duration", "1", "--quiet"]
+    assert main(base + ["--out", "s3://bucket/cmp"]) == 2
+    assert "--out s3://bucket/cmp: give a folder path" in capsys.readouterr().err
+    assert main(base + ["--out", str(tmp_path / "cmp"), "--recordings", "s3://bucket/recs"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("trackroom compare: error: recordings s3://bucket/recs: give a folder path (on a filesystem every "
+                   "worker mounts); URLs are not supported"), err
+
+
 def test_serial_compare_does_not_import_dask(tmp_path):
     code = ("import sys; from trackroom.cli import main; "
             "main(['compare', '--scenes', 'overhead_lab', '--set', 'walkers.count=1', '--estimators', 'ekf', "

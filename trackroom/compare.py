@@ -35,7 +35,7 @@ and switches per evaluation frame), ``summary.md`` (mean and 95% interval per sc
 estimator), ``metric_<name>.png`` (metric per estimator) and ``error_over_time.png``;
 ``spec.toml`` (the resolved ``CompareSpec``, loadable by ``spec_from_toml``) and
 ``provenance.json`` (command line, versions, git commit, start and end time, seeds, the scenes'
-hashes, how many runs were reused).
+hashes, how many runs were reused and where the tasks ran: ``backend``).
 
 The recordings cache (``recordings``): one folder per scene (name and overrides), duration,
 sensing and seed. Its manifest is checked against the cache key, ``cache_key``: the resolved
@@ -141,6 +141,9 @@ class CompareSpec:
             raise CompareError(f"gate must be positive, got {self.gate}")
         if self.jobs < 1:
             raise CompareError(f"jobs must be at least 1, got {self.jobs}")
+        if self.recordings and "://" in str(self.recordings):
+            raise CompareError(f"recordings {self.recordings}: give a folder path (on a filesystem every worker mounts); "
+                               "URLs are not supported")
         for what, keys in (("scene", [s.key for s in self.scenes]), ("estimator", [e.key for e in self.estimators])):
             dup = sorted({k for k in keys if keys.count(k) > 1})
             if dup:
@@ -703,7 +706,7 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, com
 
 def provenance_record(comp: Comparison, command: list[str] | None = None) -> dict[str, Any]:
     """Where a comparison's results came from: command line, versions, git commit, times, seeds,
-    the scenes' hashes and how many runs were reused."""
+    the scenes' hashes, how many runs were reused and where the tasks ran."""
     from trackroom.provenance import versions
     from trackroom.scenes import load_scene
     from trackroom.scenes.loader import scene_sha256

@@ -95,9 +95,8 @@ def run(args) -> int:
     except CompareError as e:
         raise CommandError(str(e)) from None
     out = Path(args.out)
-    for option, path in (("--out", args.out), ("--recordings", spec.recordings)):
-        if path and "://" in str(path):
-            raise CommandError(f"{option} {path}: give a folder path (on a filesystem every worker mounts); URLs are not supported")
+    if "://" in args.out:
+        raise CommandError(f"--out {args.out}: give a folder path (on a filesystem every worker mounts); URLs are not supported")
     if out.exists() and not out.is_dir():
         raise CommandError(f"{out}: exists and is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.force or args.resume):
