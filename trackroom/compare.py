@@ -667,7 +667,9 @@ def run_comparison(spec: CompareSpec, progress: bool = True, runs_dir: str | Pat
         else:
             from trackroom.cluster import connect
 
-            with connect(scheduler, spec.jobs, spec.plugins) as (client, backend):
+            # no more local workers than cores or tasks (as the process pool before it)
+            workers = min(spec.jobs, os.cpu_count() or 1, sum(1 + len(j.todo) for j in todo))
+            with connect(scheduler, workers, spec.plugins) as (client, backend):
                 results = _run_dask(todo, spec, runs_dir, command, bar, client)
     finally:
         bar.close()

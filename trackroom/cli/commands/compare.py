@@ -30,7 +30,7 @@ def add_arguments(p) -> None:
     p.add_argument("--gate", type=float, help="match gate in metres (default 1)")
     p.add_argument("--jobs", type=int,
                    help="local worker processes: 1 (default) runs everything in this process, N > 1 on a dask "
-                        "LocalCluster of N workers")
+                        "LocalCluster of N workers (at most one per core)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the tasks on an existing dask cluster (e.g. tcp://10.0.0.5:8786; --jobs is then unused); "
                         "--out and --recordings must be paths every worker can reach")
