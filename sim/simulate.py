@@ -2,7 +2,7 @@
 
 1. Plan every walker's trajectory (``sim.walkers``) at ``sensors.sim_rate``.
 2. Build the MuJoCo world (``sim.world``).
-3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``mj_inverse``), read the
+3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``World.sense``), read the
    phones' sensors (``sim.imu``) and, at camera frames, cast the occlusion rays
    (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with

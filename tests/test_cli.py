@@ -78,3 +78,26 @@ def test_rendered_frames_and_contact_sheets(tmp_path):
     sheets = [Path(ln.split()[-1]) for ln in r.stdout.splitlines() if ln.startswith("wrote")]
     sheets = [p for p in sheets if p.name.startswith("frames_")]
     assert len(sheets) == 4 and all(p.stat().st_size > 10_000 for p in sheets)
+
+
+def test_the_command_line_loads_libraries_only_when_a_command_needs_them():
+    """Parsing the command line (every sub-command's options) imports no numerical or plotting
+    library; `generate` (analytic) imports what it simulates and writes with, not matplotlib,
+    the estimators' libraries or dask."""
+    heavy = ("numpy", "pandas", "scipy", "mujoco", "cv2", "matplotlib", "pyarrow", "dask", "distributed", "tqdm",
+             "filterpy", "osqp")
+    code = ("import sys; from trackroom.cli import build_parser; build_parser(); "
+            f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({heavy!r})))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+def test_generate_imports_no_plotting_estimators_or_dask(tmp_path):
+    code = ("import sys; from trackroom.cli import main; "
+            f"main(['generate', 'bearing_hall', '--duration', '1', '--out', {str(tmp_path / 'rec')!r}, '--quiet']); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'matplotlib', 'filterpy', 'osqp', 'dask', 'distributed', 'tqdm', 'trackroom.estimators'}), "
+            "any(m.startswith(('trackroom.estimators', 'trackroom.metrics')) for m in sys.modules))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip().splitlines()[-1] == "[] False", r.stdout
