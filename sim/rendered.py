@@ -11,11 +11,15 @@ horizontal -> bearings (u, width, colour label); overhead -> floor detections (r
 oblique -> boxes from the optical-flow tracker, plus bearings from the same background-difference
 blobs as a horizontal camera (u of each person blob, colour label).
 
-Threads (``observe(overlap=True)``, the default): the main thread poses the world and draws the
-RGB renders, ``sim.render.SegmentationThread`` draws the segmentation renders alongside, and one
-worker thread runs perception, labels and MP4 writing on each frame in order (the stateful
-detectors see the same sequence), so the tables are identical to the one-thread run. On the
-2-core machine this is 1.2-1.3x faster end to end than one thread (``scripts/bench_render.py``).
+Threads (``observe(workers=N)``; default ``TRACKROOM_RENDER_WORKERS`` or the available cores):
+the main thread poses the world and draws the RGB renders, ``sim.render.SegmentationThread``
+draws the segmentation renders alongside on a GL context of its own, and N worker threads run
+perception and MP4 writing (each camera in its own ordered lane, ``sim.lanes``: the stateful
+detectors see their frames in sequence) and the truth labels (any worker). Rows are collected
+per frame and joined in frame order, so the tables are identical whatever N is (0: everything in
+the calling thread). Rendering stays on these two contexts: a MuJoCo ``Renderer`` belongs to the
+thread that made its context current, and on the CPU (Mesa llvmpipe) one render already spreads
+over every core. Frames/s against N: ``scripts/bench_render.py``.
 
 Labels (truth, never given to estimators), per camera frame and person:
   pixels            visible pixels of the person in the segmentation render;
@@ -33,10 +37,11 @@ Visibility: ``in_fov`` = some of the unoccluded silhouette lies in the image;
 """
 from __future__ import annotations
 
+import os
+import threading
 import time
 from collections import defaultdict, deque
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 from typing import NamedTuple
 
 import cv2
@@ -47,6 +52,7 @@ import pandas as pd
 from trackroom.scenes.camera import Camera
 from trackroom.sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
 from trackroom.sim.perception_flow import FlowTracker
+from trackroom.sim.lanes import Lane
 from trackroom.sim.render import SceneRenderer, SegmentationThread, VideoSink
 
 VISIBLE_FRACTION = 0.5
@@ -165,30 +171,167 @@ def camera_schedule(scene, traj) -> dict[int, list[tuple[Camera, float]]]:
     return dict(sorted(sched.items()))
 
 
-OVERLAP = True  # default of ``observe(overlap=...)``: measured faster end to end (scripts/bench_render.py)
-MAX_IN_FLIGHT = 8  # frames rendered ahead of the perception worker at most
+WORKERS_ENV = "TRACKROOM_RENDER_WORKERS"  # default worker count; unset: the cores this process may use
+
+
+def worker_count(workers: int | None = None, option: str = "workers") -> int:
+    """The number of worker threads for perception, labels and video: ``workers`` if given, else
+    the ``TRACKROOM_RENDER_WORKERS`` environment variable, else the cores this process may use
+    (``os.sched_getaffinity``). 0 runs them in the rendering thread. A ValueError names a bad value
+    (and ``option``, or the environment variable, where it came from)."""
+    source = option
+    if workers is None:
+        env = os.environ.get(WORKERS_ENV, "").strip()
+        if not env:
+            try:
+                return len(os.sched_getaffinity(0))
+            except AttributeError:  # not on Linux
+                return os.cpu_count() or 1
+        source, workers = WORKERS_ENV, env
+    try:
+        n = int(workers)
+    except (TypeError, ValueError):
+        n = -1
+    if n < 0 or str(workers).strip() != str(n):
+        raise ValueError(f"{source} must be a whole number >= 0 (0: no worker threads), got {workers!r}")
+    return n
+
+
+def in_flight(workers: int) -> int:
+    """Frames rendered ahead of the oldest unfinished one at most: enough to keep every worker
+    busy while a slow frame finishes, few enough to bound memory (an RGB and a segmentation image
+    each, ~0.3 MB at 320x240)."""
+    return 8 + 4 * workers
+
+
+STAGES = ("pose", "render", "segment", "perception", "labels", "video", "wait")
+
+
+class FrameWork:
+    """Perception, truth labels and MP4 writing of rendered camera frames, on ``workers`` threads.
+
+    ``submit(cam, t, rgb, seg, poses)`` takes one frame (``seg``: the person-index image or a
+    ``Future`` of it; ``poses``: the people's ``GeomPoses`` at the frame) in frame order and may
+    wait for the oldest frame in flight (at most ``in_flight(workers)`` are); ``finish()`` waits
+    for the rest and returns the rows of every table, frame after frame. Each camera's perception
+    and video run in its ``Lane`` (its detectors keep state between frames; its MP4 is sequential),
+    its labels on any worker; every frame's rows are kept apart, so the rows do not depend on the
+    number of workers. ``workers=0``: each frame is done inside ``submit``. ``progress(1)`` is
+    called for every finished frame, in frame order; ``timings`` receives seconds per stage
+    (summed over threads) and ``wait`` (the caller waiting in ``submit``/``finish``).
+    """
+
+    def __init__(self, scene, model, person_geoms, names, backgrounds: dict, workers: int,
+                 sink: VideoSink | None = None, timings: dict | None = None, progress=None):
+        self.model, self.person_geoms, self.names, self.backgrounds = model, person_geoms, names, backgrounds
+        self.sink, self.progress, self.workers = sink, progress, int(workers)
+        self.tm = timings if timings is not None else {}
+        for key in STAGES:
+            self.tm.setdefault(key, 0.0)
+        self.app = Appearance.from_scene(scene)
+        self.params = PerceptionParams()
+        pm = person_model(scene, model, person_geoms)
+        self.overhead = {c.name: OverheadDetector(c, backgrounds[c.name], self.app, pm, self.params)
+                         for c in scene.cameras if c.kind == "overhead"}
+        self.flow = {c.name: FlowTracker(c.width, c.height, camera=c) for c in scene.cameras if c.kind == "oblique"}
+        self.frames: list[dict[str, list]] = []  # each camera frame's rows, in submission order
+        self.pool = ThreadPoolExecutor(max_workers=self.workers, thread_name_prefix="perception") if self.workers else None
+        self.lanes = {c.name: Lane(self.pool) for c in scene.cameras} if self.pool is not None else {}
+        self.pending: deque = deque()  # the futures of each frame in flight, oldest first
+        self._local = threading.local()  # each thread's label mask buffers
+        self._lock = threading.Lock()  # for the timings
+
+    def submit(self, cam, t: float, rgb: np.ndarray, seg, poses) -> None:
+        rows: dict[str, list] = {k: [] for k in COLUMNS}
+        self.frames.append(rows)
+        if self.pool is None:
+            self._perceive(cam, t, rgb, rows)
+            self._label(cam, t, seg, poses, rows)
+            if self.progress is not None:
+                self.progress(1)
+            return
+        self.pending.append((self.lanes[cam.name].submit(self._perceive, cam, t, rgb, rows),
+                             self.pool.submit(self._label, cam, t, seg, poses, rows)))
+        if len(self.pending) > in_flight(self.workers):
+            self._finish_oldest()
+
+    def finish(self) -> dict[str, list]:
+        """Waits for every frame; the rows of each table in frame order."""
+        while self.pending:
+            self._finish_oldest()
+        return {k: [row for rows in self.frames for row in rows[k]] for k in COLUMNS}
+
+    def close(self) -> None:
+        """Stops the workers (frames not yet started are dropped: after a failure)."""
+        if self.pool is not None:
+            for fs in self.pending:
+                for f in fs:
+                    f.cancel()
+            self.pool.shutdown(wait=True)
+
+    def _finish_oldest(self) -> None:
+        t0 = time.perf_counter()
+        for f in self.pending.popleft():
+            f.result()  # re-raises a worker's exception here
+        self.tm["wait"] += time.perf_counter() - t0
+        if self.progress is not None:
+            self.progress(1)
+
+    def _add_time(self, key: str, seconds: float) -> None:
+        with self._lock:
+            self.tm[key] += seconds
+
+    def _perceive(self, cam, t, rgb, rows) -> None:
+        t0 = time.perf_counter()
+        _perceive(cam, t, rgb, self.backgrounds, self.overhead, self.flow, self.app, self.params, rows)
+        t1 = time.perf_counter()
+        if self.sink is not None:
+            self.sink.write(cam.name, rgb, cam.fps)
+        self._add_time("perception", t1 - t0)
+        self._add_time("video", time.perf_counter() - t1)
+
+    def _label(self, cam, t, seg, poses, rows) -> None:
+        if not isinstance(seg, np.ndarray):
+            seg = seg.result()  # the segmentation thread's Future
+        t0 = time.perf_counter()
+        masks = self._local.__dict__.setdefault("masks", {})
+        mask = masks.get((cam.width, cam.height))
+        if mask is None:
+            mask = masks[(cam.width, cam.height)] = np.zeros((cam.height, cam.width), np.uint8)
+        _label(cam, t, seg, self.names, self.model, poses, self.person_geoms, mask, rows)
+        self._add_time("labels", time.perf_counter() - t0)
+
+
+def pose_snapshot(data, geoms: np.ndarray) -> GeomPoses:
+    """The given geoms' world poses now (others zero), for labels computed after the world moves on."""
+    xpos = np.zeros_like(data.geom_xpos)
+    xmat = np.zeros_like(data.geom_xmat)
+    xpos[geoms], xmat[geoms] = data.geom_xpos[geoms], data.geom_xmat[geoms]
+    return GeomPoses(xpos, xmat)
 
 
 def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None = None,
-            overlap: bool | None = None):
+            workers: int | None = None, progress=None):
     """Render every camera, run perception, label from segmentation.
 
     Returns (observation tables, truth tables): ``bearings`` (+ ``width``), ``boxes``,
     ``floor_detections``; ``visibility``, ``labels``. ``save_frames``: a folder to write
     ``<camera>.mp4`` into, or None. ``rng`` is unused: pixels are deterministic and the
     perception errors are the measurement noise. ``timings``: a dict that receives seconds spent
-    per stage (pose, render, segment in the rendering thread; perception, labels, video in the
-    thread that runs them; ``wait``: the rendering thread waiting for that one).
+    per stage (pose, render, segment in the rendering thread; perception, labels, video summed
+    over the threads that run them; ``wait``: the rendering thread waiting for those).
+    ``progress``: called with 1 for every camera frame finished, in frame order.
 
-    ``overlap`` (default ``OVERLAP``): perception, labels and MP4 writing of each frame run in one
-    worker thread while the main thread poses and renders the next frames (MuJoCo's render and
-    OpenCV release the GIL). One worker takes the frames in order, so the stateful detectors (flow
-    tracker, privacy gate) see the same sequence and the tables are identical either way.
+    ``workers`` (default ``worker_count()``: ``TRACKROOM_RENDER_WORKERS`` or the available cores):
+    threads that run perception, labels and MP4 writing (``FrameWork``) while this thread poses
+    and renders the next frames and a second thread draws the segmentation renders (MuJoCo's
+    render and OpenCV release the GIL). The tables are identical whatever the number of workers;
+    0: everything in the calling thread.
     """
     tm = timings if timings is not None else {}
-    for key in ("pose", "render", "segment", "perception", "labels", "video", "wait"):
+    for key in STAGES:
         tm.setdefault(key, 0.0)
-    overlap = OVERLAP if overlap is None else bool(overlap)
+    workers = worker_count(workers)
     model, data, cam_ids, person_geoms = world_maps(world, scene)
     check_cameras(model, scene, cam_ids)
     P = len(person_geoms)
@@ -196,53 +339,22 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     person_of_geom = np.full(model.ngeom, -1, np.int16)
     for i, g in enumerate(person_geoms):
         person_of_geom[g] = i
-    app = Appearance.from_scene(scene)
-    params = PerceptionParams()
-    pm = person_model(scene, model, person_geoms)
-    schedule = camera_schedule(scene, traj)
+    all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
     sink = VideoSink(save_frames) if save_frames else None
     renderer = SceneRenderer(model, person_of_geom, shadows=scene.render.shadows)
-    rows = {k: [] for k in ("bearings", "boxes", "floor_detections", "visibility", "labels")}
-    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="perception") if overlap else None
-    segmenter = SegmentationThread(renderer) if overlap else None
-    pending: deque = deque()
+    segmenter = SegmentationThread(renderer) if workers else None
+    work = None
     try:
         _pose(world, traj, 0)
-        all_person_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
-        backgrounds = {c.name: renderer.background(data, cam_ids[c.name], c.width, c.height, all_person_geoms)
+        backgrounds = {c.name: renderer.background(data, cam_ids[c.name], c.width, c.height, all_geoms)
                        for c in scene.cameras}
-        overhead = {c.name: OverheadDetector(c, backgrounds[c.name], app, pm, params)
-                    for c in scene.cameras if c.kind == "overhead"}
-        flow = {c.name: FlowTracker(c.width, c.height, camera=c) for c in scene.cameras if c.kind == "oblique"}
-        masks = {(c.width, c.height): np.zeros((c.height, c.width), np.uint8) for c in scene.cameras}
-        all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
-
-        def process(cam, t, rgb, seg, poses):
-            if not isinstance(seg, np.ndarray):
-                seg = seg.result()  # the segmentation thread's Future
-            t2 = time.perf_counter()
-            _perceive(cam, t, rgb, backgrounds, overhead, flow, app, params, rows)
-            t3 = time.perf_counter()
-            _label(cam, t, seg, names, model, poses, person_geoms, masks[(cam.width, cam.height)], rows)
-            t4 = time.perf_counter()
-            if sink is not None:
-                sink.write(cam.name, rgb, cam.fps)
-            t5 = time.perf_counter()
-            tm["perception"] += t3 - t2
-            tm["labels"] += t4 - t3
-            tm["video"] += t5 - t4
-
-        for k, due in schedule.items():
+        work = FrameWork(scene, model, person_geoms, names, backgrounds, workers, sink, tm, progress)
+        for k, due in camera_schedule(scene, traj).items():
             t0 = time.perf_counter()
             _pose(world, traj, k)
-            # the people's geom poses at this step, for the labels (the world moves on meanwhile)
-            xpos = np.zeros_like(data.geom_xpos)
-            xmat = np.zeros_like(data.geom_xmat)
-            xpos[all_geoms], xmat[all_geoms] = data.geom_xpos[all_geoms], data.geom_xmat[all_geoms]
-            poses = GeomPoses(xpos, xmat)
+            poses = pose_snapshot(data, all_geoms)
             tm["pose"] += time.perf_counter() - t0
-            for c, t in due:
-                cam = c
+            for cam, t in due:
                 t0 = time.perf_counter()
                 if segmenter is not None:  # drawn in its own thread while the RGB render runs
                     seg = segmenter.submit(data, cam_ids[cam.name], cam.width, cam.height)
@@ -256,23 +368,11 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
                 t3 = time.perf_counter()
                 tm["segment"] += (t1 - t0) + (t3 - t2)
                 tm["render"] += t2 - t1
-                if pool is None:
-                    process(cam, t, rgb, seg, poses)
-                    continue
-                pending.append(pool.submit(process, cam, t, rgb, seg, poses))
-                if len(pending) > MAX_IN_FLIGHT:
-                    t0 = time.perf_counter()
-                    pending.popleft().result()  # re-raises a worker's exception here
-                    tm["wait"] += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        while pending:
-            pending.popleft().result()
-        tm["wait"] += time.perf_counter() - t0
+                work.submit(cam, t, rgb, seg, poses)
+        rows = work.finish()
     finally:
-        if pool is not None:
-            for f in pending:
-                f.cancel()
-            pool.shutdown(wait=True)
+        if work is not None:
+            work.close()
         if segmenter is not None:
             segmenter.close()
         renderer.close()

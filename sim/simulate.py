@@ -2,7 +2,7 @@
 
 1. Plan every walker's trajectory (``sim.walkers``) at ``sensors.sim_rate``.
 2. Build the MuJoCo world (``sim.world``).
-3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``mj_inverse``), read the
+3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``World.sense``), read the
    phones' sensors (``sim.imu``) and, at camera frames, cast the occlusion rays
    (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
@@ -152,11 +152,28 @@ def _bytes_text(n: float) -> str:
     return f"{n / 2**10:.3g} KiB"
 
 
-def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress: bool = False, save_frames=None) -> Recording:
+def progress_bar(progress, total: int, desc: str, unit: str):
+    """A tqdm bar (count, rate, ETA) or None. ``progress``: False (none), True (on stderr when it
+    is a terminal, so logs and pipes stay clean) or a text stream to draw on whatever it is."""
+    if not progress:
+        return None
+    from tqdm import tqdm
+
+    if progress is True:
+        return tqdm(total=total, desc=desc, unit=unit, mininterval=0.5, disable=None)  # None: off unless a TTY
+    return tqdm(total=total, desc=desc, unit=unit, mininterval=0.5, file=progress)
+
+
+def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
+             render_workers: int | None = None) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
 
     sensing: "analytic" (projection + ray-cast occlusion) or "rendered" (``sim.rendered``).
     save_frames: passed to the rendered mode (where to keep rendered frames), ignored otherwise.
+    progress: a bar (tqdm) on stderr when it is a terminal (True), or on the given stream: over the
+    simulation steps in analytic mode, over the rendered camera frames in rendered mode (the
+    rendering is nearly all of its time). render_workers: the rendered mode's worker threads
+    (``sim.rendered.worker_count``; the tables do not depend on it).
     """
     if sensing not in SENSING_MODES:
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
@@ -172,11 +189,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     pids = phone_ids(scene)
     steps = imu.imu_steps(traj, scene.sensors.imu_rate)
 
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(steps), desc=f"{scene.name} ({sensing})", unit="step", mininterval=0.5)
+    bar = progress_bar(progress, len(steps), f"{scene.name} ({sensing})", "step") if sensing == "analytic" else None
     occlusion = None
     if sensing == "analytic":
         geometry = analytic.camera_geometry(scene, traj)
@@ -201,7 +214,14 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
             rendered = importlib.import_module("trackroom.sim.rendered")
         except ModuleNotFoundError as e:
             raise RuntimeError("sensing='rendered' needs sim/rendered.py (the rendering pipeline), which is not installed") from e
-        obs, extra = rendered.observe(world, scene, traj, render_rng, save_frames)
+        frames = sum(len(due) for due in rendered.camera_schedule(scene, traj).values())
+        bar = progress_bar(progress, frames, f"{scene.name} (rendered)", "frame")
+        try:
+            obs, extra = rendered.observe(world, scene, traj, render_rng, save_frames, workers=render_workers,
+                                          progress=bar.update if bar is not None else None)
+        finally:
+            if bar is not None:
+                bar.close()
         tables.update(obs)
         truth_tables.update(extra)
     if len(tables["imu"]) == 0:

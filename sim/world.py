@@ -5,7 +5,7 @@ Contents: a floor plane, the room outline and interior walls as boxes, box obsta
 vertical capsule of the walker's height, radius and colour on slide joints x, y, z and a hinge
 about z (yaw), compensated for gravity (``gravcomp=1``) so writing its kinematics is enough.
 
-Walker kinematics are written to ``qpos``/``qvel``/``qacc`` and ``mj_inverse`` computes the
+Walker kinematics are written to ``qpos``/``qvel``/``qacc`` and ``mj_inverse``'s stages compute the
 sensors (mocap bodies would read zero acceleration: FACTS.md). The body frame's origin is the
 body centre; the slide joints' qpos are therefore the world position of the centre and the
 hinge's qpos the yaw.
@@ -89,10 +89,25 @@ class World:
             d.qacc[:] = A[k]
 
     def set_step(self, traj, k: int) -> None:
-        """Put the world at trajectory step k: qpos, qvel, qacc, then ``mj_inverse`` (positions,
+        """Put the world at trajectory step k: qpos, qvel, qacc, then ``sense`` (positions,
         velocities, accelerations and sensors, keeping the written qacc)."""
         self.write_state(traj, k, True)
-        mujoco.mj_inverse(self.model, self.data)
+        self.sense()
+
+    def sense(self) -> None:
+        """Poses and sensor readings for the qpos, qvel, qacc written in ``data``: the stages of
+        ``mj_inverse`` that the sensors read (kinematics, centre-of-mass positions and velocities,
+        the body accelerations ``cacc`` of ``mj_rnePostConstraint``, then the sensors), not the
+        inverse dynamics (forces, constraints) it also computes. The same functions give the same
+        bits as ``mj_inverse`` (tests/test_imu.py) at half its cost."""
+        m, d = self.model, self.data
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_sensorPos(m, d)
+        mujoco.mj_sensorVel(m, d)
+        mujoco.mj_rnePostConstraint(m, d)
+        mujoco.mj_sensorAcc(m, d)
 
     def set_pose(self, traj, k: int) -> None:
         """Positions only (``mj_kinematics``): enough for ray casts and rendering."""

@@ -20,6 +20,9 @@ def run_cli(*args):
         (["generate", "bearing_hall", "--duration", "-1", "--out", "x"], "--duration must be positive"),
         (["generate", "bearing_hall", "--set", "walkers.count=99", "--out", "x"], "walkers.count"),
         (["show", "."], "not a trackroom recording"),
+        (["generate", "bearing_hall", "--sensing", "rendered", "--render-workers", "-1", "--out", "x"],
+         "--render-workers must be a whole number >= 0"),
+        (["generate", "bearing_hall", "--render-workers", "2", "--out", "x"], "--render-workers needs --sensing rendered"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line(args, needle):
@@ -78,3 +81,78 @@ def test_rendered_frames_and_contact_sheets(tmp_path):
     sheets = [Path(ln.split()[-1]) for ln in r.stdout.splitlines() if ln.startswith("wrote")]
     sheets = [p for p in sheets if p.name.startswith("frames_")]
     assert len(sheets) == 4 and all(p.stat().st_size > 10_000 for p in sheets)
+
+
+def test_the_command_line_loads_libraries_only_when_a_command_needs_them():
+    """Parsing the command line (every sub-command's options) imports no numerical or plotting
+    library; `generate` (analytic) imports what it simulates and writes with, not matplotlib,
+    the estimators' libraries or dask."""
+    heavy = ("numpy", "pandas", "scipy", "mujoco", "cv2", "matplotlib", "pyarrow", "dask", "distributed", "tqdm",
+             "filterpy", "osqp")
+    code = ("import sys; from trackroom.cli import build_parser; build_parser(); "
+            f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({heavy!r})))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+def test_generate_imports_no_plotting_estimators_or_dask(tmp_path):
+    code = ("import sys; from trackroom.cli import main; "
+            f"main(['generate', 'bearing_hall', '--duration', '1', '--out', {str(tmp_path / 'rec')!r}, '--quiet']); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'matplotlib', 'filterpy', 'osqp', 'dask', 'distributed', 'tqdm', 'trackroom.estimators'}), "
+            "any(m.startswith(('trackroom.estimators', 'trackroom.metrics')) for m in sys.modules))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip().splitlines()[-1] == "[] False", r.stdout
+
+
+def test_bad_render_workers_variable_is_one_line(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRACKROOM_RENDER_WORKERS", "many")
+    r = run_cli("generate", "bearing_hall", "--sensing", "rendered", "--out", str(tmp_path / "x"))
+    assert r.returncode == 2 and r.stderr.strip().splitlines() == [
+        "trackroom generate: error: TRACKROOM_RENDER_WORKERS must be a whole number >= 0 (0: no worker threads), got 'many'"], r.stderr
+    assert not (tmp_path / "x").exists()
+
+
+def _stderr_on_a_terminal(args, timeout=300) -> tuple[int, str]:
+    """Runs ``trackroom ARGS`` with stderr on a pseudo-terminal (100 columns); (status, what it drew)."""
+    import fcntl
+    import os
+    import pty
+    import struct
+    import termios
+
+    try:
+        master, slave = pty.openpty()
+    except OSError as e:  # a sandbox without pseudo-terminals
+        pytest.skip(f"no pseudo-terminal: {e}")
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    p = subprocess.Popen([sys.executable, "-m", "trackroom", *args], stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # EIO: the child closed the terminal
+            break
+        if not chunk:
+            break
+        out += chunk
+    os.close(master)
+    return p.wait(timeout=timeout), out.decode(errors="replace")
+
+
+def test_rendered_generate_shows_one_bar_over_the_camera_frames(tmp_path):
+    """On a terminal, a rendered generate draws one bar over its camera frames (4 cameras at
+    20 Hz for 0.5 s: 40), with the rate and the time left, up to 40/40; into a pipe it draws
+    nothing (and the analytic mode's bar over simulation steps is not shown in rendered mode)."""
+    import re
+
+    args = ["generate", "overhead_lab", "--duration", "0.5", "--sensing", "rendered", "--set", "walkers.count=2"]
+    status, err = _stderr_on_a_terminal([*args, "--out", str(tmp_path / "tty")])
+    assert status == 0, err
+    assert re.search(r"overhead_lab \(rendered\): 100%.*\| 40/40 \[\d\d:\d\d<\d\d:\d\d, +[\d.]+frame/s\]", err), err
+    bars = [seg for seg in re.split(r"[\r\n]", err) if "%|" in seg]
+    assert bars and all("/40 " in b and "frame" in b for b in bars), bars  # one bar, over frames only
+    r = run_cli(*args, "--out", str(tmp_path / "pipe"))
+    assert r.returncode == 0 and "%|" not in r.stderr and "frame/s" not in r.stderr, r.stderr

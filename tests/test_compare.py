@@ -114,3 +114,28 @@ def test_compare_command(tmp_path, capsys):
     assert main(["compare", "--out", str(out)]) == 2
     assert main(["compare", "--scenes", "overhead_lab", "--estimators", "nope", "--out", str(out)]) == 2
     assert "unknown estimator" in capsys.readouterr().err
+
+
+def test_progress_on_a_terminal_only(monkeypatch, capsys, tmp_path):
+    """One bar on stderr over the estimator runs with the recordings beside it, rate and ETA;
+    nothing where stderr is not a terminal (or with progress=False)."""
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    spec = CompareSpec([SceneRun("overhead_lab", ("walkers.count=1",))], [0, 1], [EstimatorRun("ekf"),
+                       EstimatorRun("ekf", (("smooth", True),))], duration=1.0)
+    run_comparison(spec, progress=True)
+    assert capsys.readouterr().err == ""  # captured: not a terminal
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    run_comparison(spec, progress=True)
+    last = term.getvalue().split("\r")[-1]
+    assert last.startswith("compare: 100%") and "4/4" in last and "run/s" in last and "recordings 2/2" in last, last
+    term.seek(0)
+    term.truncate()
+    run_comparison(spec, progress=False)
+    assert term.getvalue() == ""

@@ -46,6 +46,32 @@ def test_round_trip(tmp_path):
     assert list(gt.columns) == ["frame", "id", "x", "y"] and gt["frame"].min() == 1
 
 
+def test_gt_world_is_truth_at_the_camera_frames(tmp_path):
+    """gt_world.csv holds the truth rows on the cameras' frames (bearing_hall: 4 Hz; truth at
+    100 Hz): frame = t * fps + 1, ids 1-based in first-appearance order, x, y to 6 decimals."""
+    from trackroom.dataset import gt_world_rate
+
+    rec = small_recording()
+    fps = gt_world_rate(rec)
+    assert fps == max(c.fps for c in rec.calibration.cameras.values()) and fps < 100
+    out = write_recording(rec, tmp_path / "rec")
+    text = (out / "gt_world.csv").read_text()
+    assert text.startswith("frame,id,x,y\n1,1,")
+    gt = pd.read_csv(out / "gt_world.csv")
+    people = rec.truth.people
+    on_frame = people[np.isclose(people["t"] * fps, np.round(people["t"] * fps))]
+    assert len(gt) == len(on_frame) == int(5.0 * fps)
+    np.testing.assert_array_equal(gt["frame"], np.round(on_frame["t"] * fps).astype(int) + 1)
+    assert (gt["id"] == 1).all()
+    np.testing.assert_allclose(gt["x"], on_frame["x"], atol=5e-7)
+    np.testing.assert_allclose(gt["y"], on_frame["y"], atol=5e-7)
+    # no cameras: the truth rate
+    bare = small_recording()
+    bare.calibration.cameras.clear()
+    bare.meta["sim_rate"] = 100.0
+    assert gt_world_rate(bare) == 100.0
+
+
 def test_same_recording_gives_byte_identical_files(tmp_path):
     a = write_recording(small_recording(), tmp_path / "a")
     b = write_recording(small_recording(), tmp_path / "b")

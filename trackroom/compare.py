@@ -1,10 +1,13 @@
 """The comparison engine: scenes x seeds x estimators -> results.csv, summary.md, plots.
 
 A comparison is described by a ``CompareSpec`` (from a TOML file, the command line, or code).
-One job per (scene, seed): get the recording (read from the recordings cache folder when it is
-there, else simulate and, with a cache folder, write it), run every estimator on it (the runner
-checks applicability and records the reason when one does not apply), and score each tracks
-table (``metrics.score``). Jobs run in parallel processes (``jobs``) with a progress bar.
+Per (scene, seed) one recording task (read from the recordings cache folder when it is there,
+else simulate and, with a cache folder, write it) and per estimator one task that runs it on that
+recording (the runner checks applicability and records the reason when one does not apply) and
+scores the tracks (``metrics.score``). The tasks run in this process (``jobs = 1``), on a dask
+``LocalCluster`` of ``jobs`` worker processes, or on an existing dask cluster (``run_comparison``'s
+``scheduler``; ``trackroom.cluster``), with a progress bar over the runs; rows come out in the
+spec's order (scene, seed, estimator) whichever ran them, so the tables are the same.
 
 TOML format (every key optional except scenes; command-line options override)::
 
@@ -12,7 +15,7 @@ TOML format (every key optional except scenes; command-line options override)::
     sensing = "analytic"     # or "rendered"
     seeds = "0-4"            # or [0, 1, 2]
     gate = 1.0               # CLEAR MOT / IDF1 gate, m; HOTA similarity max(0, 1 - d / gate)
-    jobs = 2
+    jobs = 2                 # 1: in this process; N > 1: a dask LocalCluster of N workers
     plugins = ["my_tracker", "extra/tracker.py"]   # estimator plug-ins: modules or .py files
                                      # (files relative to this TOML file); workers import them too
     set = ["walkers.count=3"]        # scene overrides for every scene
@@ -32,7 +35,7 @@ and switches per evaluation frame), ``summary.md`` (mean and 95% interval per sc
 estimator), ``metric_<name>.png`` (metric per estimator) and ``error_over_time.png``;
 ``spec.toml`` (the resolved ``CompareSpec``, loadable by ``spec_from_toml``) and
 ``provenance.json`` (command line, versions, git commit, start and end time, seeds, the scenes'
-hashes, how many runs were reused).
+hashes, how many runs were reused and where the tasks ran: ``backend``).
 
 The recordings cache (``recordings``): one folder per scene (name and overrides), duration,
 sensing and seed. Its manifest is checked against the cache key, ``cache_key``: the resolved
@@ -53,6 +56,7 @@ are scored again) is reused, not re-run (``compare --resume``).
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -62,10 +66,9 @@ import shlex
 import sys
 import time
 import tomllib
+import uuid
 from datetime import datetime, timezone
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +145,9 @@ class CompareSpec:
             raise CompareError(f"gate must be positive, got {self.gate}")
         if self.jobs < 1:
             raise CompareError(f"jobs must be at least 1, got {self.jobs}")
+        if self.recordings and "://" in str(self.recordings):
+            raise CompareError(f"recordings {self.recordings}: give a folder path (on a filesystem every worker mounts); "
+                               "URLs are not supported")
         for what, keys in (("scene", [s.key for s in self.scenes]), ("estimator", [e.key for e in self.estimators])):
             dup = sorted({k for k in keys if keys.count(k) > 1})
             if dup:
@@ -448,58 +454,187 @@ def _atomic(path: Path, write) -> Path:
     return path
 
 
-def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path | None = None,
-            command: list[str] | None = None) -> tuple[list[dict], pd.DataFrame, int]:
-    """One recording, every estimator: score rows, per-frame error series and how many runs were
-    reused from ``runs_dir`` (where each finished run is also stored)."""
+def _scene_hash(resolved) -> str:
+    from trackroom.scenes.loader import scene_sha256
+
+    return scene_sha256(resolved)
+
+
+@dataclass
+class _Job:
+    """One (scene, seed): its resolved scene, the runs already stored and the estimators to run."""
+    index: int
+    scene: SceneRun
+    seed: int
+    resolved: Any = field(repr=False)
+    done: dict[str, tuple[dict, pd.DataFrame]] = field(default_factory=dict)  # estimator key -> stored run
+    todo: list[EstimatorRun] = field(default_factory=list)
+
+
+def _plan(spec: CompareSpec, runs_dir: str | Path | None) -> list[_Job]:
+    """Every (scene, seed) job in the spec's order, each scene loaded once, with the finished
+    runs found in ``runs_dir`` (a matching key) and the estimators still to run."""
+    from trackroom.scenes import load_scene
+
+    jobs = []
+    for s in spec.scenes:
+        resolved = load_scene(s.name, list(s.overrides))
+        scene_hash = _scene_hash(resolved)
+        for seed in spec.seeds:
+            job = _Job(len(jobs), s, seed, resolved)
+            for est in spec.estimators:
+                stored = None
+                if runs_dir is not None:
+                    stored = _load_run(run_paths(runs_dir, s, seed, est), run_key(s, scene_hash, seed, est, spec))
+                if stored is None:
+                    job.todo.append(est)
+                else:
+                    job.done[est.key] = stored
+            jobs.append(job)
+    return jobs
+
+
+def recording_task(scene: SceneRun, seed: int, spec: CompareSpec, resolved, command: list[str] | None = None):
+    """Task: the recording of one (scene, seed), read from the cache or simulated (and cached);
+    returns (recording, simulation seconds). ``resolved``: the scene, loaded by the caller (a worker
+    on another machine need not have the scene file)."""
+    os.environ.setdefault("MUJOCO_GL", "egl")  # a dask worker started by hand: before mujoco loads
+    return get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings, command, resolved)
+
+
+def estimator_task(recording: tuple, scene: SceneRun, scene_hash: str, seed: int, est: EstimatorRun, spec: CompareSpec,
+                   runs_dir: str | Path | None = None) -> tuple[dict, pd.DataFrame]:
+    """Task: run one estimator on ``recording`` (``recording_task``'s result) and score it; stores
+    the run in ``runs_dir``. Returns the result row and the per-frame error series."""
     from trackroom.estimators import load_plugins
     from trackroom.estimators.runner import run_estimator
     from trackroom.metrics.score import evaluate
-    from trackroom.scenes import load_scene
-    from trackroom.scenes.loader import scene_sha256
 
     load_plugins(spec.plugins)  # a worker process started afresh knows only the bundled estimators
-    resolved = load_scene(scene.name, list(scene.overrides))
-    scene_hash = scene_sha256(resolved)
-    rec = sim_s = None
-    rows, series, reused = [], [], 0
-    for est in spec.estimators:
-        key = run_key(scene, scene_hash, seed, est, spec)
-        paths = run_paths(runs_dir, scene, seed, est) if runs_dir is not None else None
-        done = _load_run(paths, key) if paths is not None else None
-        if done is not None:
-            row, s = done
+    rec, sim_s = recording
+    base = {"scene": scene.key, "seed": seed, "sensing": spec.sensing, "estimator": est.key,
+            "duration": spec.duration, "overrides": ";".join(scene.overrides),
+            "params": ";".join(f"{k}={_text(v)}" for k, v in est.params), "sim_s": sim_s}
+    r = run_estimator(rec, est.name, dict(est.params), errors="record")
+    row = {**base, "status": r.status, "reason": r.reason, "runtime_s": r.seconds}
+    s = pd.DataFrame()
+    if r.status == "ok":
+        ev = evaluate(rec, r.tracks, spec.gate)
+        row.update(ev.metrics())
+        s = ev.error_over_time()
+        s.insert(0, "estimator", est.key)
+        s.insert(0, "seed", seed)
+        s.insert(0, "scene", scene.key)
+    if runs_dir is not None:
+        ok = r.status == "ok"
+        _store_run(run_paths(runs_dir, scene, seed, est), run_key(scene, scene_hash, seed, est, spec), row, s,
+                   r.tracks if ok else None, r.camera_status if ok else None)
+    return row, s
+
+
+def run_job(scene: SceneRun, seed: int, spec: CompareSpec, runs_dir: str | Path | None = None,
+            command: list[str] | None = None) -> tuple[list[dict], pd.DataFrame, int]:
+    """One recording, every estimator, in this process: score rows, per-frame error series and how
+    many runs were reused from ``runs_dir`` (where each finished run is also stored)."""
+    from trackroom.estimators import load_plugins
+
+    load_plugins(spec.plugins)
+    one = CompareSpec([scene], [seed], spec.estimators, spec.duration, spec.sensing, spec.gate, 1, spec.recordings,
+                      spec.plugins)
+    (job,) = _plan(one, runs_dir)
+    results = _run_serial([job], spec, runs_dir, command, _Progress(0, 0, 0, enabled=False))
+    return _gather([job], spec, results) + (len(job.done),)
+
+
+class _Progress:
+    """One bar on stderr over the estimator runs (rate, ETA), the recordings made or read beside it;
+    off with ``enabled=False`` and where stderr is not a terminal."""
+
+    def __init__(self, runs: int, recordings: int, reused: int, enabled: bool = True):
+        from tqdm import tqdm
+
+        self.recordings, self.recordings_done = recordings, 0
+        self.bar = tqdm(total=runs, initial=reused, desc="compare", unit="run", mininterval=0.5,
+                        disable=None if enabled else True)  # None: off when stderr is not a terminal
+        self._postfix()
+
+    def _postfix(self) -> None:
+        self.bar.set_postfix_str(f"recordings {self.recordings_done}/{self.recordings}", refresh=False)
+
+    def recording(self) -> None:
+        self.recordings_done += 1
+        self._postfix()
+        self.bar.refresh()
+
+    def run(self) -> None:
+        self.bar.update()
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _run_serial(jobs: list[_Job], spec: CompareSpec, runs_dir, command, progress: _Progress) -> dict:
+    """Every job's pending runs in this process: {(job index, estimator key): (row, per_frame)}."""
+    out = {}
+    for job in jobs:
+        if not job.todo:
+            continue
+        recording = recording_task(job.scene, job.seed, spec, job.resolved, command)
+        progress.recording()
+        scene_hash = _scene_hash(job.resolved)
+        for est in job.todo:
+            out[job.index, est.key] = estimator_task(recording, job.scene, scene_hash, job.seed, est, spec, runs_dir)
+            progress.run()
+    return out
+
+
+def _run_dask(jobs: list[_Job], spec: CompareSpec, runs_dir, command, progress: _Progress, client) -> dict:
+    """The same on ``dask.distributed``: a recording task per job, an estimator task per pending run
+    that takes it (dask runs it where the recording is); a recording is released when its runs are done."""
+    from distributed import as_completed
+
+    what, recordings, left, out = {}, {}, {}, {}
+    ac = as_completed()
+    for job in jobs:
+        if not job.todo:
+            continue
+        rec = client.submit(recording_task, job.scene, job.seed, spec, job.resolved, command, pure=False,
+                            key=f"recording-{job.index}-{uuid.uuid4().hex}")
+        recordings[job.index], left[job.index] = rec, len(job.todo)
+        what[rec.key] = (job.index, None)
+        ac.add(rec)
+        scene_hash = _scene_hash(job.resolved)
+        for est in job.todo:
+            f = client.submit(estimator_task, rec, job.scene, scene_hash, job.seed, est, spec, runs_dir, pure=False,
+                              key=f"run-{job.index}-{uuid.uuid4().hex}")
+            what[f.key] = (job.index, est)
+            ac.add(f)
+    for f in ac:
+        index, est = what.pop(f.key)
+        if f.status == "error":
+            f.result()  # raises the task's error here
+        if est is None:
+            progress.recording()  # its result stays on the workers
+            continue
+        out[index, est.key] = f.result()
+        progress.run()
+        left[index] -= 1
+        if not left[index]:
+            del recordings[index]  # no reference left: the scheduler forgets the recording
+    return out
+
+
+def _gather(jobs: list[_Job], spec: CompareSpec, results: dict) -> tuple[list[dict], pd.DataFrame]:
+    """Rows and per-frame series in the spec's order (scene, seed, estimator), whichever backend
+    ran them and in whatever order they finished."""
+    rows, series = [], []
+    for job in jobs:
+        for est in spec.estimators:
+            row, s = job.done[est.key] if est.key in job.done else results[job.index, est.key]
             rows.append(row)
             if len(s):
                 series.append(s)
-            reused += 1
-            continue
-        if rec is None:
-            rec, sim_s = get_recording(scene, seed, spec.duration, spec.sensing, spec.recordings, command, resolved)
-        base = {"scene": scene.key, "seed": seed, "sensing": spec.sensing, "estimator": est.key,
-                "duration": spec.duration, "overrides": ";".join(scene.overrides),
-                "params": ";".join(f"{k}={_text(v)}" for k, v in est.params), "sim_s": sim_s}
-        r = run_estimator(rec, est.name, dict(est.params), errors="record")
-        row = {**base, "status": r.status, "reason": r.reason, "runtime_s": r.seconds}
-        s = pd.DataFrame()
-        if r.status == "ok":
-            ev = evaluate(rec, r.tracks, spec.gate)
-            row.update(ev.metrics())
-            s = ev.error_over_time()
-            s.insert(0, "estimator", est.key)
-            s.insert(0, "seed", seed)
-            s.insert(0, "scene", scene.key)
-            series.append(s)
-        if paths is not None:
-            ok = r.status == "ok"
-            _store_run(paths, key, row, s, r.tracks if ok else None, r.camera_status if ok else None)
-        rows.append(row)
-    per_frame = pd.concat(series, ignore_index=True) if series else pd.DataFrame()
-    return rows, per_frame, reused
-
-
-def _job(args):
-    return run_job(*args)
+    return rows, pd.concat(series, ignore_index=True) if series else pd.DataFrame()
 
 
 @dataclass
@@ -510,42 +645,49 @@ class Comparison:
     seconds: float = 0.0
     started: str = ""  # UTC, ISO 8601
     reused: int = 0  # finished runs taken from runs_dir instead of run again
+    backend: str = "serial"  # "serial", "local cluster (N workers)" or the scheduler's address
 
 
 def run_comparison(spec: CompareSpec, progress: bool = True, runs_dir: str | Path | None = None,
-                   command: list[str] | None = None) -> Comparison:
-    """Run every (scene, seed) job, in ``spec.jobs`` processes; rows in a fixed order.
+                   command: list[str] | None = None, scheduler: str | None = None) -> Comparison:
+    """Run every (scene, seed) recording and every estimator on it; rows in the spec's order.
+
+    Where the tasks run: with ``scheduler`` (a ``dask.distributed`` address, e.g.
+    ``tcp://host:8786``) on that cluster; else with ``spec.jobs`` > 1 on a local dask cluster of
+    that many worker processes; else in this process, one after another. The results are the same
+    (but for the runtime columns) whichever runs them.
 
     ``runs_dir``: where each finished (scene, seed, estimator) run is stored, and reused from when
-    its key matches (see the module docstring). ``command``: recorded in cached recordings.
+    its key matches (see the module docstring); with a cluster it and ``spec.recordings`` must be
+    paths every worker can reach. ``command``: recorded in cached recordings.
     """
-    from tqdm import tqdm
-
     spec.validate()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     t0 = time.perf_counter()
-    jobs = [(s, seed, spec, runs_dir, command) for s in spec.scenes for seed in spec.seeds]
-    out: dict[int, tuple[list[dict], pd.DataFrame, int]] = {}
-    bar = tqdm(total=len(jobs), desc="compare", unit="rec", disable=not progress)
-    if spec.jobs == 1 or len(jobs) == 1:
-        for i, j in enumerate(jobs):
-            bar.set_postfix_str(f"{j[0].key} seed {j[1]}")
-            out[i] = _job(j)
-            bar.update()
-    else:
-        workers = min(spec.jobs, len(jobs), os.cpu_count() or 1)
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("fork")) as pool:
-            futures = {pool.submit(_job, j): i for i, j in enumerate(jobs)}
-            for f in as_completed(futures):
-                out[futures[f]] = f.result()
-                bar.update()
-    bar.close()
-    rows = [r for i in range(len(jobs)) for r in out[i][0]]
-    frames = [out[i][1] for i in range(len(jobs)) if len(out[i][1])]
-    results = pd.DataFrame(rows)
-    per_frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-    reused = sum(out[i][2] for i in range(len(jobs)))
-    return Comparison(spec, results, per_frame, time.perf_counter() - t0, started, reused)
+    if runs_dir is not None:
+        runs_dir = Path(runs_dir).resolve()  # workers may run from another folder
+    given = spec
+    if spec.recordings:  # the tasks get an absolute path; the spec as given is what is recorded
+        spec = dataclasses.replace(spec, recordings=str(Path(spec.recordings).resolve()))
+    jobs = _plan(spec, runs_dir)
+    reused = sum(len(j.done) for j in jobs)
+    todo = [j for j in jobs if j.todo]
+    bar = _Progress(len(jobs) * len(spec.estimators), len(todo), reused, enabled=progress)
+    try:
+        if scheduler is None and (spec.jobs == 1 or len(todo) <= 1):
+            backend = "serial"
+            results = _run_serial(todo, spec, runs_dir, command, bar)
+        else:
+            from trackroom.cluster import connect
+
+            # no more local workers than cores or tasks (as the process pool before it)
+            workers = min(spec.jobs, os.cpu_count() or 1, sum(1 + len(j.todo) for j in todo))
+            with connect(scheduler, workers, spec.plugins) as (client, backend):
+                results = _run_dask(todo, spec, runs_dir, command, bar, client)
+    finally:
+        bar.close()
+    rows, per_frame = _gather(jobs, spec, results)
+    return Comparison(given, pd.DataFrame(rows), per_frame, time.perf_counter() - t0, started, reused, backend)
 
 
 # ----------------------------------------------------------------------------- outputs
@@ -580,7 +722,7 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, com
 
 def provenance_record(comp: Comparison, command: list[str] | None = None) -> dict[str, Any]:
     """Where a comparison's results came from: command line, versions, git commit, times, seeds,
-    the scenes' hashes and how many runs were reused."""
+    the scenes' hashes, how many runs were reused and where the tasks ran."""
     from trackroom.provenance import versions
     from trackroom.scenes import load_scene
     from trackroom.scenes.loader import scene_sha256
@@ -601,6 +743,7 @@ def provenance_record(comp: Comparison, command: list[str] | None = None) -> dic
                     "scene_sha256": scene_sha256(load_scene(sc.name, list(sc.overrides)))} for sc in s.scenes],
         "estimators": [e.key for e in s.estimators],
         "reused_runs": comp.reused,
+        "backend": comp.backend,
     }
 
 

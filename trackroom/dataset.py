@@ -11,7 +11,7 @@ Layout of a dataset folder::
     truth.parquet              truth: t, person_id, x, y, z, yaw, vx, vy, walking, phone_id
     truth_visibility.parquet   truth: which camera could see whom at each frame
     truth_labels.parquet       truth (rendered mode): per-camera visible pixels, fraction, box
-    gt_world.csv               MOTChallenge-style ground truth: frame, id, x, y (world metres)
+    gt_world.csv               MOTChallenge-style ground truth at the cameras' frame rate: frame, id, x, y (m)
     calibration/<camera>.xml   OpenCV FileStorage: K, R, t, P, resolution, kind, fps, pose
     calibration/sensors.json   calibrated sensor rates and noise
     floorplan.json             room outline, interior walls, obstacles
@@ -55,6 +55,7 @@ import json
 import math
 import os
 import shutil
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -99,10 +100,14 @@ def write_recording(rec: Recording, out_dir: str | Path, overwrite: bool = False
     aside = None
     try:
         for kind, df in rec.observations.tables.items():
-            _write_parquet(check_table(kind, df), tmp / f"{kind}.parquet")
-        for kind, df in rec.truth.tables.items():
-            _write_parquet(df, tmp / TRUTH_FILES[kind])
-        _write_gt_world(rec.truth.people, tmp / "gt_world.csv")
+            check_table(kind, df)
+        # the tables are encoded, compressed and hashed in threads: pyarrow and hashlib release
+        # the GIL, so a 10-minute recording's tables take about the time of the largest one
+        writes = [(lambda df=df, p=tmp / f"{kind}.parquet": _write_parquet(df, p)) for kind, df in rec.observations.tables.items()]
+        writes += [(lambda df=df, p=tmp / TRUTH_FILES[kind]: _write_parquet(df, p)) for kind, df in rec.truth.tables.items()]
+        writes.append(lambda: _write_gt_world(rec.truth.people, tmp / "gt_world.csv", gt_world_rate(rec)))
+        with ThreadPoolExecutor(max_workers=min(len(writes), os.cpu_count() or 1)) as pool:
+            hashes = dict(pool.map(lambda write: _hashed(write()), writes))
         (tmp / "calibration").mkdir()
         for cam in rec.calibration.cameras.values():
             write_camera_xml(cam, tmp / "calibration" / f"{cam.name}.xml")
@@ -114,7 +119,8 @@ def write_recording(rec: Recording, out_dir: str | Path, overwrite: bool = False
             if src is not None and Path(src).exists():
                 shutil.move(str(src), str(tmp / name))
         files = sorted(p for p in tmp.rglob("*") if p.is_file())
-        _write_json(_manifest(rec, command, {str(p.relative_to(tmp)): _sha256(p) for p in files}), tmp / "manifest.json")
+        _write_json(_manifest(rec, command, {str(p.relative_to(tmp)): hashes.get(p) or _sha256(p) for p in files}),
+                    tmp / "manifest.json")
         if out.exists():
             # renamed aside, not deleted in place: a kill mid-way must not leave half a folder at out
             aside = out.parent / f".{out.name}.old-{os.getpid()}"
@@ -439,8 +445,13 @@ def read_camera_xml(path: Path) -> Camera:
 
 
 # ----------------------------------------------------------------------------- helpers
-def _write_parquet(df: pd.DataFrame, path: Path) -> None:
+def _write_parquet(df: pd.DataFrame, path: Path) -> Path:
     df.reset_index(drop=True).to_parquet(path, index=False, engine="pyarrow", compression="zstd")
+    return path
+
+
+def _hashed(path: Path) -> tuple[Path, str]:
+    return path, _sha256(path)
 
 
 def _read_parquet(path: Path, kind: str | None = None) -> pd.DataFrame:
@@ -510,15 +521,31 @@ def _short_text(t: str) -> str:
     return t if len(t) <= 200 else t[:197] + "..."
 
 
-def _write_gt_world(people: pd.DataFrame, path: Path) -> None:
-    """MOTChallenge-style world ground truth: frame (1-based, at the truth rate), id (1-based), x, y."""
-    ids = {pid: i + 1 for i, pid in enumerate(pd.unique(people["person_id"]))}
-    times = np.unique(people["t"].to_numpy())
-    frame = np.searchsorted(times, people["t"].to_numpy()) + 1
-    out = pd.DataFrame(
-        {"frame": frame, "id": people["person_id"].map(ids).to_numpy(), "x": people["x"].round(6), "y": people["y"].round(6)}
-    )
-    out.to_csv(path, index=False)
+def gt_world_rate(rec: Recording) -> float:
+    """The frame rate of ``gt_world.csv`` (Hz): the cameras' (the highest, where they differ), or
+    the simulation rate for a recording without cameras."""
+    fps = [float(c.fps) for c in rec.calibration.cameras.values()]
+    return max(fps) if fps else float(rec.meta.get("sim_rate", 100.0))
+
+
+def _write_gt_world(people: pd.DataFrame, path: Path, rate: float) -> Path:
+    """MOTChallenge-style world ground truth at ``rate`` (Hz; the truth times that fall on its
+    frames): frame (1-based, t = (frame - 1) / rate), id (1-based, first-appearance order), x, y
+    (m, 6 decimals). Written by pyarrow's CSV writer (the same text as pandas', ~10x faster)."""
+    import pyarrow as pa
+    import pyarrow.csv as pa_csv
+
+    t = people["t"].to_numpy()
+    f = t * rate
+    frame = np.rint(f)
+    keep = np.abs(f - frame) < 1e-6
+    codes, _ = pd.factorize(people["person_id"])  # 1-based below: in order of first appearance
+    table = pa.table({"frame": frame[keep].astype(np.int64) + 1, "id": codes[keep].astype(np.int64) + 1,
+                      "x": np.round(people["x"].to_numpy()[keep], 6), "y": np.round(people["y"].to_numpy()[keep], 6)})
+    with open(path, "wb") as out:
+        out.write(b"frame,id,x,y\n")
+        pa_csv.write_csv(table, out, pa_csv.WriteOptions(include_header=False))
+    return path
 
 
 def _write_json(obj, path: Path) -> None:

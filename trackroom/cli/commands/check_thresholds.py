@@ -20,7 +20,7 @@ def add_arguments(p) -> None:
                    help="a thresholds CSV of your own (scene, sensing, estimator, metric, op, bound), laid over the "
                         "bundled one: a row for the same scene/sensing/estimator/metric/op replaces it (repeatable)")
     p.add_argument("--no-bundled", action="store_true", help="check only the --thresholds files, not the bundled bounds")
-    p.add_argument("--jobs", type=int, default=1, help="parallel processes (default 1)")
+    p.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1: in this process; N > 1: a dask LocalCluster)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_plugin_argument(p)
 

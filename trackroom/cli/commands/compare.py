@@ -4,6 +4,11 @@ Beside its results it writes ``spec.toml`` (the resolved comparison) and ``prove
 (command line, versions, times); with ``--html`` also ``report.html`` (``trackroom report``). An existing ``--out`` is refused unless ``--force`` (replace its
 results; the recordings cache stays, checked entry by entry) or ``--resume`` (reuse the finished
 runs stored in OUT/runs; without a TOML file or --scenes it reruns OUT/spec.toml).
+
+Where it runs: ``--jobs 1`` (the default) in this process; ``--jobs N`` on a dask ``LocalCluster``
+of N worker processes; ``--scheduler ADDRESS`` on an existing dask cluster (``trackroom.cluster``).
+The results table is the same whichever runs it. Progress (estimator runs, recordings, rate, ETA)
+goes to stderr when it is a terminal.
 """
 from __future__ import annotations
 
@@ -23,7 +28,12 @@ def add_arguments(p) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="scene override for every scene, e.g. --set walkers.count=5 (repeatable)")
     p.add_argument("--gate", type=float, help="match gate in metres (default 1); HOTA similarity max(0, 1 - d / gate)")
-    p.add_argument("--jobs", type=int, help="parallel processes (default 1)")
+    p.add_argument("--jobs", type=int,
+                   help="local worker processes: 1 (default) runs everything in this process, N > 1 on a dask "
+                        "LocalCluster of N workers (at most one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the tasks on an existing dask cluster (e.g. tcp://10.0.0.5:8786; --jobs is then unused); "
+                        "--out and --recordings must be paths every worker can reach")
     p.add_argument("--recordings", help="recordings cache folder (default OUT/recordings)")
     p.add_argument("--no-cache", action="store_true", help="simulate every recording, keep none")
     p.add_argument("--out", required=True, help="output folder (refused if it exists, unless --force or --resume)")
@@ -32,7 +42,9 @@ def add_arguments(p) -> None:
                    help="continue an interrupted comparison in --out: finished runs that match are reused, not re-run")
     p.add_argument("--html", action="store_true",
                    help="also write OUT/report.html, the self-contained report (as trackroom report OUT does)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bar (it shows estimator runs and recordings with rate and ETA on stderr, "
+                        "and only on a terminal)")
     add_plugin_argument(p)
 
 
@@ -85,6 +97,8 @@ def run(args) -> int:
     except CompareError as e:
         raise CommandError(str(e)) from None
     out = Path(args.out)
+    if "://" in args.out:
+        raise CommandError(f"--out {args.out}: give a folder path (on a filesystem every worker mounts); URLs are not supported")
     if out.exists() and not out.is_dir():
         raise CommandError(f"{out}: exists and is not a folder")
     if out.exists() and any(out.iterdir()) and not (args.force or args.resume):
@@ -94,7 +108,7 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     command = getattr(args, "_command", None)
     _atomic(out / "spec.toml", lambda p: p.write_text(spec_to_toml(spec)))  # first, so --resume finds it
-    comp = run_comparison(spec, progress=not args.quiet, runs_dir=out / "runs", command=command)
+    comp = run_comparison(spec, progress=not args.quiet, runs_dir=out / "runs", command=command, scheduler=args.scheduler)
     paths = write_outputs(comp, out, command=command)
     if args.html:
         from trackroom.report import write_report
@@ -102,7 +116,7 @@ def run(args) -> int:
         paths["report"] = write_report(out)
     print(paths["summary"].read_text())
     reused = f"; reused {comp.reused} finished run(s)" if comp.reused else ""
-    print(f"took {comp.seconds:.1f} s{reused}; wrote {', '.join(str(p) for p in paths.values())}")
+    print(f"took {comp.seconds:.1f} s ({comp.backend}){reused}; wrote {', '.join(str(p) for p in paths.values())}")
     errors = comp.results[comp.results["status"] == "error"]
     return 1 if len(errors) else 0
 

@@ -21,6 +21,9 @@ def add_arguments(p) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field, e.g. --set walkers.count=10 (repeatable)")
     p.add_argument("--save-frames", action="store_true", help="rendered mode: also write an MP4 per camera")
+    p.add_argument("--render-workers", type=int, default=None, metavar="N",
+                   help="rendered mode: threads for perception, labels and video (default: $TRACKROOM_RENDER_WORKERS, "
+                        "else the available cores; 0: none; the recording does not depend on it)")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -32,10 +35,20 @@ def run(args) -> int:
     check_duration(args.duration)
     if args.save_frames and args.sensing != "rendered":
         raise CommandError("--save-frames needs --sensing rendered")
+    workers = None
+    if args.sensing == "rendered":
+        from trackroom.sim.rendered import worker_count
+
+        try:
+            workers = worker_count(args.render_workers, "--render-workers")
+        except ValueError as e:
+            raise CommandError(str(e)) from None
+    elif args.render_workers is not None:
+        raise CommandError("--render-workers needs --sensing rendered")
     scene = load_scene(args.scene, args.overrides)
     rec, seconds, out = generate_to(scene, args.seed, args.duration, args.sensing, args.out,
                                     save_frames=args.save_frames, force=args.force, progress=not args.quiet,
-                                    command=getattr(args, "_command", None))
+                                    command=getattr(args, "_command", None), render_workers=workers)
     print(summary_line(rec, seconds, out))
     return 0
 
@@ -48,9 +61,11 @@ def check_duration(duration: float, option: str = "--duration") -> None:
         raise CommandError(f"{option} must be positive and finite (seconds), got {duration:g}")
 
 
-def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=False, progress=False, command=None):
+def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=False, progress=False, command=None,
+                render_workers=None):
     """Simulate and write; returns (recording, wall seconds, folder). Refuses, before simulating, a
-    folder that exists (without ``force``) and a simulation that would exhaust memory."""
+    folder that exists (without ``force``) and a simulation that would exhaust memory.
+    ``render_workers``: the rendered mode's worker threads (``sim.rendered.worker_count``)."""
     import shutil
     import tempfile
     from pathlib import Path
@@ -68,7 +83,8 @@ def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=Fa
     t0 = time.perf_counter()
     frames_dir = Path(tempfile.mkdtemp(prefix="trackroom-frames-")) if save_frames else None
     try:
-        rec = simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress, save_frames=frames_dir)
+        rec = simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress, save_frames=frames_dir,
+                       render_workers=render_workers)
         folder = write_recording(rec, out, overwrite=force, extra_dirs={"frames": frames_dir}, command=command)
     finally:
         if frames_dir is not None and frames_dir.exists():

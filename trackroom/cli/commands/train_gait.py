@@ -8,8 +8,6 @@ direction (von Mises concentration) and the walking-speed distribution. See ``es
 """
 from __future__ import annotations
 
-import numpy as np
-
 NAME = "train-gait"
 HELP = "fit the hmm_matcher gait/heading model from training recordings (uses their ground truth)"
 
@@ -23,6 +21,8 @@ def add_arguments(p) -> None:
 
 def training_samples(rec, window_s: float, rate: float):
     """(features, walking labels, heading errors while walking, speeds while walking) of one recording."""
+    import numpy as np
+
     from trackroom.estimators.gait import bobbing_feature, phone_heading
     from trackroom.recording import RecordingError
 
@@ -60,6 +60,8 @@ def training_samples(rec, window_s: float, rate: float):
 
 
 def run(args) -> int:
+    import numpy as np
+
     from trackroom.estimators.gait import fit_gait
     from trackroom.errors import CommandError
     from trackroom.dataset import read_recording
