@@ -498,6 +498,59 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
     return PerceptionModel(out, list(fitted_on))
 
 
+DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],
+                "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF]],
+                "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
+
+
+def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic: dict[str, DetectorStats],
+            max_step: float = 2.0) -> PerceptionModel:
+    """One step of fitting by simulation: each rate the measurement reports (detection and merge
+    per bin, fragments, false detections, id restarts, swaps at a split) is scaled by rendered /
+    analytic, as measured on analytic recordings simulated with ``model`` on the same scenes and
+    seeds. Counting alone double-counts what the model's own mechanisms cause (a merged window
+    splitting also changes ids; a missed person beside a detected one looks merged), so the
+    counted rates are corrected until the analytic statistics match the rendered ones. Steps are
+    limited to ``max_step`` either way; bins without data on either side are left alone."""
+    import copy
+
+    out = copy.deepcopy(model)
+
+    def ratio(r: float, a: float) -> float:
+        if not (np.isfinite(r) and np.isfinite(a)) or a <= 0:
+            return 1.0
+        return float(np.clip(r / a, 1 / max_step, max_step))
+
+    def rate(n: float, d: float) -> float:
+        return n / d if d else np.nan
+
+    for k in DETECTORS:
+        r, a, m = rendered[k], analytic[k], out[k]
+        if not r.hit or not a.hit:
+            continue
+        edges = DETECT_EDGES[k]
+        (Xr, hr), (Xa, ha) = r.arrays(), a.arrays()
+        tr = Table.fit(edges, [Xr[:, 0], Xr[:, 1]], hr, strength=0.0 + 1e-9)
+        ta = Table.fit(edges, [Xa[:, 0], Xa[:, 1]], ha, strength=0.0 + 1e-9)
+        ok = (tr.n >= 20) & (ta.n >= 20) & (ta.p > 0)
+        scale = np.where(ok, np.clip(tr.p / np.where(ok, ta.p, 1.0), 1 / max_step, max_step), 1.0)
+        m.detect.p = np.clip(m.detect.p * scale, 0.0, 1.0)
+        pair_edges = m.merge.edges
+        if r.pair_feat and a.pair_feat:
+            mr = Table.fit(pair_edges, [np.asarray(r.pair_feat, float)], np.asarray(r.pair_merged, bool), strength=1e-9)
+            ma = Table.fit(pair_edges, [np.asarray(a.pair_feat, float)], np.asarray(a.pair_merged, bool), strength=1e-9)
+            ok = (mr.n >= 20) & (ma.n >= 20) & (ma.p > 0)
+            scale = np.where(ok, np.clip(mr.p / np.where(ok, ma.p, 1.0), 1 / max_step, max_step), 1.0)
+            m.merge.p = np.clip(m.merge.p * scale, 0.0, 1.0)
+        m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
+        m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
+        m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))
+        if r.splits >= 10 and a.splits >= 10:
+            m.swap = float(np.clip(m.swap * ratio(rate(r.swaps, r.splits), rate(a.swaps, a.splits)), 0, 1))
+    out.fitted_on = list(model.fitted_on)
+    return out
+
+
 # ----------------------------------------------------------------------------- summaries
 SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate", "fragment_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")

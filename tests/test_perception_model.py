@@ -202,3 +202,27 @@ def test_calibrate_sensing_fits_a_rendered_recording(tmp_path, capsys):
     # an analytic recording is refused: the model is fitted to rendered ones
     assert main(["generate", "occlusion_lab", "--duration", "1", "--out", str(tmp_path / "an"), "--quiet"]) == 0
     assert main(["calibrate-sensing", str(tmp_path / "an"), "--out", str(out)]) == 2
+
+
+def test_fitting_by_simulation_scales_counted_rates_towards_the_rendered_ones():
+    """``correct``: where the model's analytic recordings show twice the rendered id restarts and
+    half its fragments, the next model has half the restart rate and twice the fragment rate;
+    detection bins without enough data on either side are left alone; steps are bounded."""
+    rendered, analytic = pf.DetectorStats(), pf.DetectorStats()
+    for s, restarts, frags in ((rendered, 20, 40), (analytic, 40, 20)):
+        s.continuing, s.restarts = 1000, restarts
+        s.feats = [(1.0, 1.0)] * 1000
+        s.hit = [True] * 1000
+        s.fragments = frags
+        s.frames = 500
+    model = copy.deepcopy(load_model("fitted"))
+    model["windows"].restart, model["windows"].fragment = 0.03, 0.05
+    before = model["windows"].detect.p.copy()
+    stats = {k: pf.DetectorStats() for k in DETECTORS}
+    fixed = pf.correct(model, {**stats, "windows": rendered}, {**stats, "windows": analytic})
+    assert fixed["windows"].restart == pytest.approx(0.015)
+    assert fixed["windows"].fragment == pytest.approx(0.10)
+    np.testing.assert_allclose(fixed["windows"].detect.p, before)  # every detection rate equal: nothing to scale
+    assert model["windows"].restart == 0.03  # the model given is not changed
+    analytic.restarts = 400  # ten times the rendered rate: one step scales by at most 2
+    assert pf.correct(model, {**stats, "windows": rendered}, {**stats, "windows": analytic})["windows"].restart == pytest.approx(0.015)

@@ -3,7 +3,8 @@
 Reads rendered recordings (folders, or folders holding them; each keeps its resolved scene in
 ``scene.toml``, its seed and duration in the manifest) or renders them first (``--render SCENE``
 with ``--seeds``), measures every detector against the analytic view of the same walkers
-(``sim.perception_fit``), fits the model and writes it (``--out``, JSON; a scene uses it with
+(``sim.perception_fit``), fits the model by counting, then by simulation (``--rounds``: the model
+is simulated on the same scenes and seeds and its rates scaled by rendered / analytic), and writes it (``--out``, JSON; a scene uses it with
 ``sensors.perception = "PATH"``). Then it simulates analytic recordings with the fitted model on
 the same scenes and seeds, measures them the same way, and prints the fitted parameters and a
 table per detector, rendered beside analytic (``--table`` also writes it as CSV).
@@ -27,6 +28,9 @@ def add_arguments(p) -> None:
                    help="where --render writes its recordings (default calibration_recordings/)")
     p.add_argument("--out", required=True, help="model file to write (JSON)")
     p.add_argument("--table", help="also write the rendered-vs-analytic table here (CSV)")
+    p.add_argument("--rounds", type=int, default=2,
+                   help="rounds of fitting by simulation after counting: each simulates the model on the same scenes and "
+                        "seeds and scales its rates by rendered / analytic (default 2; 0: counts only)")
     p.add_argument("--quiet", action="store_true", help="no progress bar while rendering")
 
 
@@ -72,6 +76,8 @@ def run(args) -> int:
     from trackroom.sim import perception_fit as pf
     from trackroom.sim.simulate import simulate
 
+    if args.rounds < 0:
+        raise CommandError(f"--rounds must be 0 or more, got {args.rounds}")
     folders = find_recordings(args.recordings) if args.recordings else []
     if args.render:
         check_duration(args.duration)
@@ -97,17 +103,26 @@ def run(args) -> int:
         measured.append((d, rec, scene, feats, pf.measure(rec, scene, feats)))
         names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
         print(f"measured {d}", flush=True)
-    model = pf.fit(pf.merge_stats([m[-1] for m in measured]), names)
-    model.save(args.out)
+    rendered = pf.merge_stats([m[-1] for m in measured])
+    model = pf.fit(rendered, names)
+
+    def simulated(model):
+        """The model's analytic statistics on the same scenes and seeds."""
+        model.save(args.out)
+        out = []
+        for d, rec, scene, feats, _ in measured:
+            sim = simulate(_with_model(scene, args.out), int(rec.meta["seed"]), float(rec.meta["duration"]))
+            out.append(pf.measure(sim, scene, feats))
+        return pf.merge_stats(out)
+
+    for i in range(args.rounds):  # fitting by simulation: rates corrected until analytic matches rendered
+        model = pf.correct(model, rendered, simulated(model))
+        print(f"correction round {i + 1} of {args.rounds} done", flush=True)
+    analytic = simulated(model)  # also writes the final model
     print(f"{args.out}: perception model fitted on {len(names)} rendered recording(s)")
     print(parameter_text(model))
-    # the fitted model, analytic, on the same scenes and seeds
-    analytic = []
-    for d, rec, scene, feats, _ in measured:
-        sim = simulate(_with_model(scene, args.out), int(rec.meta["seed"]), float(rec.meta["duration"]))
-        analytic.append(pf.measure(sim, scene, feats))
-    r = pf.summary(pf.merge_stats([m[-1] for m in measured]))
-    a = pf.summary(pf.merge_stats(analytic))
+    r = pf.summary(rendered)
+    a = pf.summary(analytic)
     table = pd.concat([r.assign(mode="rendered"), a.assign(mode="analytic")], ignore_index=True)
     table = table[table["candidates"] > 0].sort_values(["detector", "mode"], ascending=[True, False], kind="mergesort")
     table = table[["detector", "mode", *pf.SUMMARY_COLUMNS]]
