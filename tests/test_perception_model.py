@@ -226,3 +226,13 @@ def test_fitting_by_simulation_scales_counted_rates_towards_the_rendered_ones():
     assert model["windows"].restart == 0.03  # the model given is not changed
     analytic.restarts = 400  # ten times the rendered rate: one step scales by at most 2
     assert pf.correct(model, {**stats, "windows": rendered}, {**stats, "windows": analytic})["windows"].restart == pytest.approx(0.015)
+
+
+def test_ar1_scan_equals_the_recursion():
+    from scipy.signal import lfilter
+
+    from trackroom.sim.perception_model import ar1
+
+    x = np.random.default_rng(0).standard_normal((3000, 4))
+    for a in (0.0, 0.3, 0.95, 0.998):
+        np.testing.assert_allclose(ar1(x, a), lfilter([1.0], [1.0, -a], x, axis=0), atol=1e-10)
