@@ -32,8 +32,10 @@ def test_report_renders_in_a_headless_browser(browser_options, tmp_path):
                  "ekf,target_planes[multi_person=true]", "--duration", "3", "--out", str(out), "--html", "--quiet"]) == 0
     shot = tmp_path / "report.png"
     r = inspect_report(out / "report.html", shot, browser_options, full_page=True)
-    # the 3 metric plots, the error over time, the top-down view and the status timeline
-    assert len(r["images"]) == 6 and all(w > 0 for w in r["images"]), r["images"]
+    # a plot per metric in PLOT_METRICS, the error over time, the top-down view and the status timeline
+    from trackroom.compare import PLOT_METRICS
+
+    assert len(r["images"]) == len(PLOT_METRICS) + 3 and all(w > 0 for w in r["images"]), r["images"]
     assert r["summary_rows"] == 2 and r["runs_rows"] == 4 and r["sorted"]
     assert r["errors"] == []
     import cv2
