@@ -282,6 +282,21 @@ def ideal_model() -> PerceptionModel:
     return PerceptionModel({k: DetectorModel(max_gap=0) for k in DETECTORS}, ["ideal"], ideal=True)
 
 
+def model_sha256(spec: str | Path) -> str | None:
+    """What identifies the model ``spec`` names: "ideal", or the SHA-256 of the model file's bytes
+    (None when it cannot be read). Recordings keep it (``meta.perception``) and compare's cache
+    checks it, so a refitted model is never mixed with recordings of an older one."""
+    if str(spec) == "ideal":
+        return "ideal"
+    import hashlib
+
+    path = DEFAULT_FILE if str(spec) == "fitted" else Path(spec)
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
 def load_model(spec: str | Path) -> PerceptionModel:
     """``"fitted"`` (the bundled default), ``"ideal"``, or a model file's path."""
     if str(spec) == "ideal":

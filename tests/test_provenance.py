@@ -148,6 +148,29 @@ def test_compare_cache_regenerates_an_edited_scene(tmp_path, capsys):
     assert read_recording(folder).truth.people["person_id"].nunique() == 2
 
 
+def test_compare_cache_regenerates_when_the_perception_model_changes(tmp_path, capsys):
+    """A refitted model file under the same name changes recordings, not the scene: the cache
+    notices it by the model's hash (manifest meta.perception)."""
+    import json
+
+    from trackroom.sim.perception_model import DEFAULT_FILE
+
+    model = tmp_path / "model.json"
+    model.write_text(DEFAULT_FILE.read_text())
+    args = ["compare", "--scenes", "overhead_lab", "--set", "walkers.count=1", "--set", f"sensors.perception={model}",
+            "--estimators", "ekf", "--duration", "1", "--recordings", str(tmp_path / "cache"), "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "a")]) == 0
+    (folder,) = [p for p in (tmp_path / "cache").iterdir() if not p.name.startswith(".")]
+    meta = read_recording(folder).meta["perception"]
+    assert meta["model"] == str(model) and len(meta["sha256"]) == 64
+    capsys.readouterr()
+    d = json.loads(model.read_text())
+    d["detectors"]["overhead"]["clutter"] = 0.5
+    model.write_text(json.dumps(d))
+    assert main(args + ["--out", str(tmp_path / "b")]) == 0
+    assert "is stale (perception model changed (sensors.perception)), regenerating" in capsys.readouterr().err
+
+
 def test_compare_cache_regenerates_a_corrupt_entry(tmp_path, capsys):
     args = ["compare", "--scenes", "overhead_lab", "--set", "walkers.count=1", "--estimators", "ekf", "--duration", "1",
             "--recordings", str(tmp_path / "cache"), "--quiet"]

@@ -321,13 +321,17 @@ def recording_folder(root: str | Path, scene: SceneRun, seed: int, duration: flo
 
 
 def cache_key(scene, seed: int, duration: float, sensing: str) -> dict[str, Any]:
-    """What a cached recording must match: the resolved scene's hash, seed, duration, sensing mode
-    and the trackroom version (see the module docstring for why not the git commit)."""
+    """What a cached recording must match: the resolved scene's hash, seed, duration, sensing mode,
+    the trackroom version (see the module docstring for why not the git commit) and the perception
+    model's hash (a refitted ``sim/perception_default.json`` changes recordings, not the scene)."""
     from trackroom.provenance import versions
     from trackroom.scenes.loader import scene_sha256
 
+    from trackroom.sim.perception_model import model_sha256
+
     return {"scene_sha256": scene_sha256(scene), "seed": int(seed), "duration": float(duration), "sensing": sensing,
-            "trackroom_version": versions().get("trackroom")}
+            "trackroom_version": versions().get("trackroom"),
+            "perception_sha256": model_sha256(scene.sensors.perception)}
 
 
 def stale_reason(folder: Path, key: dict[str, Any]) -> str | None:
@@ -346,6 +350,10 @@ def stale_reason(folder: Path, key: dict[str, Any]) -> str | None:
     for field_, what in (("seed", "seed"), ("duration", "duration"), ("sensing", "sensing"), ("trackroom_version", "trackroom version")):
         if manifest.get(field_) != key[field_]:
             return f"{what} changed: {manifest.get(field_)} -> {key[field_]}"
+    meta = manifest.get("meta") if isinstance(manifest.get("meta"), dict) else {}
+    perception = meta.get("perception") if isinstance(meta.get("perception"), dict) else {}
+    if perception.get("sha256") != key["perception_sha256"]:
+        return "perception model changed (sensors.perception)"
     return None
 
 
