@@ -24,7 +24,6 @@ by default) are never used to fit the perception model (fitted on 100-105) or to
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import sys
 from pathlib import Path

@@ -63,7 +63,7 @@ def span_pairs(lo: np.ndarray, hi: np.ndarray):
 
 
 def _groups(root: np.ndarray, det: np.ndarray):
-    """(frame, root person) of each reported detection, and per-person (F, P) group membership."""
+    """(frame, root person) of each reported detection: one per group of merged people."""
     f, p = np.nonzero(det & (root == np.arange(root.shape[1])))
     return f, p
 

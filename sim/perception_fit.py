@@ -47,6 +47,9 @@ FLOOR_GATE_M = 0.75
 # a walker's window are not a merge)
 MOVING_PX_S = 6.0
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
+DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],  # detection table bins
+                "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF]],
+                "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
 RHO_GRID = (0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998)
 
 
@@ -466,13 +469,11 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
     """A perception model from rendered statistics (``merge_stats`` of several recordings)."""
     from .perception_flow import FlowParams
 
-    edges = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES], "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES],
-             "overhead": [SEEN_EDGES, [-INF, INF]], "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
     out = {}
     for k in DETECTORS:
         s = stats[k]
         X, hit = s.arrays()
-        detect = Table.fit(edges[k], [X[:, 0], X[:, 1]] if len(X) else [np.zeros(0), np.zeros(0)], hit)
+        detect = Table.fit(DETECT_EDGES[k], [X[:, 0], X[:, 1]] if len(X) else [np.zeros(0), np.zeros(0)], hit)
         p = detect(X[:, 0], X[:, 1]) if len(X) else np.zeros(0)
         pair_edges = GAP_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
         merge = Table.fit([pair_edges], [np.asarray(s.pair_feat, float)], np.asarray(s.pair_merged, bool))
@@ -496,11 +497,6 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             max_gap=FlowParams().max_missed if k == "windows" else 0,
         )
     return PerceptionModel(out, list(fitted_on))
-
-
-DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],
-                "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF]],
-                "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
 
 
 def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic: dict[str, DetectorStats],
@@ -530,8 +526,8 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
             continue
         edges = DETECT_EDGES[k]
         (Xr, hr), (Xa, ha) = r.arrays(), a.arrays()
-        tr = Table.fit(edges, [Xr[:, 0], Xr[:, 1]], hr, strength=0.0 + 1e-9)
-        ta = Table.fit(edges, [Xa[:, 0], Xa[:, 1]], ha, strength=0.0 + 1e-9)
+        tr = Table.fit(edges, [Xr[:, 0], Xr[:, 1]], hr, strength=1e-9)
+        ta = Table.fit(edges, [Xa[:, 0], Xa[:, 1]], ha, strength=1e-9)
         ok = (tr.n >= 20) & (ta.n >= 20) & (ta.p > 0)
         scale = np.where(ok, np.clip(tr.p / np.where(ok, ta.p, 1.0), 1 / max_step, max_step), 1.0)
         m.detect.p = np.clip(m.detect.p * scale, 0.0, 1.0)
