@@ -328,9 +328,12 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     pos = xy[f, p]
     grouped = det[f] & (root[f] == p[:, None])  # (n, P) members of each detection
     cnt = grouped.sum(axis=1)
-    if (cnt > 1).any():
-        many = cnt > 1
-        pos[many] = (grouped[many][..., None] * xy[f[many]]).sum(axis=1) / cnt[many, None]
+    # a merged detection lies on one of the merged people, not between them: in the rendered
+    # development recordings 80 % of merged detections lie within 2 cm (regular cameras) or 8 cm
+    # (privacy, 15 cm grid) of one person along the line to the other; which one is drawn at random
+    for i in np.nonzero(cnt > 1)[0]:
+        members = np.nonzero(grouped[i])[0]
+        pos[i] = xy[f[i], members[rng.integers(len(members))]]
     err = m.error("xy")
     gx, gy = error_uniforms(rng, det.shape, m, 2)
     e = np.stack([err.at(gx[f, p]), err.at(gy[f, p])], -1)

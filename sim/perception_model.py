@@ -22,8 +22,8 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            P are a Gaussian AR(1) copula per person and camera with frame correlation ``rho``,
            fitted so the mean run of misses matches the rendered one.
   merge    P(two people give one detection | overlap or gap): the merged detection spans both
-           (union of their image spans / windows, mean floor position), and carries the merged
-           people's measurement errors once.
+           (union of their image spans / windows) or, on the floor, lies on one of them (as the
+           rendered overhead detector's does), and carries the measurement error once.
   errors   ``Quantiles`` of the measurement error against the analytic reference (the centre of
            the visible part of the person's image span; the clipped window edges; the projected
            flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
