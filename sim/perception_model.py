@@ -247,16 +247,11 @@ class PerceptionModel:
                 "detectors": {k: v.to_dict() for k, v in self.detectors.items()}}
 
     def save(self, path: Path) -> None:
-        """Write the model as JSON, atomically (a temporary file renamed over ``path``)."""
-        import os
+        """Write the model as JSON, atomically (``trackroom.dataset.atomic_write``)."""
+        from trackroom.dataset import atomic_write
 
-        path = Path(path)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
-            os.replace(tmp, path)
-        finally:
-            tmp.unlink(missing_ok=True)
+        text = json.dumps(self.to_dict(), indent=1) + "\n"
+        atomic_write(Path(path), lambda p: p.write_text(text))
 
     @classmethod
     def from_dict(cls, d, where: str = "perception model") -> "PerceptionModel":

@@ -75,6 +75,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from trackroom.dataset import atomic_write
+
 PLOT_METRICS = ("mota", "rmse", "idf1", "hota")
 PLOT_COLUMNS = 2  # scene panels per row of a metric plot
 
@@ -434,14 +436,14 @@ def _store_run(paths: dict[str, Path], key: dict[str, Any], row: dict, per_frame
 
     paths["row"].parent.mkdir(parents=True, exist_ok=True)
     if tracks is not None:
-        _atomic(paths["tracks"], lambda p: tracks.to_csv(p, index=False, float_format="%.6f"))
+        atomic_write(paths["tracks"], lambda p: tracks.to_csv(p, index=False, float_format="%.6f"))
     if camera_status is not None:
         st = camera_status[CAMERA_STATUS_COLUMNS].astype({"track_id": str, "camera": str, "status": str, "reason": str})
-        _atomic(paths["status"], lambda p: st.to_parquet(p, index=False))
+        atomic_write(paths["status"], lambda p: st.to_parquet(p, index=False))
     if len(per_frame):
-        _atomic(paths["per_frame"], lambda p: per_frame.to_parquet(p, index=False))
+        atomic_write(paths["per_frame"], lambda p: per_frame.to_parquet(p, index=False))
     doc = {"key": key, "row": row, "per_frame": bool(len(per_frame))}
-    _atomic(paths["row"], lambda p: p.write_text(json.dumps(doc, indent=1, default=_json_default) + "\n"))
+    atomic_write(paths["row"], lambda p: p.write_text(json.dumps(doc, indent=1, default=_json_default) + "\n"))
 
 
 def _json_default(o):
@@ -450,16 +452,6 @@ def _json_default(o):
     return str(o)
 
 
-def _atomic(path: Path, write) -> Path:
-    """``write(tmp)`` to a hidden sibling, then rename over ``path``: readers see old or new, never half."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
 
 
 def _scene_hash(resolved) -> str:
@@ -712,15 +704,15 @@ def write_outputs(comp: Comparison, out_dir: str | Path, plots: bool = True, com
     out.mkdir(parents=True, exist_ok=True)
     paths = {"results": out / "results.csv", "per_frame": out / "per_frame.csv", "summary": out / "summary.md",
              "spec": out / "spec.toml", "provenance": out / "provenance.json"}
-    _atomic(paths["results"], lambda p: comp.results.to_csv(p, index=False, float_format="%.6g"))
-    _atomic(paths["per_frame"], lambda p: comp.per_frame.to_csv(p, index=False, float_format="%.6g"))
+    atomic_write(paths["results"], lambda p: comp.results.to_csv(p, index=False, float_format="%.6g"))
+    atomic_write(paths["per_frame"], lambda p: comp.per_frame.to_csv(p, index=False, float_format="%.6g"))
     s = comp.spec
     head = (f"# Comparison\n\n{len(s.scenes)} scene(s) x {len(s.seeds)} seed(s) ({_seed_text(s.seeds)}) x "
             f"{len(s.estimators)} estimator(s); {s.duration:g} s each, {s.sensing} sensing, gate {s.gate:g} m "
             f"(HOTA: similarity max(0, 1 - d / {s.gate:g} m), mean over alpha 0.05-0.95). {INTERVAL_NOTE}\n\n")
-    _atomic(paths["summary"], lambda p: p.write_text(head + summary_markdown(comp.results) + "\n"))
-    _atomic(paths["spec"], lambda p: p.write_text(spec_to_toml(s)))
-    _atomic(paths["provenance"], lambda p: p.write_text(json.dumps(provenance_record(comp, command), indent=2) + "\n"))
+    atomic_write(paths["summary"], lambda p: p.write_text(head + summary_markdown(comp.results) + "\n"))
+    atomic_write(paths["spec"], lambda p: p.write_text(spec_to_toml(s)))
+    atomic_write(paths["provenance"], lambda p: p.write_text(json.dumps(provenance_record(comp, command), indent=2) + "\n"))
     if plots:
         paths.update(plot_metrics(comp.results, out))
         if len(comp.per_frame):

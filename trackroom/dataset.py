@@ -445,6 +445,19 @@ def read_camera_xml(path: Path) -> Camera:
 
 
 # ----------------------------------------------------------------------------- helpers
+def atomic_write(path: Path, write) -> Path:
+    """``write(tmp)`` to a hidden sibling, then rename over ``path``: readers see old or new, never half."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
 def _write_parquet(df: pd.DataFrame, path: Path) -> Path:
     df.reset_index(drop=True).to_parquet(path, index=False, engine="pyarrow", compression="zstd")
     return path

@@ -365,9 +365,9 @@ def render_report(folder: str | Path) -> str:
 
 def write_report(folder: str | Path, out: str | Path | None = None) -> Path:
     """Write the report (default ``folder/report.html``) atomically; returns its path."""
-    from trackroom.compare import _atomic
+    from trackroom.dataset import atomic_write
 
     html = render_report(folder)
     path = Path(out) if out else Path(folder) / "report.html"
     path.parent.mkdir(parents=True, exist_ok=True)
-    return _atomic(path, lambda p: p.write_text(html, encoding="utf-8"))
+    return atomic_write(path, lambda p: p.write_text(html, encoding="utf-8"))

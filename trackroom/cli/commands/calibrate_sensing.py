@@ -129,9 +129,9 @@ def run(args) -> int:
     if args.table:
         from pathlib import Path
 
-        from trackroom.compare import _atomic
+        from trackroom.dataset import atomic_write
 
-        _atomic(Path(args.table), lambda p: table.to_csv(p, index=False, float_format="%.6g"))
+        atomic_write(Path(args.table), lambda p: table.to_csv(p, index=False, float_format="%.6g"))
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(table.round(3).to_string(index=False, na_rep="-"))
     return 0

@@ -88,7 +88,8 @@ def run(args) -> int:
     from pathlib import Path
 
     from trackroom.errors import CommandError
-    from trackroom.compare import OUTPUT_FILES, CompareError, _atomic, run_comparison, spec_to_toml, write_outputs
+    from trackroom.compare import OUTPUT_FILES, CompareError, run_comparison, spec_to_toml, write_outputs
+    from trackroom.dataset import atomic_write
 
     if args.force and args.resume:
         raise CommandError("give --force (start again) or --resume (continue), not both")
@@ -107,7 +108,7 @@ def run(args) -> int:
         _remove_results(out, OUTPUT_FILES)
     out.mkdir(parents=True, exist_ok=True)
     command = getattr(args, "_command", None)
-    _atomic(out / "spec.toml", lambda p: p.write_text(spec_to_toml(spec)))  # first, so --resume finds it
+    atomic_write(out / "spec.toml", lambda p: p.write_text(spec_to_toml(spec)))  # first, so --resume finds it
     comp = run_comparison(spec, progress=not args.quiet, runs_dir=out / "runs", command=command, scheduler=args.scheduler)
     paths = write_outputs(comp, out, command=command)
     if args.html:
