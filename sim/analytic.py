@@ -110,9 +110,7 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
         geo.near = in_fov | (rows & (geo.span[..., 1] > 0) & (geo.span[..., 0] < cam.width))
         if cam.kind == "horizontal":
             return geo
-        edges = np.stack(
-            [puv[..., 0].min(-1), puv[..., 0].max(-1), puv[..., 1].min(-1), puv[..., 1].max(-1)], -1
-        )
+        edges = np.concatenate([geo.span, puv[..., 1].min(-1)[..., None], puv[..., 1].max(-1)[..., None]], -1)
         edges[..., 0:2] = np.clip(edges[..., 0:2], 0, cam.width)
         edges[..., 2:4] = np.clip(edges[..., 2:4], 0, cam.height)
         pc = cam.to_camera(c)  # (F, P, 3)
@@ -268,14 +266,7 @@ def observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, Cam
             keep &= cam.in_region(xy)
             if keep.any():
                 out["floor_detections"].append(pd.DataFrame({"t": t[keep], "camera": cam.name, "x": xy[keep, 0], "y": xy[keep, 1]}))
-    tables = {}
-    for kind, key in (("bearings", "u"), ("boxes", "u"), ("floor_detections", "x")):
-        if out[kind]:
-            df = pd.concat(out[kind], ignore_index=True)
-            if kind == "boxes":
-                df["track"] = df["track"].astype(np.int64)
-            tables[kind] = _sorted(df, key)
-    return tables
+    return _collect(out)
 
 
 def flow_detectable(g: CameraGeometry, min_px_s: float) -> np.ndarray:
@@ -342,6 +333,12 @@ def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict
         if cam.kind == "overhead":
             m = model["privacy" if cam.privacy else "overhead"]
             out["floor_detections"].append(det.floor(cam, g, frac, traj, t, m, rng, bounds))
+    return _collect(out)
+
+
+def _collect(out: dict[str, list]) -> dict[str, pd.DataFrame]:
+    """One table per kind from the cameras' parts (None: a camera with nothing), rows sorted by
+    time, camera and a measured value; kinds without rows are left out."""
     tables = {}
     for kind, key in (("bearings", "u"), ("boxes", "u"), ("floor_detections", "x")):
         parts = [d for d in out[kind] if d is not None]

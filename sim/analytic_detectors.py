@@ -69,18 +69,41 @@ def _groups(root: np.ndarray, det: np.ndarray):
 
 
 def visible_span(g, width: float):
-    """Clipped image span [a, b] of each person, its clip share and centre."""
+    """Clipped image span [a, b] of each person and the share of the span inside the image."""
     a = np.clip(g.span[..., 0], 0, width)
     b = np.clip(g.span[..., 1], 0, width)
     full = np.maximum(g.span[..., 1] - g.span[..., 0], 1e-9)
     return a, b, np.clip((b - a) / full, 0, 1)
 
 
+# The candidates of each detector: who could be reported at a camera frame. The sampler below and
+# the fit (``sim.perception_fit``) use these same definitions, so rates fitted per candidate are
+# applied to the same people.
+def blob_candidates(g, width: float):
+    """(a, b, clip, cand) of a bearing camera: spans, clip share, and people partly in the image."""
+    a, b, clip = visible_span(g, width)
+    return a, b, clip, g.near & (clip > 0)
+
+
+def window_candidates(g, width: float):
+    """(clip, image speed px/s, cand) of an oblique camera's windows: people partly in the image
+    with a window of some size."""
+    e = g.edges
+    _, _, clip = visible_span(g, width)
+    speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
+    return clip, speed, g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+
+
+def floor_state(g, traj):
+    """(xy (F, P, 2), floor speed (F, P)) of every person at an overhead camera's frames."""
+    xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
+    return xy, np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+
+
 def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           colours: list[str], palette: list[str]) -> pd.DataFrame | None:
     """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
-    a, b, clip = visible_span(g, cam.width)
-    cand = g.near & (clip > 0)
+    a, b, clip, cand = blob_candidates(g, cam.width)
     det = detected(rng, cand, m.detect(frac, clip), m.rho)
     o, ok = span_pairs(a, b)
     root = merge_roots(rng, det, o, ok, m)
@@ -93,20 +116,18 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
             lo[grp, r] = np.where(member[grp], a[grp], np.inf).min(axis=1)
             hi[grp, r] = np.where(member[grp], b[grp], -np.inf).max(axis=1)
     f, p = _groups(root, det)
-    n = len(f)
     clipped = clip[f, p] < 0.999
     (uu,) = error_uniforms(rng, det.shape, m, 1)
     err = np.where(clipped, m.error("u_clip").at(uu[f, p]), m.error("u").at(uu[f, p]))
     u = 0.5 * (lo[f, p] + hi[f, p]) + err
-    lab_idx = np.array([palette.index(c) for c in colours], int)[p] if n else np.zeros(0, int)
-    lab_idx = _confuse(rng, lab_idx, m.label, len(palette))
+    colour_idx = np.array([palette.index(c) for c in colours], int)
+    lab_idx = _confuse(rng, colour_idx[p], m.label, len(palette))
     # fragments: extra blobs on detected people
     fd, pd_ = np.nonzero(det)
     kf = rng.poisson(m.fragment, len(fd)) if m.fragment > 0 else np.zeros(len(fd), int)
     fd, pd_ = np.repeat(fd, kf), np.repeat(pd_, kf)
     u_frag = 0.5 * (a[fd, pd_] + b[fd, pd_]) + m.error("frag_du").sample(rng, len(fd)) * (b[fd, pd_] - a[fd, pd_])
-    own_lab = np.array([palette.index(c) for c in colours], int)[pd_] if len(fd) else np.zeros(0, int)
-    frag_lab = np.where(rng.random(len(fd)) < m.fragment_label, own_lab, len(palette))
+    frag_lab = np.where(rng.random(len(fd)) < m.fragment_label, colour_idx[pd_], len(palette))
     # false detections
     k = rng.poisson(m.clutter, len(g.steps)) if m.clutter > 0 else np.zeros(len(g.steps), int)
     fc = np.repeat(np.arange(len(g.steps)), k)
@@ -134,9 +155,7 @@ def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarra
 def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator) -> pd.DataFrame | None:
     """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
     e = g.edges
-    _, _, clip = visible_span(g, cam.width)
-    speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
-    cand = g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    _, speed, cand = window_candidates(g, cam.width)
     det = detected(rng, cand, m.detect(frac, speed), m.rho)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])
@@ -184,6 +203,15 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
         "u_left": edges[:, 0], "u_right": edges[:, 1], "v_top": edges[:, 2], "v_bottom": edges[:, 3],
         "flow_u": flow[keep, 0], "flow_v": flow[keep, 1],
     })
+
+
+def _episode_frames(start: np.ndarray, life: np.ndarray, n_frames: int):
+    """(episode index, frame) of every frame of episodes starting at ``start`` and lasting
+    ``life`` frames, cut at ``n_frames``."""
+    k = np.repeat(np.arange(len(start)), life)
+    frame = start[k] + (np.arange(len(k)) - np.repeat(np.cumsum(life) - life, life))
+    ok = frame < n_frames
+    return k[ok], frame[ok]
 
 
 class WindowIds:
@@ -271,10 +299,7 @@ class WindowIds:
         du, dv = m.error("frag_du").sample(rng, n), m.error("frag_dv").sample(rng, n)
         rw, rh = np.clip(m.error("frag_w").sample(rng, n), 0.05, None), np.clip(m.error("frag_h").sample(rng, n), 0.05, None)
         ids = np.array([self._new() for _ in range(n)], np.int64)
-        k = np.repeat(np.arange(n), life)
-        frame = f0[k] + (np.arange(len(k)) - np.repeat(np.cumsum(life) - life, life))
-        ok = frame < det.shape[0]
-        k, frame = k[ok], frame[ok]
+        k, frame = _episode_frames(f0, life, det.shape[0])
         pe = e[frame, p0[k]]
         pw, ph = pe[:, 1] - pe[:, 0], pe[:, 3] - pe[:, 2]
         cu = 0.5 * (pe[:, 0] + pe[:, 1]) + du[k] * pw
@@ -304,10 +329,7 @@ class WindowIds:
         cu, cv = rng.uniform(0, cam.width, len(f0)), rng.uniform(0, cam.height, len(f0))
         fl = np.stack([m.error("clutter_flow_u").sample(rng, len(f0)), m.error("clutter_flow_v").sample(rng, len(f0))], -1)
         ids = np.array([self._new() for _ in f0], np.int64)
-        k = np.repeat(np.arange(len(f0)), life)
-        frame = f0[k] + (np.arange(len(k)) - np.repeat(np.cumsum(life) - life, life))
-        ok = frame < n_frames
-        k, frame = k[ok], frame[ok]
+        k, frame = _episode_frames(f0, life, n_frames)
         edges = np.stack([cu[k] - w[k] / 2, cu[k] + w[k] / 2, cv[k] - h[k] / 2, cv[k] + h[k] / 2], -1)
         return frame, edges, fl[k], ids[k]
 
@@ -315,8 +337,7 @@ class WindowIds:
 def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
-    xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)  # (F, P, 2)
-    speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    xy, speed = floor_state(g, traj)
     det = detected(rng, g.near, m.detect(frac, speed), m.rho)
     F, P = det.shape
     iu, ju = np.triu_indices(P, 1)

@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import span_pairs, visible_span
+from .analytic_detectors import blob_candidates, floor_state, span_pairs, window_candidates
 from .perception_model import DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
 
 INF = float("inf")
@@ -142,9 +142,8 @@ def _candidates(s: DetectorStats, key, cand, feats, hit, own):
 
 
 def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
-    a, b, clip = visible_span(g, cam.width)
+    a, b, clip, cand = blob_candidates(g, cam.width)
     centre = 0.5 * (a + b)
-    cand = g.near & (clip > 0)
     F, P = cand.shape
     by_frame = _frames(bearings, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
@@ -214,9 +213,7 @@ def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
 
 def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
     e = g.edges
-    _, _, clip = visible_span(g, cam.width)
-    speed = np.hypot(g.flow[..., 0], g.flow[..., 1])
-    cand = g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
+    _, speed, cand = window_candidates(g, cam.width)
     F, P = cand.shape
     by_frame = _frames(boxes, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
@@ -321,8 +318,7 @@ def _window_ids(s: DetectorStats, window_of, members, own):
 
 
 def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
-    xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
-    speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    xy, speed = floor_state(g, traj)
     cand = g.near.copy()
     F, P = cand.shape
     inside = np.ones((F, P), bool)

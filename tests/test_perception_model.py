@@ -103,7 +103,9 @@ def test_person_ids_cannot_be_recovered_beyond_the_label_confusion(tmp_path):
     feats = pf.scene_features(scene, 3, 40.0)
     traj, geometry, _ = feats
     b = rec.observations["bearings"]
-    a_, b_, _ = pf.visible_span(geometry["w"], 320)
+    from trackroom.sim.analytic_detectors import visible_span
+
+    a_, b_, _ = visible_span(geometry["w"], 320)
     centre = 0.5 * (a_ + b_)
     f = np.rint(b.t.to_numpy() * 10).astype(int)
     person = np.abs(centre[f] - b.u.to_numpy()[:, None]).argmin(axis=1)
