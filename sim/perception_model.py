@@ -51,6 +51,7 @@ scene's ``sensors`` figures, per-person window ids.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -223,6 +224,7 @@ class PerceptionModel:
     detectors: dict[str, DetectorModel]
     fitted_on: list[str] = field(default_factory=list)
     ideal: bool = False
+    sha256: str = ""  # of the file it was loaded from ("ideal" for ideal perception; see model_sha256)
 
     def __getitem__(self, name: str) -> DetectorModel:
         return self.detectors[name]
@@ -274,20 +276,23 @@ class PerceptionModel:
 def ideal_model() -> PerceptionModel:
     """Every visible person detected, exact labels, no merges, ids per person (noise comes from
     the scene's ``sensors`` figures; see ``sim.analytic``)."""
-    return PerceptionModel({k: DetectorModel(max_gap=0) for k in DETECTORS}, ["ideal"], ideal=True)
+    return PerceptionModel({k: DetectorModel(max_gap=0) for k in DETECTORS}, ["ideal"], ideal=True, sha256="ideal")
+
+
+def model_path(spec: str | Path) -> Path:
+    """The file a model spec other than "ideal" names: the bundled model for "fitted"."""
+    return DEFAULT_FILE if str(spec) == "fitted" else Path(spec)
 
 
 def model_sha256(spec: str | Path) -> str | None:
     """What identifies the model ``spec`` names: "ideal", or the SHA-256 of the model file's bytes
-    (None when it cannot be read). Recordings keep it (``meta.perception``) and compare's cache
-    checks it, so a refitted model is never mixed with recordings of an older one."""
+    (None when it cannot be read). Recordings keep it (``meta.perception``, from the loaded
+    model's ``sha256``) and compare's cache checks it, so a refitted model is never mixed with
+    recordings of an older one."""
     if str(spec) == "ideal":
         return "ideal"
-    import hashlib
-
-    path = DEFAULT_FILE if str(spec) == "fitted" else Path(spec)
     try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return hashlib.sha256(model_path(spec).read_bytes()).hexdigest()
     except OSError:
         return None
 
@@ -296,14 +301,16 @@ def load_model(spec: str | Path) -> PerceptionModel:
     """``"fitted"`` (the bundled default), ``"ideal"``, or a model file's path."""
     if str(spec) == "ideal":
         return ideal_model()
-    path = DEFAULT_FILE if str(spec) == "fitted" else Path(spec)
     try:
-        data = json.loads(Path(path).read_text())
+        raw = model_path(spec).read_bytes()
+        data = json.loads(raw.decode())
     except OSError as e:
         raise ModelError(f"perception model {spec}: cannot be read ({e.strerror or e})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ModelError(f"perception model {spec}: not JSON ({e})") from None
-    return PerceptionModel.from_dict(data, f"perception model {spec}")
+    model = PerceptionModel.from_dict(data, f"perception model {spec}")
+    model.sha256 = hashlib.sha256(raw).hexdigest()
+    return model
 
 
 # ----------------------------------------------------------------------------- sampling helpers

@@ -32,7 +32,6 @@ from trackroom.scenes.spec import Scene
 from . import analytic, imu
 from trackroom.provenance import versions
 from trackroom.recording import SENSING_MODES, Calibration, Observations, Recording, Truth
-from .perception_model import model_sha256
 from .walkers import GM_DISCRETISATION, Trajectories, plan_trajectories
 from .world import build_world
 
@@ -248,7 +247,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         ],
         "versions": versions(),
         # the perception model behind analytic detections and every recording's declared noise
-        "perception": {"model": scene.sensors.perception, "sha256": model_sha256(scene.sensors.perception)},
+        "perception": {"model": scene.sensors.perception, "sha256": model.sha256},
     }
     calibration = Calibration(cameras={c.name: c for c in scene.cameras}, floorplan=scene.floorplan,
                               noise=calibration_noise(scene, sensing, model))
