@@ -7,7 +7,7 @@ every camera frame and person (``sim.analytic``: field of view, share of occlusi
 the person, image span and its clipped share, window, image or floor speed), matches the
 recording's detections to people (``linear_sum_assignment``, per camera frame), and collects:
 
-  candidates  features and outcome (a detection of its own, merged into another's, or missed);
+  candidates  features and whether reported (on a detection of its own or merged into another's) or missed;
   pairs       overlapping (image) or close (floor) detected people, and whether they merged;
   errors      detection minus the analytic reference, for detections of one person;
   labels      whether a blob's label is the person's colour;
@@ -57,7 +57,6 @@ RHO_GRID = (0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998)
 class DetectorStats:
     feats: list = field(default_factory=list)  # per candidate: feature tuple
     hit: list = field(default_factory=list)
-    own: list = field(default_factory=list)  # a detection of its own (not merged)
     runs: list = field(default_factory=list)  # (sequence key, frame, candidate index)
     pair_feat: list = field(default_factory=list)
     pair_merged: list = field(default_factory=list)
@@ -133,12 +132,12 @@ def measure(rec, scene: Scene, features=None) -> dict[str, DetectorStats]:
     return stats
 
 
-def _candidates(s: DetectorStats, key, cand, feats, hit, own):
+def _candidates(s: DetectorStats, key, cand, feats, hit):
+    """Record each candidate (camera frame, person): its features and whether it was reported."""
     for f, p in zip(*np.nonzero(cand)):
         s.runs.append((key, p, f, len(s.hit)))
         s.feats.append(feats(f, p))
         s.hit.append(bool(hit[f, p]))
-        s.own.append(bool(own[f, p]))
 
 
 def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
@@ -199,7 +198,7 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
             i, j = int(iu[k]), int(ju[k])
             s.pair_feat.append(o_all[f, k])
             s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
-    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], clip[f, p]), hit, own)
+    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], clip[f, p]), hit)
 
 
 def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
@@ -291,7 +290,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
             s.pair_feat.append(o_all[f, k])
             s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
     _window_ids(s, window_of, members, own)
-    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit, own)
+    _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit)
 
 
 def _window_ids(s: DetectorStats, window_of, members, own):
@@ -362,7 +361,7 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
             if gap < GAP_EDGES[-2]:
                 s.pair_feat.append(gap)
                 s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
-    _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p]), hit, own)
+    _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p]), hit)
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -375,7 +374,6 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             base = len(o.hit)
             o.feats += s.feats
             o.hit += s.hit
-            o.own += s.own
             o.runs += [((i, key), p, f, base + idx) for key, p, f, idx in s.runs]
             o.err_seq += [((i, key), p, f, v) for key, p, f, v in s.err_seq]
             o.pair_feat += s.pair_feat
