@@ -67,6 +67,9 @@ def find_recordings(paths) -> list:
 
 
 def run(args) -> int:
+    import tempfile
+    from pathlib import Path
+
     import pandas as pd
 
     from trackroom.cli.commands.generate import check_duration, generate_to
@@ -81,7 +84,6 @@ def run(args) -> int:
     folders = find_recordings(args.recordings) if args.recordings else []
     if args.render:
         check_duration(args.duration)
-        from pathlib import Path
 
         for name in args.render:
             scene = load_scene(name, args.overrides)
@@ -106,19 +108,22 @@ def run(args) -> int:
     rendered = pf.merge_stats([m[-1] for m in measured])
     model = pf.fit(rendered, names)
 
-    def simulated(model):
-        """The model's analytic statistics on the same scenes and seeds."""
-        model.save(args.out)
+    def simulated(model, path):
+        """The model's analytic statistics on the same scenes and seeds (the model saved at ``path``,
+        which the scenes' ``sensors.perception`` names)."""
+        model.save(path)
         out = []
         for d, rec, scene, feats, _ in measured:
-            sim = simulate(_with_model(scene, args.out), int(rec.meta["seed"]), float(rec.meta["duration"]))
+            sim = simulate(_with_model(scene, path), int(rec.meta["seed"]), float(rec.meta["duration"]))
             out.append(pf.measure(sim, scene, feats))
         return pf.merge_stats(out)
 
-    for i in range(args.rounds):  # fitting by simulation: rates corrected until analytic matches rendered
-        model = pf.correct(model, rendered, simulated(model))
-        print(f"correction round {i + 1} of {args.rounds} done", flush=True)
-    analytic = simulated(model)  # also writes the final model
+    with tempfile.TemporaryDirectory() as tmp:  # the rounds' models: --out gets only the final one
+        trial = Path(tmp) / "model.json"
+        for i in range(args.rounds):  # fitting by simulation: rates corrected until analytic matches rendered
+            model = pf.correct(model, rendered, simulated(model, trial))
+            print(f"correction round {i + 1} of {args.rounds} done", flush=True)
+    analytic = simulated(model, args.out)  # writes the final model
     print(f"{args.out}: perception model fitted on {len(names)} rendered recording(s)")
     print(parameter_text(model))
     r = pf.summary(rendered)
@@ -127,8 +132,6 @@ def run(args) -> int:
     table = table[table["candidates"] > 0].sort_values(["detector", "mode"], ascending=[True, False], kind="mergesort")
     table = table[["detector", "mode", *pf.SUMMARY_COLUMNS]]
     if args.table:
-        from pathlib import Path
-
         from trackroom.dataset import atomic_write
 
         atomic_write(Path(args.table), lambda p: table.to_csv(p, index=False, float_format="%.6g"))
