@@ -8,8 +8,7 @@ All passes use the same world, the same camera frames (the clip's schedule) and 
 (renderer and GL context creation, first-touch allocations), which is excluded. Passes:
 1. bare RGB: pose the world and ``Renderer.render()`` RGB for every camera frame.
 2. bare RGB + segmentation: the two renders the pipeline needs (segmentation -> truth labels),
-   one after the other (``SceneRenderer.segment``), and with the segmentation in its own thread
-   on its own GL context (``SegmentationThread``, as the pipeline draws them).
+   one after the other (``SceneRenderer.segment``), as the pipeline draws them.
 3. pipeline: ``sim.rendered.observe`` on the same frames (renders, perception, labels, MP4
    writing) for every worker count of ``--workers`` (default: 0, then 1, 2, 4, 8, 16 up to the
    available cores; 0 = all in the rendering thread); the default count is the available cores.
@@ -41,20 +40,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 
 from trackroom.scenes.loader import load_scene  # noqa: E402
-from trackroom.sim.render import SceneRenderer, SegmentationThread, VideoSink  # noqa: E402
+from trackroom.sim.render import SceneRenderer, VideoSink  # noqa: E402
 from trackroom.sim.rendered import (FrameWork, _pose, camera_schedule, check_cameras, observe,  # noqa: E402
                                     pose_snapshot, worker_count, world_maps)
 from trackroom.sim.walkers import plan_trajectories  # noqa: E402
 from trackroom.sim.world import build_world  # noqa: E402
 
 
-def bare(world, scene, traj, segment: bool, warmup: int, threaded: bool = False) -> tuple[float, float, int]:
-    """Wall seconds, CPU seconds (every thread of the process) and frames of bare rendering: RGB, and segmentation if ``segment`` (in its own
-    thread, overlapping the RGB renders, if ``threaded``: ``SegmentationThread``)."""
+def bare(world, scene, traj, segment: bool, warmup: int) -> tuple[float, float, int]:
+    """Wall seconds, CPU seconds (every thread of the process) and frames of bare rendering: RGB, and segmentation if ``segment``."""
     model, data, cam_ids, person_geoms = world_maps(world, scene)
     check_cameras(model, scene, cam_ids)
     r = SceneRenderer(model, np.asarray(world.geom_person, np.int16), shadows=scene.render.shadows)
-    seg_thread = SegmentationThread(r) if segment and threaded else None
     schedule = list(camera_schedule(scene, traj).items())
 
     def run(steps) -> int:
@@ -62,14 +59,10 @@ def bare(world, scene, traj, segment: bool, warmup: int, threaded: bool = False)
         for k, due in steps:
             _pose(world, traj, k)
             for cam, _ in due:
-                if seg_thread is not None:
-                    job = seg_thread.submit(data, cam_ids[cam.name], cam.width, cam.height)
                 rr = r.renderer(cam.width, cam.height)
                 rr.update_scene(data, camera=cam_ids[cam.name])
                 rr.render()
-                if seg_thread is not None:
-                    job.result()
-                elif segment:
+                if segment:
                     r.segment(data, cam_ids[cam.name], cam.width, cam.height)
                 n += 1
         return n
@@ -78,8 +71,6 @@ def bare(world, scene, traj, segment: bool, warmup: int, threaded: bool = False)
     t0, c0 = time.perf_counter(), time.process_time()
     n = run(schedule)
     dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-    if seg_thread is not None:
-        seg_thread.close()
     r.close()
     return dt, cpu, n
 
@@ -176,14 +167,14 @@ def main(argv=None) -> int:
           f"{cores}; LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', 'unset')}; MUJOCO_GL={os.environ['MUJOCO_GL']}")
     load0 = os.getloadavg()
     rendered = Rendered(world, scene, traj)
-    runs: dict[str, list[float]] = {"rgb": [], "rgbseg": [], "rgbseg_thread": []}
+    runs: dict[str, list[float]] = {"rgb": [], "rgbseg": []}
     runs.update({f"pipe{w}": [] for w in counts + [cores]})
     runs.update({f"work{w}": [] for w in counts})
     cpus: dict[str, list[float]] = {k: [] for k in runs}
     stages: dict[str, list[dict]] = {}
     for _ in range(max(1, args.repeat)):
-        for key, seg, threaded in (("rgb", False, False), ("rgbseg", True, False), ("rgbseg_thread", True, True)):
-            dt, cpu, n = bare(world, scene, traj, seg, args.warmup, threaded)
+        for key, seg in (("rgb", False), ("rgbseg", True)):
+            dt, cpu, n = bare(world, scene, traj, seg, args.warmup)
             runs[key].append(dt)
             cpus[key].append(cpu)
         for w in dict.fromkeys(counts + [cores]):
@@ -208,11 +199,9 @@ def main(argv=None) -> int:
           f"load average {load0[0]:.2f} before, {load1[0]:.2f} after")
     line("bare rendering, RGB only", "rgb")
     line("bare rendering, RGB + segmentation", "rgbseg")
-    line("bare RGB + segmentation (own thread)", "rgbseg_thread")
     line(f"full pipeline ({cores} workers, the default)", f"pipe{cores}")
     t_pipe = med[f"pipe{cores}"]
     print(f"ratio pipeline / bare RGB + segmentation : {t_pipe / med['rgbseg']:5.2f}  (target <= 1.5)")
-    print(f"ratio pipeline / bare RGB + seg thread   : {t_pipe / med['rgbseg_thread']:5.2f}  (the renders it makes, alone)")
     print(f"ratio pipeline / bare RGB                : {t_pipe / med['rgb']:5.2f}")
     c_pipe = cpu_med[f"pipe{cores}"]
     print(f"CPU time, pipeline / bare RGB + segmentation: {c_pipe / cpu_med['rgbseg']:5.2f}  (the work it adds, "

@@ -6,8 +6,13 @@ per resolution on a context without multisampling (same ids, ~35 % cheaper; ``se
 Shadows are off unless the scene asks for them (the shadow pass costs ~40 ms a frame on the CPU).
 ``MUJOCO_GL=egl`` is set before MuJoCo is imported, so rendering runs headless on Mesa's CPU
 rasteriser (llvmpipe, which spreads a render over the cores: ``LP_NUM_THREADS`` unset is the
-fastest end to end, measured by ``scripts/bench_render.py``). ``SegmentationThread`` draws the
-segmentation renders in a thread of their own, overlapping the RGB renders.
+fastest end to end, measured by ``scripts/bench_render.py``).
+
+Every GL call runs in one thread (the caller's). An earlier design drew the segmentation renders
+in a second thread on a context of its own, overlapping the RGB renders; CI crashed once with a
+segmentation fault inside that thread's ``mjr_render`` (Mesa 22.3 llvmpipe, two contexts drawing
+at once), which could not be reproduced on demand, so the overlap (a wall-time gain only: the CPU
+time per frame is the same) was given up for a renderer that never draws from two threads.
 
 Where a frame's render time goes (overhead_lab, 320x240, measured): the RGB render is ~4 ms, of
 which ~60 % is the model's 4x multisampling (``vis.quality.offsamples``; 2.2 ms without, but
@@ -19,8 +24,6 @@ Image convention: row 0 at the top, pixel (row j, column i) covers u in [i, i+1)
 from __future__ import annotations
 
 import os
-import time
-from concurrent.futures import Future, ThreadPoolExecutor
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -166,51 +169,6 @@ class SceneRenderer:
             for r in cache.values():
                 r.close()
             cache.clear()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-
-class SegmentationThread:
-    """Segmentation renders in a thread of their own, overlapping the caller's RGB renders.
-
-    ``submit(data, camera_id, width, height)`` takes the scene from ``data`` now (CPU only:
-    ``mjv_updateScene`` into the segmentation renderer's scene) and returns a ``Future`` of the
-    person-index image, drawn by the thread on the segmentation renderer's own GL context. The
-    segmentation contexts are created, used and closed in that thread (an EGL context is current
-    in one thread at a time); one frame is in flight at most (the next ``submit`` waits for it,
-    since the scene is reused). Llvmpipe leaves part of the second core idle while it renders a
-    small image, which the other render fills.
-    """
-
-    def __init__(self, renderer: SceneRenderer):
-        self.renderer = renderer
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="segmentation")
-        self._job: Future | None = None
-        self.waited = 0.0  # seconds ``submit`` spent waiting for the previous frame
-
-    def submit(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> Future:
-        if self._job is not None:
-            t0 = time.perf_counter()
-            self._job.result()
-            self.waited += time.perf_counter() - t0
-        r = self.renderer._seg_renderers.get((int(width), int(height)))
-        if r is None:
-            r = self._pool.submit(self.renderer.seg_renderer, width, height).result()  # made in the thread
-        r.update_scene(data, camera=int(camera_id))
-        self._job = self._pool.submit(self.renderer.segment_current, r)
-        return self._job
-
-    def close(self) -> None:
-        try:
-            if self._job is not None:
-                self._job.cancel()
-            self._pool.submit(self.renderer.close, True).result()
-        finally:
-            self._pool.shutdown(wait=True)
 
     def __enter__(self):
         return self

@@ -12,14 +12,13 @@ oblique -> boxes from the optical-flow tracker, plus bearings from the same back
 blobs as a horizontal camera (u of each person blob, colour label).
 
 Threads (``observe(workers=N)``; default ``TRACKROOM_RENDER_WORKERS`` or the available cores):
-the main thread poses the world and draws the RGB renders, ``sim.render.SegmentationThread``
-draws the segmentation renders alongside on a GL context of its own, and N worker threads run
-perception and MP4 writing (each camera in its own ordered lane, ``sim.lanes``: the stateful
-detectors see their frames in sequence) and the truth labels (any worker). Rows are collected
-per frame and joined in frame order, so the tables are identical whatever N is (0: everything in
-the calling thread). Rendering stays on these two contexts: a MuJoCo ``Renderer`` belongs to the
-thread that made its context current, and on the CPU (Mesa llvmpipe) one render already spreads
-over every core. Frames/s against N: ``scripts/bench_render.py``.
+the calling thread poses the world and draws every render (RGB, then segmentation), and N worker
+threads run perception and MP4 writing (each camera in its own ordered lane, ``sim.lanes``: the
+stateful detectors see their frames in sequence) and the truth labels (any worker). Rows are
+collected per frame and joined in frame order, so the tables are identical whatever N is (0:
+everything in the calling thread). No GL call is made from any other thread (``sim.render``: two
+threads drawing at once crashed llvmpipe once in CI), and on the CPU (Mesa llvmpipe) one render
+already spreads over every core. Frames/s against N: ``scripts/bench_render.py``.
 
 Labels (truth, never given to estimators), per camera frame and person:
   pixels            visible pixels of the person in the segmentation render;
@@ -53,7 +52,7 @@ from trackroom.scenes.camera import Camera
 from trackroom.sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
 from trackroom.sim.perception_flow import FlowTracker
 from trackroom.sim.lanes import Lane
-from trackroom.sim.render import SceneRenderer, SegmentationThread, VideoSink
+from trackroom.sim.render import SceneRenderer, VideoSink
 
 VISIBLE_FRACTION = 0.5
 
@@ -210,8 +209,8 @@ STAGES = ("pose", "render", "segment", "perception", "labels", "video", "wait")
 class FrameWork:
     """Perception, truth labels and MP4 writing of rendered camera frames, on ``workers`` threads.
 
-    ``submit(cam, t, rgb, seg, poses)`` takes one frame (``seg``: the person-index image or a
-    ``Future`` of it; ``poses``: the people's ``GeomPoses`` at the frame) in frame order and may
+    ``submit(cam, t, rgb, seg, poses)`` takes one frame (``seg``: the person-index image;
+    ``poses``: the people's ``GeomPoses`` at the frame) in frame order and may
     wait for the oldest frame in flight (at most ``in_flight(workers)`` are); ``finish()`` waits
     for the rest and returns the rows of every table, frame after frame. Each camera's perception
     and video run in its ``Lane`` (its detectors keep state between frames; its MP4 is sequential),
@@ -291,8 +290,6 @@ class FrameWork:
         self._add_time("video", time.perf_counter() - t1)
 
     def _label(self, cam, t, seg, poses, rows) -> None:
-        if not isinstance(seg, np.ndarray):
-            seg = seg.result()  # the segmentation thread's Future
         t0 = time.perf_counter()
         masks = self._local.__dict__.setdefault("masks", {})
         mask = masks.get((cam.width, cam.height))
@@ -324,8 +321,7 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
 
     ``workers`` (default ``worker_count()``: ``TRACKROOM_RENDER_WORKERS`` or the available cores):
     threads that run perception, labels and MP4 writing (``FrameWork``) while this thread poses
-    and renders the next frames and a second thread draws the segmentation renders (MuJoCo's
-    render and OpenCV release the GIL). The tables are identical whatever the number of workers;
+    and renders the next frames (MuJoCo's render and OpenCV release the GIL). The tables are identical whatever the number of workers;
     0: everything in the calling thread.
     """
     tm = timings if timings is not None else {}
@@ -342,7 +338,6 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
     all_geoms = np.concatenate(person_geoms) if P else np.zeros(0, int)
     sink = VideoSink(save_frames) if save_frames else None
     renderer = SceneRenderer(model, person_of_geom, shadows=scene.render.shadows)
-    segmenter = SegmentationThread(renderer) if workers else None
     work = None
     try:
         _pose(world, traj, 0)
@@ -355,26 +350,19 @@ def observe(world, scene, traj, rng=None, save_frames=None, timings: dict | None
             poses = pose_snapshot(data, all_geoms)
             tm["pose"] += time.perf_counter() - t0
             for cam, t in due:
-                t0 = time.perf_counter()
-                if segmenter is not None:  # drawn in its own thread while the RGB render runs
-                    seg = segmenter.submit(data, cam_ids[cam.name], cam.width, cam.height)
                 t1 = time.perf_counter()
                 r = renderer.renderer(cam.width, cam.height)
                 r.update_scene(data, camera=cam_ids[cam.name])
                 rgb = r.render()
                 t2 = time.perf_counter()
-                if segmenter is None:
-                    seg = renderer.segment(data, cam_ids[cam.name], cam.width, cam.height)
-                t3 = time.perf_counter()
-                tm["segment"] += (t1 - t0) + (t3 - t2)
+                seg = renderer.segment(data, cam_ids[cam.name], cam.width, cam.height)
+                tm["segment"] += time.perf_counter() - t2
                 tm["render"] += t2 - t1
                 work.submit(cam, t, rgb, seg, poses)
         rows = work.finish()
     finally:
         if work is not None:
             work.close()
-        if segmenter is not None:
-            segmenter.close()
         renderer.close()
         if sink is not None:
             sink.close()
