@@ -208,7 +208,7 @@ class TargetPlanes(Estimator):
         targets: list[Target] = []
         next_id = 0
         if not cfg.multi_person:
-            targets.append(self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}))
+            targets.append(self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}, inside_room))
             targets[0].confirmed = True
             next_id = 1
         rows: list[tuple] = []
@@ -260,13 +260,15 @@ class TargetPlanes(Estimator):
         return TargetPlanesResult(tracks, status)
 
     # ------------------------------------------------------------------------------------------
-    def _initial_target(self, cams, Ps, frame0) -> Target:
+    def _initial_target(self, cams, Ps, frame0, inside_room) -> Target:
         cfg = self.config
         states = {c: CameraState() for c in cams}
         if cfg.initial_xy is not None:
             xy = np.asarray(cfg.initial_xy, float)
             if xy.shape != (2,) or not np.isfinite(xy).all():
                 raise EstimatorError(f"{self.name}: initial_xy must be [x, y] in metres, got {cfg.initial_xy!r}")
+            if not bool(np.asarray(inside_room(xy[None])).reshape(-1)[0]):
+                raise EstimatorError(f"{self.name}: initial_xy {cfg.initial_xy!r} lies outside the room's floor plan")
             return Target(0, xy, states, sigma=cfg.init_radius)
         w = cfg.initial_window
         if not (isinstance(w, (list, tuple)) and len(w) == 5 and w[0] in Ps):

@@ -194,7 +194,8 @@ class Evaluation:
     position: dict[str, float]
 
     def metrics(self) -> dict[str, Any]:
-        """The flat dictionary of scores (see ``SCORE_COLUMNS``)."""
+        """The flat dictionary of scores: CLEAR MOT, IDF1, HOTA, phone identification (when tracks claim
+        phones) and position errors; ``docs/format.md`` describes each column of ``results.csv``."""
         m, i = self.mot, self.ids
         out: dict[str, Any] = {
             "gate": m.gate,

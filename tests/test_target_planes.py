@@ -273,5 +273,7 @@ def test_bad_input_errors():
         TargetPlanes().run(obs, calib(cams))
     with pytest.raises(EstimatorError, match="initial_xy"):
         TargetPlanes(initial_xy=[1.0]).run(obs, calib(cams))
+    with pytest.raises(EstimatorError, match="outside the room"):
+        TargetPlanes(initial_xy=[-50.0, 2.0]).run(obs, calib(cams))
     with pytest.raises(EstimatorError, match="initial_window"):
         TargetPlanes(initial_window=["nope", 0, 1, 2, 3]).run(obs, calib(cams))
