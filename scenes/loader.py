@@ -117,18 +117,24 @@ def bundled_scenes() -> list[str]:
     return sorted(p.name[:-5] for p in resources.files("trackroom.scenes").iterdir() if p.name.endswith(".toml"))
 
 
+def _names_a_file(p: Path) -> bool:
+    """A scene argument names a file when it ends in .toml or a file of that name exists; a
+    folder that happens to share a bundled scene's name (a recording written to ``--out
+    overhead_lab``) does not hide the bundled scene."""
+    return p.suffix == ".toml" or p.is_file()
+
+
 def resolve_scene_path(name_or_path: str | Path) -> Path:
     """A bundled scene name (``bearing_hall``) or a path to a TOML file."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    if _names_a_file(p):
         if not p.exists():
             raise SceneError(f"{p}: no such scene file")
         return p
     candidate = Path(str(resources.files("trackroom.scenes").joinpath(f"{name_or_path}.toml")))
     if not candidate.exists():
-        raise SceneError(
-            f"{name_or_path}: not a scene file or a bundled scene (bundled: {', '.join(bundled_scenes())})"
-        )
+        what = "a folder, not a scene file, and not" if p.is_dir() else "not a scene file or"
+        raise SceneError(f"{name_or_path}: {what} a bundled scene (bundled: {', '.join(bundled_scenes())})")
     return candidate
 
 
@@ -136,7 +142,7 @@ def scene_source(name_or_path: str | Path) -> str:
     """How a scene's origin is recorded: a bundled scene by its name, a file by its path relative
     to the working directory (never an absolute path, so records move between machines)."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    if _names_a_file(p):
         return os.path.relpath(p)
     return str(name_or_path)
 

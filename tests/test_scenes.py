@@ -84,6 +84,18 @@ def test_malformed_toml_and_missing_file(tmp_path):
         load_scene("no_such_scene")
 
 
+def test_a_folder_named_like_a_bundled_scene_does_not_hide_it(tmp_path, monkeypatch):
+    """``trackroom generate overhead_lab --out overhead_lab`` leaves a folder of that name; the
+    bundled scene must still load from there, and a folder that is no scene says so."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "overhead_lab").mkdir()
+    (tmp_path / "a_folder").mkdir()
+    scene = load_scene("overhead_lab")
+    assert scene.name == "overhead_lab" and scene.source == "overhead_lab"
+    with pytest.raises(SceneError, match="a folder, not a scene file"):
+        load_scene("a_folder")
+
+
 def test_overrides_set_any_field():
     s = load_scene("overhead_lab", ["walkers.count=10", "cameras.*.privacy=true", "walkers.phoneless=3"])
     assert len(s.walkers) == 10
