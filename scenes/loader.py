@@ -507,6 +507,9 @@ class _Validator:
             pause = self.vector(merged, "pause", where, 2, default=(0.0, 5.0), nonneg=True)
             pn = self.vector(merged, "process_noise", where, 2, default=(2e-10, 2e-6), nonneg=True)
             waypoints = self.points(merged, "waypoints", where, min_len=2) if motion == "waypoints" else ()
+            if motion == "waypoints" and "start" in merged:
+                self.fail(f"{where}.start", "a waypoints walker starts at its first waypoint (with vary, up to 2 m along "
+                          "its first leg); put the start first in waypoints instead")
             start = self.vector(merged, "start", where, 2) if "start" in merged else None
             height = self.number(merged, "height", where, 1.75, positive=True)
             radius = self.number(merged, "radius", where, 0.2, positive=True)

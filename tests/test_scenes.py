@@ -165,3 +165,10 @@ def test_scene_files_have_only_known_sections():
     for name in bundled_scenes():
         raw = tomllib.loads(resources.files("trackroom.scenes").joinpath(f"{name}.toml").read_text())
         parse_scene(raw, name)  # validates every key
+
+
+def test_a_start_for_a_waypoints_walker_is_refused():
+    raw = {"scene": {"name": "w"}, "room": {"outline": [[0, 0], [6, 0], [6, 6], [0, 6]]},
+           "walkers": {"count": 1, "people": [{"motion": "waypoints", "waypoints": [[1, 1], [5, 5]], "start": [3, 1]}]}}
+    with pytest.raises(SceneError, match="starts at its first waypoint"):
+        parse_scene(raw)
