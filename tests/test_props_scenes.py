@@ -202,7 +202,7 @@ def valid_scenes(draw) -> dict:
             p["waypoints"] = draw(st.lists(left, min_size=2, max_size=5))
             if draw(st.booleans()):
                 p["loop"] = draw(st.booleans())
-        if draw(st.booleans()):
+        if motion != "waypoints" and draw(st.booleans()):  # a waypoints walker starts at its first waypoint
             p["start"] = draw(left)
         if draw(st.booleans()):
             lo = draw(_num(0, 1.5))
@@ -313,7 +313,10 @@ def mutated_scenes(draw) -> dict:
             elif isinstance(raw.get("walls"), list) and raw["walls"] and isinstance(raw["walls"][0], dict):
                 target = raw["walls"][0].get("start")
             if isinstance(people, list) and people and isinstance(people[0], dict) and target is not None:
-                people[0]["start"] = copy.deepcopy(target)
+                if people[0].get("motion") == "waypoints" and isinstance(people[0].get("waypoints"), list) and people[0]["waypoints"]:
+                    people[0]["waypoints"][0] = copy.deepcopy(target)
+                else:
+                    people[0]["start"] = copy.deepcopy(target)
         elif kind == "duplicate":
             for section in ("cameras", "obstacles"):
                 items = raw.get(section)
