@@ -4,6 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pandas as pd
 import pytest
 
 from trackroom.cli import main
@@ -156,3 +157,15 @@ def test_rendered_generate_shows_one_bar_over_the_camera_frames(tmp_path):
     assert bars and all("/40 " in b and "frame" in b for b in bars), bars  # one bar, over frames only
     r = run_cli(*args, "--out", str(tmp_path / "pipe"))
     assert r.returncode == 0 and "%|" not in r.stderr and "frame/s" not in r.stderr, r.stderr
+
+
+def test_summary_line_shows_speeds_below_real_time():
+    """A rendered run slower than real time reads 0.29x, not 0x."""
+    from types import SimpleNamespace
+
+    from trackroom.cli.commands.generate import summary_line
+
+    rec = SimpleNamespace(observations=SimpleNamespace(tables={}), truth=SimpleNamespace(people=pd.DataFrame({"person_id": ["a"]})),
+                          duration=30.0, scene="s", seed=1, sensing="rendered")
+    assert "(0.29x real time)" in summary_line(rec, 104.5, "out")
+    assert "(150x real time)" in summary_line(rec, 0.2, "out")

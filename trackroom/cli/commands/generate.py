@@ -95,6 +95,7 @@ def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=Fa
 def summary_line(rec, seconds: float, out) -> str:
     counts = ", ".join(f"{k} {len(v)}" for k, v in rec.observations.tables.items())
     people = rec.truth.people["person_id"].nunique()
-    speed = rec.duration / seconds if seconds > 0 else float("inf")
+    ratio = rec.duration / seconds if seconds > 0 else float("inf")
+    speed = f"{ratio:.0f}" if ratio >= 10 else f"{ratio:.2g}"  # a rendered run is slower than real time: 0.29x, not 0x
     return (f"{rec.scene} seed {rec.seed}: {rec.duration:g} s, {people} {'person' if people == 1 else 'people'}, {rec.sensing} sensing -> {out}\n"
-            f"  rows: {counts}\n  took {seconds:.1f} s ({speed:.0f}x real time)")
+            f"  rows: {counts}\n  took {seconds:.1f} s ({speed}x real time)")
