@@ -10,7 +10,7 @@ Two layouts, each with one walker and N non-overlapping-by-design horizontal bea
   room (the outline's inward normal turned by 90 deg - FOV/2 - 5 deg, as bearing_hall's four are),
   and the walker is bearing_hall's reflected random walk, at one constant speed (heading diffusing).
 - ``corridor``: Rahimi Fig. 1(b) (``bearing_corridor``'s 30 m x 5 m corridor): the N cameras on
-  alternating side walls look straight across it, spread evenly over x = 3 ... 21 m, and the walker
+  alternating side walls look straight across it, spread evenly over x = 2 ... 20 m (N = 3: bearing_corridor's), and the walker
   walks the corridor's length once at one speed x the seeded pace (bearing_corridor's walker);
   each run lasts 24 m / speed (the walker passes every camera and never reaches the far end).
 
@@ -77,7 +77,8 @@ def _camera(name, xy, yaw_deg, fov):
 
 def hall_cameras(n: int, fov: float, side: float = 10.0, inset: float = 0.06) -> list[dict]:
     """N cameras at equal steps along the square outline (starting at the south wall's middle,
-    counter-clockwise), each looking into the room along the wall ahead of it."""
+    counter-clockwise), each looking into the room along the wall ahead of it (N = 4, 39 deg:
+    bearing_hall's cameras, to half a degree)."""
     per = 4 * side
     cams = []
     for i in range(n):
@@ -91,8 +92,9 @@ def hall_cameras(n: int, fov: float, side: float = 10.0, inset: float = 0.06) ->
     return cams
 
 
-def corridor_cameras(n: int, fov: float, x0: float = 3.0, x1: float = 21.0, width: float = 5.0, inset: float = 0.06):
-    """N cameras spread evenly over x0 ... x1, alternately on the south and north wall, looking across."""
+def corridor_cameras(n: int, fov: float, x0: float = 2.0, x1: float = 20.0, width: float = 5.0, inset: float = 0.06):
+    """N cameras spread evenly over x0 ... x1 (at x0 + (i + 1/2) (x1 - x0) / N), alternately on the
+    south and north wall, looking across (N = 3, 58 deg: bearing_corridor's cameras)."""
     cams = []
     for i in range(n):
         x = x0 + (i + 0.5) * (x1 - x0) / n
