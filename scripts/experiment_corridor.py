@@ -149,7 +149,12 @@ def main(argv=None) -> int:
     ap.add_argument("--figure", default="docs/img/corridor_runs.png")
     ap.add_argument("--no-figure", action="store_true")
     args = ap.parse_args(argv)
-    seeds = parse_seeds(args.seeds)
+    try:
+        seeds = parse_seeds(args.seeds)
+    except ValueError:
+        ap.error(f"--seeds: expected whole numbers and ranges like 1000-1023 or 100,101, got {args.seeds!r}")
+    if not seeds or args.jobs < 1 or not args.duration > 0:
+        ap.error("need at least one seed, --jobs >= 1 and --duration > 0")
     q_id = identify_prior("corridor", 1.2)
     print(f"identified prior: q_pos = {q_id[0]:.2e} m^2/s, q_vel = {q_id[1]:.2e} m^2/s^3")
     tasks = [(s, q_id, args.duration) for s in seeds]
