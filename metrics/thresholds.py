@@ -36,6 +36,7 @@ CI_RUNS: dict[str, dict] = {
     "occlusion_lab": {"duration": 15.0, "overrides": ()},
     "bearing_hall": {"duration": 30.0, "overrides": ()},
     "office_floor": {"duration": 30.0, "overrides": ()},
+    "bearing_corridor": {"duration": 20.0, "overrides": ()},
 }
 
 

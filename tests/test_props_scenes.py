@@ -565,3 +565,30 @@ def test_regression_override_value_with_a_second_key(tmp_path):
     """--set 'walkers.count=1\\nx = 2' applied the 1 and dropped the rest silently."""
     with pytest.raises(SceneError, match="more than one TOML value"):
         load_scene(_write(tmp_path, to_toml(BASE)), ["walkers.count=1\nx = 2"])
+
+
+# ----------------------------------------------------------------------------- bundled scenes
+@settings(max_examples=examples(20), deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_bearing_corridor_is_rahimi_fig_1b_on_every_seed(seed):
+    """bearing_corridor's premise (issue 13), whatever the seed: after its start (2 s) the walker
+    keeps one speed (within 1 %, inside 1.2 m/s x the pace range 0.85-1.15) on a straight line
+    along the corridor (heading within 1 deg), stays clear of the far end for 20 s, and passes
+    every camera's view, never two at once (Rahimi Fig. 1b: a constant speed past
+    non-overlapping cameras). A change to the walkers that breaks it makes the corridor
+    experiment (docs/qp_smoother.md) meaningless."""
+    from trackroom.sim.walkers import plan_trajectories
+
+    scene = load_scene("bearing_corridor")
+    tr = plan_trajectories(scene, 20.0, np.random.default_rng(seed))
+    v, xy = tr.vel[0, :, :2], tr.pos[0, :, :2]
+    walking = tr.t >= 2.0
+    speed = np.hypot(v[walking, 0], v[walking, 1])
+    mid = float(np.median(speed))
+    assert 1.2 * 0.85 - 1e-6 <= mid <= 1.2 * 1.15 + 1e-6
+    assert np.abs(speed / mid - 1).max() < 0.01
+    heading = np.degrees(np.arctan2(v[walking, 1], v[walking, 0]))
+    assert np.ptp(heading) < 1.0 and np.abs(heading).max() < 5.0
+    assert xy[:, 0].max() < 28.5
+    seen = np.stack([c.in_horizontal_fov(xy) for c in scene.cameras])
+    assert seen.any(axis=1).all() and seen.sum(axis=0).max() == 1

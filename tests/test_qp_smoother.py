@@ -171,3 +171,33 @@ def test_office_walls_keep_observed_points_in_their_camera_room():
     est = np.c_[tracks.x.to_numpy()[k], tracks.y.to_numpy()[k]]
     assert np.all(est[:, 1] <= 4.0 - 0.05 - 0.1 + 1e-6) and np.all(est[:, 0] <= 10.0 - 0.05 + 1e-6)
     assert tracks.attrs["qp_smoother"]["red"]["violation_m"] < 1e-6
+
+
+def test_bearing_corridor_alone_within_30cm_on_development_seeds():
+    """Rahimi Fig. 1(b) (issue 13): on bearing_corridor (a nearly constant-speed walker past three
+    non-overlapping cameras) the QP smoother with its defaults and nothing but bearings is within
+    0.3 m RMSE over every frame: median over development seeds 100-102 (measured 0.23, 0.32,
+    0.19 m; the evaluation seeds, docs/qp_smoother.md, are never used here). The camera that saw
+    the walker most, alone, cannot fix the depth (Fig. 1a): metres off on the same runs."""
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
+    from trackroom.recording import Observations
+
+    scene = load_scene("bearing_corridor")
+    all_cams, one_cam = [], []
+    for seed in (100, 101, 102):
+        rec = simulate(scene, seed, 20.0)
+        w = rec.meta["walkers"][0]
+        p = rec.truth.people
+        p = p[(p.person_id == w["name"]) & (np.abs(p.t * 4 - np.rint(p.t * 4)) < 1e-6)]
+        xy = p[["x", "y"]].to_numpy()[:80]
+        b = rec.observations["bearings"]
+        assert b[b.label == w["color"]].camera.nunique() >= 2
+        tr = QPSmoother().estimate(rec.observations, rec.calibration)
+        all_cams.append(rmse(tr[tr.track_id == w["color"]], xy))
+        most = b[b.label == w["color"]].camera.value_counts().idxmax()
+        obs1 = Observations({**rec.observations.tables, "bearings": b[b.camera == most].reset_index(drop=True)}, 20.0)
+        tr1 = QPSmoother().estimate(obs1, rec.calibration)
+        one_cam.append(rmse(tr1[tr1.track_id == w["color"]], xy))
+    assert np.median(all_cams) <= 0.3, all_cams
+    assert min(one_cam) > 2.0, one_cam

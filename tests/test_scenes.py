@@ -45,7 +45,7 @@ def write(tmp_path, text, name="scene.toml"):
 
 
 def test_bundled_scenes_load():
-    assert set(bundled_scenes()) >= {"bearing_hall", "office_floor", "overhead_lab", "occlusion_lab"}
+    assert set(bundled_scenes()) >= {"bearing_hall", "bearing_corridor", "office_floor", "overhead_lab", "occlusion_lab"}
     for name in bundled_scenes():
         s = load_scene(name)
         assert s.cameras and s.walkers
@@ -150,7 +150,7 @@ def _sees(cam, pts, walls):
     return ok
 
 
-@pytest.mark.parametrize("name", ["bearing_hall", "office_floor"])
+@pytest.mark.parametrize("name", ["bearing_hall", "office_floor", "bearing_corridor"])
 def test_bearing_cameras_do_not_overlap(name):
     s = load_scene(name)
     x0, y0, x1, y1 = s.floorplan.bounds()
