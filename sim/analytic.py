@@ -74,6 +74,8 @@ class CameraGeometry:
     span: np.ndarray | None = None  # (F, P, 2) u extent of the projected cylinder, not clipped (horizontal, oblique)
     near: np.ndarray | None = None  # (F, P) bool: some of the person's image lies in the image (in_fov for overhead)
     flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
+    axis: np.ndarray | None = None  # (F, P, 2, 2) image points of the feet and the top of the head (overhead)
+    width_px: np.ndarray | None = None  # (F, P) projected body diameter at the body centre, px (overhead)
 
 
 def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np.ndarray, steps: np.ndarray) -> CameraGeometry:
@@ -82,6 +84,13 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
     uv, depth = cam.project(c)
     if cam.kind == "overhead":
         in_fov = cam.in_image(uv, depth)
+        ends = np.repeat(c[..., None, :], 2, axis=-2)  # (F, P, 2, 3): feet, top of the head
+        ends[..., 0, 2] = c[..., 2] - 0.5 * heights
+        ends[..., 1, 2] = c[..., 2] + 0.5 * heights
+        with np.errstate(divide="ignore", invalid="ignore"):
+            width_px = np.where(depth > 1e-6, 2.0 * radii * cam.focal / depth, 0.0)
+        return CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov, near=in_fov,
+                              axis=cam.project(ends)[0], width_px=width_px)
     else:
         foot = c.copy()
         foot[..., 2] = c[..., 2] - 0.5 * heights

@@ -41,7 +41,7 @@ def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, 
     if P < 2 or not eligible.any():
         return root
     iu, ju = np.triu_indices(P, 1)
-    u = correlated_uniforms(rng, eligible.shape, m.rho)
+    u = correlated_uniforms(rng, eligible.shape, m.merge_rho)
     merge = eligible & det[:, iu] & det[:, ju] & (u < m.merge(feature))
     for f, k in zip(*np.nonzero(merge)):
         r = root[f]
@@ -98,6 +98,37 @@ def floor_state(g, traj):
     """(xy (F, P, 2), floor speed (F, P)) of every person at an overhead camera's frames."""
     xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
     return xy, np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+
+
+def segment_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Shortest distance between 2D segments a0-a1 and b0-b1 (arrays (..., 2)); 0 where they cross."""
+    def point_to_segment(p, s0, s1):
+        d = s1 - s0
+        L2 = np.maximum((d * d).sum(-1), 1e-12)
+        h = np.clip(((p - s0) * d).sum(-1) / L2, 0.0, 1.0)
+        return np.linalg.norm(p - (s0 + h[..., None] * d), axis=-1)
+
+    def side(p, s0, s1):
+        return np.sign((s1[..., 0] - s0[..., 0]) * (p[..., 1] - s0[..., 1]) - (s1[..., 1] - s0[..., 1]) * (p[..., 0] - s0[..., 0]))
+
+    cross = (side(a0, b0, b1) * side(a1, b0, b1) < 0) & (side(b0, a0, a1) * side(b1, a0, a1) < 0)
+    d = np.minimum(np.minimum(point_to_segment(a0, b0, b1), point_to_segment(a1, b0, b1)),
+                   np.minimum(point_to_segment(b0, a0, a1), point_to_segment(b1, a0, a1)))
+    return np.where(cross, 0.0, d)
+
+
+def silhouette_pairs(g) -> np.ndarray:
+    """(F, pairs) over ``np.triu_indices(P, 1)``: how far apart two people's silhouettes lie in an
+    overhead camera's image, as the distance between their image axes (feet to the top of the
+    head) in units of their mean projected body width. A ceiling camera sees a person as a blob
+    stretched away from the point below it, so two people one behind the other (seen from the
+    camera) merge at a larger floor distance than two side by side; below about 1 the blobs touch."""
+    P = g.axis.shape[1]
+    iu, ju = np.triu_indices(P, 1)
+    a, b = g.axis[:, iu], g.axis[:, ju]
+    gap = segment_distance(a[..., 0, :], a[..., 1, :], b[..., 0, :], b[..., 1, :])
+    width = np.maximum(0.5 * (g.width_px[:, iu] + g.width_px[:, ju]), 1e-9)
+    return np.nan_to_num(gap / width, nan=np.inf, posinf=np.inf)
 
 
 def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
@@ -340,8 +371,7 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     xy, speed = floor_state(g, traj)
     det = detected(rng, g.near, m.detect(frac, speed), m.rho)
     F, P = det.shape
-    iu, ju = np.triu_indices(P, 1)
-    gap = np.hypot(*(xy[:, iu] - xy[:, ju]).transpose(2, 0, 1)) if P > 1 else np.zeros((F, 0))
+    gap = silhouette_pairs(g) if P > 1 else np.zeros((F, 0))
     edges = m.merge.edges[0]
     reach = edges[-2] if len(edges) > 2 else 0.0
     root = merge_roots(rng, det, gap, gap < reach, m)

@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import blob_candidates, floor_state, span_pairs, window_candidates
+from .analytic_detectors import blob_candidates, floor_state, silhouette_pairs, span_pairs, window_candidates
 from .perception_model import DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
 
 INF = float("inf")
@@ -38,7 +38,9 @@ CLIP_EDGES = [-INF, 0.25, 0.5, 0.75, 0.999, INF]
 IMAGE_SPEED_EDGES = [-INF, 3, 6, 12, 25, 50, INF]  # px/s
 FLOOR_SPEED_EDGES = [-INF, 0.05, 0.1, 0.2, 0.4, 0.8, INF]  # m/s (privacy cameras)
 OVERLAP_EDGES = [-INF, 0.25, 0.5, 0.75, INF]
-GAP_EDGES = [0.0, 0.3, 0.45, 0.6, 0.8, 1.2, INF]  # m; pairs nearer than 1.2 m may merge
+# overhead: distance between two people's silhouettes in the image, in body widths
+# (``silhouette_pairs``); pairs nearer than 1.5 widths may merge
+SILHOUETTE_EDGES = [-INF, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, INF]
 GATE_PX = 10.0  # a blob explains a person when it lies within the person's span +- GATE_PX
 IOU_GATE = 0.1  # a window explains a person's projected window at this IoU
 FLOOR_GATE_M = 0.75
@@ -58,8 +60,9 @@ class DetectorStats:
     feats: list = field(default_factory=list)  # per candidate: feature tuple
     hit: list = field(default_factory=list)
     runs: list = field(default_factory=list)  # (sequence key, frame, candidate index)
-    pair_feat: list = field(default_factory=list)
+    pair_feat: list = field(default_factory=list)  # overlap (image) or silhouette distance (overhead)
     pair_merged: list = field(default_factory=list)
+    pair_runs: list = field(default_factory=list)  # (sequence key, pair, frame, pair index)
     errors: dict = field(default_factory=lambda: defaultdict(list))
     err_seq: list = field(default_factory=list)  # (sequence key, person, frame, main error) for err_rho
     label_ok: list = field(default_factory=list)
@@ -132,6 +135,14 @@ def measure(rec, scene: Scene, features=None) -> dict[str, DetectorStats]:
     return stats
 
 
+def _pair(s: DetectorStats, key, i: int, j: int, f: int, feature: float, merged_with: dict) -> None:
+    """Record a pair of detected people who could have merged (overlapping in the image, or
+    close in an overhead image) in camera frame ``f``, and whether they did."""
+    s.pair_runs.append((key, (i, j), f, len(s.pair_merged)))
+    s.pair_feat.append(float(feature))
+    s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+
+
 def _candidates(s: DetectorStats, key, cand, feats, hit):
     """Record each candidate (camera frame, person): its features and whether it was reported."""
     for f, p in zip(*np.nonzero(cand)):
@@ -195,9 +206,7 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
         # pairs of detected people whose spans overlap
         both = hit[f, iu] & hit[f, ju] & ok_all[f]
         for k in np.nonzero(both)[0]:
-            i, j = int(iu[k]), int(ju[k])
-            s.pair_feat.append(o_all[f, k])
-            s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+            _pair(s, cam.name, int(iu[k]), int(ju[k]), f, o_all[f, k], merged_with)
     _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], clip[f, p]), hit)
 
 
@@ -286,9 +295,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
             members[f].setdefault(int(window_of[f, p]), []).append(int(p))
         both = hit[f, iu] & hit[f, ju] & ok_all[f]
         for k in np.nonzero(both)[0]:
-            i, j = int(iu[k]), int(ju[k])
-            s.pair_feat.append(o_all[f, k])
-            s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+            _pair(s, cam.name, int(iu[k]), int(ju[k]), f, o_all[f, k], merged_with)
     _window_ids(s, window_of, members, own)
     _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit)
 
@@ -325,9 +332,16 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
         x0, y0, x1, y1 = cam.region
         m = REGION_MARGIN_M
         inside = (xy[..., 0] >= x0 + m) & (xy[..., 0] < x1 - m) & (xy[..., 1] >= y0 + m) & (xy[..., 1] < y1 - m)
+    # the camera reports only its own tile: someone standing outside it is not reported by it (not
+    # missed, not merged), so merges are judged between people inside the tile only (counting the
+    # unreported neighbour across the tile's edge as merged was most of the "merges" measured)
+    reportable = cam.in_region(xy)
     by_frame = _frames(det, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
     iu, ju = np.triu_indices(P, 1)
+    gap = silhouette_pairs(g) if P > 1 else np.zeros((F, 0))
+    pair_index = {(int(i), int(j)): k for k, (i, j) in enumerate(zip(iu, ju))}
+    reach = SILHOUETTE_EDGES[-2]
     s.frames += F
     for f in range(F):
         d = by_frame.get(f)
@@ -338,10 +352,10 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
         match = {int(people[kk]): int(rr) for rr, kk in zip(r, k)}
         merged_with = {}
         for pi, p in enumerate(people):
-            if p in match:
+            if p in match or not reportable[f, p]:
                 continue
             for q, rr in match.items():
-                if np.linalg.norm(xy[f, p] - xy[f, q]) < GAP_EDGES[-2] and dist[rr, pi] <= FLOOR_GATE_M:
+                if reportable[f, q] and gap[f, pair_index[(min(p, q), max(p, q))]] < reach and dist[rr, pi] <= FLOOR_GATE_M:
                     merged_with[int(p)] = q
                     break
         for p in match:
@@ -354,13 +368,10 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
                 s.errors["xy"].extend((D[rr] - xy[f, p]).tolist())
                 s.err_seq.append((cam.name, p, f, float(D[rr, 0] - xy[f, p, 0])))
         s.clutter += len(D) - len(match)
-        both = hit[f, iu] & hit[f, ju]
+        both = hit[f, iu] & hit[f, ju] & reportable[f, iu] & reportable[f, ju]
         for k in np.nonzero(both)[0]:
-            i, j = int(iu[k]), int(ju[k])
-            gap = float(np.linalg.norm(xy[f, i] - xy[f, j]))
-            if gap < GAP_EDGES[-2]:
-                s.pair_feat.append(gap)
-                s.pair_merged.append(merged_with.get(i) == j or merged_with.get(j) == i)
+            if gap[f, k] < reach:
+                _pair(s, cam.name, int(iu[k]), int(ju[k]), f, gap[f, k], merged_with)
     _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p]), hit)
 
 
@@ -376,6 +387,7 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             o.hit += s.hit
             o.runs += [((i, key), p, f, base + idx) for key, p, f, idx in s.runs]
             o.err_seq += [((i, key), p, f, v) for key, p, f, v in s.err_seq]
+            o.pair_runs += [((i, key), pair, f, len(o.pair_merged) + idx) for key, pair, f, idx in s.pair_runs]
             o.pair_feat += s.pair_feat
             o.pair_merged += s.pair_merged
             for name, v in s.errors.items():
@@ -388,14 +400,13 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
     return out
 
 
-def miss_runs(s: DetectorStats, hits: np.ndarray | None = None) -> float:
-    """Mean length (frames) of runs of misses within consecutive candidate frames."""
-    hits = np.asarray(s.hit, bool) if hits is None else hits
+def mean_run(seqs: list[np.ndarray], flags: np.ndarray) -> float:
+    """Mean length (frames) of the runs of True ``flags`` within each sequence of indices."""
     lengths = []
-    for seq in _sequences(s):
+    for seq in seqs:
         run = 0
-        for h in hits[seq]:
-            if not h:
+        for h in flags[seq]:
+            if h:
                 run += 1
             elif run:
                 lengths.append(run)
@@ -405,10 +416,22 @@ def miss_runs(s: DetectorStats, hits: np.ndarray | None = None) -> float:
     return float(np.mean(lengths)) if lengths else 0.0
 
 
-def _sequences(s: DetectorStats) -> list[np.ndarray]:
-    """Candidate indices of each (recording, camera, person) in unbroken runs of frames."""
+def miss_runs(s: DetectorStats, hits: np.ndarray | None = None) -> float:
+    """Mean length (frames) of runs of misses within consecutive candidate frames."""
+    hits = np.asarray(s.hit, bool) if hits is None else hits
+    return mean_run(_sequences(s.runs), ~hits)
+
+
+def merge_runs(s: DetectorStats, merged: np.ndarray | None = None) -> float:
+    """Mean length (frames) of runs of merges within consecutive frames of a pair that could merge."""
+    merged = np.asarray(s.pair_merged, bool) if merged is None else merged
+    return mean_run(_sequences(s.pair_runs), merged)
+
+
+def _sequences(runs: list) -> list[np.ndarray]:
+    """Indices of each (recording, camera, person or pair) in unbroken runs of frames."""
     by: dict = defaultdict(list)
-    for key, p, f, idx in s.runs:
+    for key, p, f, idx in runs:
         by[(key, p)].append((f, idx))
     out = []
     for items in by.values():
@@ -420,25 +443,38 @@ def _sequences(s: DetectorStats) -> list[np.ndarray]:
     return out
 
 
-def fit_rho(s: DetectorStats, p: np.ndarray, seed: int = 0) -> float:
-    """The copula correlation whose simulated mean miss run matches the measured one."""
-    target = miss_runs(s)
+def fit_run_rho(seqs: list[np.ndarray], p: np.ndarray, target: float, below: bool, seed: int = 0) -> float:
+    """The copula correlation under which the sampler's events come in runs of mean length
+    ``target``: the sampler compares each sequence's correlated uniforms with ``p``, and the event
+    is the uniform falling below p (``below``: a merge) or not (a miss, where p = P(detect))."""
     if target == 0 or not len(p):
         return 0.0
-    seqs = _sequences(s)
     rng = np.random.default_rng(seed)
     best, best_err = 0.0, np.inf
     for rho in RHO_GRID:
         sims = []
         for _ in range(3):
-            hits = np.zeros(len(p), bool)
+            events = np.zeros(len(p), bool)
             for seq in seqs:
-                hits[seq] = correlated_uniforms(rng, (len(seq), 1), rho)[:, 0] < p[seq]
-            sims.append(miss_runs(s, hits))
+                events[seq] = (correlated_uniforms(rng, (len(seq), 1), rho)[:, 0] < p[seq]) == below
+            sims.append(mean_run(seqs, events))
         err = abs(np.mean(sims) - target)
         if err < best_err:
             best, best_err = rho, err
     return best
+
+
+def fit_rho(s: DetectorStats, p: np.ndarray, seed: int = 0) -> float:
+    """The miss copula's correlation: simulated mean miss run = the measured one (``p``: P(detect))."""
+    return fit_run_rho(_sequences(s.runs), p, miss_runs(s), False, seed)
+
+
+def fit_merge_rho(s: DetectorStats, merge: Table, seed: int = 0) -> float:
+    """The merge copula's correlation: simulated mean merge run = the measured one."""
+    if not s.pair_merged:
+        return 0.0
+    p = merge(np.asarray(s.pair_feat, float))
+    return fit_run_rho(_sequences(s.pair_runs), p, merge_runs(s), True, seed)
 
 
 def fit_err_rho(s: DetectorStats) -> float:
@@ -469,7 +505,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
         X, hit = s.arrays()
         detect = Table.fit(DETECT_EDGES[k], [X[:, 0], X[:, 1]] if len(X) else [np.zeros(0), np.zeros(0)], hit)
         p = detect(X[:, 0], X[:, 1]) if len(X) else np.zeros(0)
-        pair_edges = GAP_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
+        pair_edges = SILHOUETTE_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
         merge = Table.fit([pair_edges], [np.asarray(s.pair_feat, float)], np.asarray(s.pair_merged, bool))
         errors = {}
         for name, v in s.errors.items():
@@ -478,7 +514,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             errors["u_clip"] = errors["u"]
         n_clutter_ids = max(len(s.clutter_ids), 1)
         out[k] = DetectorModel(
-            detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s), merge=merge, errors=errors,
+            detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s), merge=merge, merge_rho=fit_merge_rho(s, merge), errors=errors,
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
             clutter=s.clutter / s.frames if s.frames else 0.0,
             clutter_frames=max(1.0, s.clutter / n_clutter_ids) if k == "windows" else 1.0,
@@ -496,8 +532,8 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
 def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic: dict[str, DetectorStats],
             max_step: float = 2.0) -> PerceptionModel:
     """One step of fitting by simulation: each rate the measurement reports (detection and merge
-    per bin, fragments, false detections, id restarts, swaps at a split) is scaled by rendered /
-    analytic, as measured on analytic recordings simulated with ``model`` on the same scenes and
+    per bin, fragments, false detections, id restarts, swaps at a split, and the mean run of
+    merges through ``merge_rho``) is scaled by rendered / analytic, as measured on analytic recordings simulated with ``model`` on the same scenes and
     seeds. Counting alone double-counts what the model's own mechanisms cause (a merged window
     splitting also changes ids; a missed person beside a detected one looks merged), so the
     counted rates are corrected until the analytic statistics match the rendered ones. Steps are
@@ -532,6 +568,10 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
             ok = (mr.n >= 20) & (ma.n >= 20) & (ma.p > 0)
             scale = np.where(ok, np.clip(mr.p / np.where(ok, ma.p, 1.0), 1 / max_step, max_step), 1.0)
             m.merge.p = np.clip(m.merge.p * scale, 0.0, 1.0)
+            # merge runs: the mean run grows with 1 / (1 - merge_rho); scale 1 - merge_rho by analytic / rendered
+            run_r, run_a = merge_runs(r), merge_runs(a)
+            if run_r > 0 and run_a > 0:
+                m.merge_rho = float(np.clip(1.0 - (1.0 - m.merge_rho) * ratio(run_a, run_r), 0.0, 0.998))
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
         m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))
@@ -542,7 +582,7 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
 
 
 # ----------------------------------------------------------------------------- summaries
-SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate", "fragment_rate",
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate", "merge_run", "fragment_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
 
 
@@ -561,6 +601,7 @@ def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
             "err_median": np.median(e) if len(e) else np.nan,
             "err_p90": np.quantile(e, 0.9) if len(e) else np.nan,
             "merge_rate": np.mean(s.pair_merged) if s.pair_merged else np.nan,
+            "merge_run": merge_runs(s) if s.pair_merged else np.nan,
             "fragment_rate": s.fragments / max(int(np.sum(s.hit)), 1) if s.hit else np.nan,
             "id_restart_rate": s.restarts / s.continuing if s.continuing else np.nan,
             "split_swap_rate": s.swaps / s.splits if s.splits else np.nan,

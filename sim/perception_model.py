@@ -23,7 +23,10 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            fitted so the mean run of misses matches the rendered one.
   merge    P(two people give one detection | overlap or gap): the merged detection spans both
            (union of their image spans / windows) or, on the floor, lies on one of them (as the
-           rendered overhead detector's does), and carries the measurement error once.
+           rendered overhead detector's does), and carries the measurement error once. Merges
+           come in runs (two people walking together stay merged): the uniforms compared with
+           P are an AR(1) copula per pair and camera with frame correlation ``merge_rho``, fitted
+           so the mean run of merges matches the rendered one.
   errors   ``Quantiles`` of the measurement error against the analytic reference (the centre of
            the visible part of the person's image span; the clipped window edges; the projected
            flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
@@ -61,7 +64,9 @@ import numpy as np
 from scipy.special import ndtr
 
 DEFAULT_FILE = Path(__file__).with_name("perception_default.json")
-FORMAT = "trackroom-perception-model/1"
+FORMAT = "trackroom-perception-model/2"
+# format 1 (before merges came in runs and overhead merges were judged in the image): refit it
+OLD_FORMATS = ("trackroom-perception-model/1",)
 DETECTORS = ("horizontal", "oblique", "windows", "overhead", "privacy")
 # horizontal: bearing blobs of horizontal cameras; oblique: bearing blobs of oblique cameras;
 # windows: oblique cameras' flow windows; overhead, privacy: floor detections of overhead cameras
@@ -176,6 +181,7 @@ class DetectorModel:
     rho: float = 0.0  # frame correlation of the miss copula
     err_rho: float = 0.0  # frame correlation of a person's measurement errors (Gaussian copula)
     merge: Table = field(default_factory=lambda: constant(0.0))
+    merge_rho: float = 0.0  # frame correlation of a pair's merge copula (merges come in runs)
     errors: dict[str, Quantiles] = field(default_factory=dict)
     label: float = 1.0
     clutter: float = 0.0  # false detections per camera frame
@@ -194,6 +200,7 @@ class DetectorModel:
     def to_dict(self) -> dict:
         return {
             "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "err_rho": round(self.err_rho, 4), "merge": self.merge.to_dict(),
+            "merge_rho": round(self.merge_rho, 4),
             "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
             "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
@@ -204,12 +211,13 @@ class DetectorModel:
     @classmethod
     def from_dict(cls, d) -> "DetectorModel":
         m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), err_rho=float(d["err_rho"]), merge=Table.from_dict(d["merge"]),
+                merge_rho=float(d["merge_rho"]),
                 errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
                 clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
                 fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
                 swap=float(d["swap"]), max_gap=int(d["max_gap"]))
-        for name in ("rho", "err_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
+        for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
         if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
@@ -257,6 +265,9 @@ class PerceptionModel:
 
     @classmethod
     def from_dict(cls, d, where: str = "perception model") -> "PerceptionModel":
+        if isinstance(d, dict) and d.get("format") in OLD_FORMATS:
+            raise ModelError(f"{where}: written by an older trackroom ({d['format']}); refit it with "
+                             f"`trackroom calibrate-sensing` (this version reads {FORMAT})")
         if not isinstance(d, dict) or d.get("format") != FORMAT:
             raise ModelError(f"{where}: not a perception model (its 'format' must be {FORMAT!r})")
         dets = d.get("detectors")

@@ -142,7 +142,8 @@ def test_fit_recovers_known_parameters(tmp_path):
 @pytest.mark.parametrize("content, problem", [
     ("{", "not JSON"),
     ('{"format": "other"}', "not a perception model"),
-    ('{"format": "trackroom-perception-model/1", "detectors": {}}', "no model for detector"),
+    ('{"format": "trackroom-perception-model/2", "detectors": {}}', "no model for detector"),
+    ('{"format": "trackroom-perception-model/1", "detectors": {}}', "refit it with `trackroom calibrate-sensing`"),
 ])
 def test_a_bad_model_file_is_one_clear_error(tmp_path, content, problem):
     path = tmp_path / "m.json"
@@ -238,3 +239,83 @@ def test_ar1_scan_equals_the_recursion():
     x = np.random.default_rng(0).standard_normal((3000, 4))
     for a in (0.0, 0.3, 0.95, 0.998):
         np.testing.assert_allclose(ar1(x, a), lfilter([1.0], [1.0, -a], x, axis=0), atol=1e-10)
+
+
+def test_segment_distance_hand_cases():
+    from trackroom.sim.analytic_detectors import segment_distance
+
+    P = lambda *xy: np.array(xy, float)  # noqa: E731
+    # parallel, 3 apart; end to end, 2 apart; crossing; a point above a segment's middle; a point
+    # off a diagonal segment
+    a0 = np.stack([P(0, 0), P(0, 0), P(0, 0), P(5, 5), P(0, 0)])
+    a1 = np.stack([P(4, 0), P(1, 0), P(2, 2), P(5, 5), P(0, 0)])
+    b0 = np.stack([P(1, 3), P(3, 0), P(0, 2), P(0, 0), P(0, 10)])
+    b1 = np.stack([P(3, 3), P(6, 0), P(2, 0), P(10, 0), P(10, 0)])
+    np.testing.assert_allclose(segment_distance(a0, a1, b0, b1), [3.0, 2.0, 0.0, 5.0, np.sqrt(50.0)], atol=1e-12)
+
+
+def test_overhead_merges_are_judged_in_the_image():
+    """Two people 0.7 m apart one behind the other as the ceiling camera sees them (on a line from
+    the point below it) have overlapping blobs; side by side at the same distance they do not. The
+    rendered overhead detector merges the first and not the second (docs/sensing.md), so the merge
+    feature is their silhouettes' distance in the image, not their distance on the floor."""
+    from types import SimpleNamespace
+
+    from trackroom.sim.analytic import project_people
+    from trackroom.sim.analytic_detectors import silhouette_pairs
+
+    scene = load_scene("overhead_lab")
+    cam = scene.cameras[0]
+    below = np.asarray(cam.position[:2], float)
+    h, r = np.array([1.7, 1.7]), np.array([0.22, 0.22])
+
+    def feature(a, b):
+        pos = np.array([[[*a, 0.85]], [[*b, 0.85]]])  # (P, K=1, 3)
+        g = project_people(cam, SimpleNamespace(pos=pos), h, r, np.array([0]))
+        return float(silhouette_pairs(g)[0, 0])
+
+    radial = feature(below + [1.5, 0.0], below + [2.2, 0.0])
+    side = feature(below + [1.5, -0.35], below + [1.5, 0.35])
+    assert radial < 0.3 < 1.0 < side
+
+
+@pytest.mark.parametrize("merge_rho", [0.0, 0.9])
+def test_merges_come_in_runs_and_the_fit_recovers_their_correlation(tmp_path, merge_rho):
+    """Two people overlapping in an oblique camera all along, merged with P = 0.5 a frame: with
+    merge_rho = 0.9 the merges come in long runs, with 0 they flicker; measuring the recording and
+    fitting finds the correlation back (within a step of the fitting grid)."""
+    def edit(m):
+        o = m["oblique"]
+        o.detect, o.rho, o.merge, o.merge_rho = constant(1.0), 0.0, constant(0.5), merge_rho
+        o.fragment, o.clutter, o.label = 0.0, 0.0, 1.0
+    path = _model_file(tmp_path, edit)
+    scene = parse_scene({**ROOM, "sensors": {"perception": path}})
+    s = pf.measure(simulate(scene, seed=0, duration=60.0), scene)["oblique"]
+    assert len(s.pair_merged) > 300 and 0.25 < np.mean(s.pair_merged) < 0.75
+    run = pf.merge_runs(s)
+    assert (run > 4.0) if merge_rho else (run < 2.5)
+    grid = list(pf.RHO_GRID)
+    fitted = pf.fit_merge_rho(s, constant(0.5))
+    assert abs(grid.index(fitted) - grid.index(merge_rho)) <= 1
+
+
+def test_someone_across_a_tile_edge_is_not_counted_as_merged():
+    """A ceiling camera reports only its own tile. Two people standing 0.45 m apart on either side
+    of the edge between two tiles are each reported by their own camera; neither camera's
+    statistics may count the other tile's person as merged into its own detection."""
+    raw = {
+        "scene": {"name": "edge"},
+        "room": {"outline": [[0, 0], [10, 0], [10, 5], [0, 5]]},
+        "cameras": [{"name": n, "kind": "overhead", "position": [x, 2.5, 2.95], "fovy_deg": 120, "resolution": [320, 240],
+                     "fps": 10, "region": [x - 2.5, 0, x + 2.5, 5]} for n, x in (("w", 2.5), ("e", 7.5))],
+        "sensors": {"perception": "ideal", "floor_sigma_m": 0.01},
+        "walkers": {"count": 2, "people": [{"motion": "standing", "start": [4.78, 2.5], "vary": False},
+                                           {"motion": "standing", "start": [5.23, 2.5], "vary": False}]},
+    }
+    scene = parse_scene(raw)
+    rec = simulate(scene, seed=0, duration=2.0)
+    fd = rec.observations["floor_detections"]
+    per_frame = fd.groupby(["camera", "t"]).size()
+    assert set(fd["camera"]) == {"w", "e"} and (per_frame == 1).all()  # each camera: its own person, every frame
+    s = pf.measure(rec, scene)["overhead"]
+    assert not any(s.pair_merged)
