@@ -148,3 +148,19 @@ def test_serial_compare_does_not_import_dask(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=_env())
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_local_workers_share_the_cores_for_render_threads(monkeypatch):
+    """A rendered recording on each of n local workers starts its share of the cores as perception
+    threads, not one per core each; the parent's environment is left as it was."""
+    import os
+
+    from trackroom.cluster import _cores, connect
+
+    monkeypatch.delenv("TRACKROOM_RENDER_WORKERS", raising=False)
+    with connect(None, 2) as (client, _):
+        # a lambda travels by value and reads the worker's own environment (os.environ.get would
+        # carry this process's environment along with it)
+        seen = set(client.run(lambda: __import__("os").environ.get("TRACKROOM_RENDER_WORKERS")).values())
+    assert seen == {str(max(1, _cores() // 2))}
+    assert "TRACKROOM_RENDER_WORKERS" not in os.environ

@@ -30,6 +30,13 @@ def _load_plugins_on_worker(plugins: list[str]) -> str | None:
     return None
 
 
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 @contextlib.contextmanager
 def connect(scheduler: str | None, workers: int, plugins: list[str] | None = None):
     """Yield ``(client, description)`` for a cluster with the plug-ins loaded on every worker."""
@@ -37,10 +44,14 @@ def connect(scheduler: str | None, workers: int, plugins: list[str] | None = Non
 
     cluster = None
     if scheduler is None:
-        # the workers inherit this environment: MUJOCO_GL, one BLAS thread (cli.main sets both)
+        # the workers inherit this environment: MUJOCO_GL, one BLAS thread (cli.main sets both),
+        # and their share of the cores for a rendered recording's perception threads (each
+        # process would otherwise start one per core: n x cores threads on n workers)
         os.environ.setdefault("MUJOCO_GL", "egl")
+        env = {} if "TRACKROOM_RENDER_WORKERS" in os.environ else {  # sim.rendered.WORKERS_ENV
+            "TRACKROOM_RENDER_WORKERS": str(max(1, _cores() // max(1, workers)))}
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.ERROR, env=env)
         client, what = Client(cluster), f"local cluster ({workers} workers)"
     else:
         try:
