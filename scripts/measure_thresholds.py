@@ -23,9 +23,13 @@ import pandas as pd
 
 
 def triples(values: np.ndarray) -> np.ndarray:
-    """Means of consecutive seed triples (a trailing incomplete triple is dropped)."""
+    """Means of consecutive seed triples (a trailing incomplete triple is dropped; a seed without a
+    value, e.g. an RMSE with no frame within the gate, is left out of its triple's mean, as CI does)."""
     n = len(values) // 3 * 3
-    return values[:n].reshape(-1, 3).mean(axis=1) if n else np.zeros(0)
+    if not n:
+        return np.zeros(0)
+    with np.errstate(all="ignore"):
+        return np.nanmean(values[:n].reshape(-1, 3), axis=1)
 
 
 def measure(th: pd.DataFrame, seeds: list[int], jobs: int = 1, progress: bool = True) -> pd.DataFrame:
