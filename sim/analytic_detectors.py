@@ -117,18 +117,26 @@ def segment_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndar
     return np.where(cross, 0.0, d)
 
 
-def silhouette_pairs(g) -> np.ndarray:
+def silhouette_pairs(g, reach: float = np.inf) -> np.ndarray:
     """(F, pairs) over ``np.triu_indices(P, 1)``: how far apart two people's silhouettes lie in an
     overhead camera's image, as the distance between their image axes (feet to the top of the
     head) in units of their mean projected body width. A ceiling camera sees a person as a blob
     stretched away from the point below it, so two people one behind the other (seen from the
-    camera) merge at a larger floor distance than two side by side; below about 1 the blobs touch."""
+    camera) merge at a larger floor distance than two side by side; below about 1 the blobs touch.
+    Pairs whose axes' bounding boxes lie ``reach`` widths apart or more get inf without the exact
+    distance (which is at least that)."""
     P = g.axis.shape[1]
     iu, ju = np.triu_indices(P, 1)
-    a, b = g.axis[:, iu], g.axis[:, ju]
-    gap = segment_distance(a[..., 0, :], a[..., 1, :], b[..., 0, :], b[..., 1, :])
     width = np.maximum(0.5 * (g.width_px[:, iu] + g.width_px[:, ju]), 1e-9)
-    return np.nan_to_num(gap / width, nan=np.inf, posinf=np.inf)
+    lo, hi = g.axis.min(axis=2), g.axis.max(axis=2)  # (F, P, 2) bounding box of each axis
+    box_gap = np.maximum(np.maximum(lo[:, iu] - hi[:, ju], lo[:, ju] - hi[:, iu]), 0.0)  # (F, pairs, 2)
+    near = np.hypot(box_gap[..., 0], box_gap[..., 1]) < reach * width
+    out = np.full(width.shape, np.inf)
+    f, k = np.nonzero(near)
+    if len(f):
+        a, b = g.axis[f, iu[k]], g.axis[f, ju[k]]
+        out[f, k] = segment_distance(a[:, 0], a[:, 1], b[:, 0], b[:, 1]) / width[f, k]
+    return np.nan_to_num(out, nan=np.inf, posinf=np.inf)
 
 
 def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
@@ -371,9 +379,9 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     xy, speed = floor_state(g, traj)
     det = detected(rng, g.near, m.detect(frac, speed), m.rho)
     F, P = det.shape
-    gap = silhouette_pairs(g) if P > 1 else np.zeros((F, 0))
     edges = m.merge.edges[0]
     reach = edges[-2] if len(edges) > 2 else 0.0
+    gap = silhouette_pairs(g, reach) if P > 1 else np.zeros((F, 0))
     root = merge_roots(rng, det, gap, gap < reach, m)
     f, p = _groups(root, det)
     pos = xy[f, p]

@@ -339,9 +339,9 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
     by_frame = _frames(det, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
     iu, ju = np.triu_indices(P, 1)
-    gap = silhouette_pairs(g) if P > 1 else np.zeros((F, 0))
-    pair_index = {(int(i), int(j)): k for k, (i, j) in enumerate(zip(iu, ju))}
     reach = SILHOUETTE_EDGES[-2]
+    gap = silhouette_pairs(g, reach) if P > 1 else np.zeros((F, 0))
+    pair_index = {(int(i), int(j)): k for k, (i, j) in enumerate(zip(iu, ju))}
     s.frames += F
     for f in range(F):
         d = by_frame.get(f)

@@ -319,3 +319,18 @@ def test_someone_across_a_tile_edge_is_not_counted_as_merged():
     assert set(fd["camera"]) == {"w", "e"} and (per_frame == 1).all()  # each camera: its own person, every frame
     s = pf.measure(rec, scene)["overhead"]
     assert not any(s.pair_merged)
+
+
+def test_silhouette_pairs_within_reach_equal_the_exact_distance():
+    """The bounding-box shortcut changes nothing below ``reach``: exact values there, and at least
+    ``reach`` everywhere else."""
+    from trackroom.sim.analytic_detectors import silhouette_pairs
+
+    scene = load_scene("overhead_lab", ["walkers.count=8"])
+    _, geometry, _ = pf.scene_features(scene, 5, 10.0)
+    for g in geometry.values():
+        exact, fast = silhouette_pairs(g), silhouette_pairs(g, 1.5)
+        near = exact < 1.5
+        assert near.any()
+        np.testing.assert_array_equal(fast[near], exact[near])
+        assert (fast[~near] >= 1.5).all()
