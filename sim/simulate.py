@@ -2,9 +2,9 @@
 
 1. Plan every walker's trajectory (``sim.walkers``) at ``sensors.sim_rate``.
 2. Build the MuJoCo world (``sim.world``).
-3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``World.sense``), read the
-   phones' sensors (``sim.imu``) and, at camera frames, cast the occlusion rays
-   (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
+3. Read the phones' sensors at the IMU samples (``sim.imu``: MuJoCo's sensors on a world of the
+   phone walkers, many samples per pass) and, in analytic mode, pose the world at every camera
+   frame and cast the occlusion rays (``sim.analytic.Occlusion``).
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
 5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
@@ -171,7 +171,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     sensing: "analytic" (projection + ray-cast occlusion) or "rendered" (``sim.rendered``).
     save_frames: passed to the rendered mode (where to keep rendered frames), ignored otherwise.
     progress: a bar (tqdm) on stderr when it is a terminal (True), or on the given stream: over the
-    simulation steps in analytic mode, over the rendered camera frames in rendered mode (the
+    IMU samples and ray-cast camera frames in analytic mode, over the rendered camera frames in rendered mode (the
     rendering is nearly all of its time). render_workers: the rendered mode's worker threads
     (``sim.rendered.worker_count``; the tables do not depend on it).
     """
@@ -189,21 +189,21 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     pids = phone_ids(scene)
     steps = imu.imu_steps(traj, scene.sensors.imu_rate)
 
-    bar = progress_bar(progress, len(steps), f"{scene.name} ({sensing})", "step") if sensing == "analytic" else None
-    occlusion = None
+    occlusion, bar = None, None
     if sensing == "analytic":
         geometry = analytic.camera_geometry(scene, traj)
         occlusion = analytic.Occlusion(world, scene, traj, geometry)
+        # one bar over the IMU samples and the ray-cast camera frames
+        bar = progress_bar(progress, len(steps) + len(occlusion.due), f"{scene.name} ({sensing})", "step")
 
-    readings = imu.read_phones(
-        world, traj, steps, on_step=occlusion.on_step if occlusion is not None else None, progress=bar.update if bar is not None else None
-    )
+    readings = imu.read_phones(world, traj, steps, progress=bar.update if bar is not None else None)
+    if occlusion is not None:
+        occlusion.finish(progress=bar.update if bar is not None else None)
     if bar is not None:
         bar.close()
     tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
     truth_tables = {"people": truth_people(scene, traj)}
     if sensing == "analytic":
-        occlusion.finish()
         if model.ideal:
             tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
         else:
