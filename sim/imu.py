@@ -32,8 +32,8 @@ from .analytic import str_column
 from .walkers import Trajectories
 from .world import World, add_walker, new_spec
 
-PROGRESS_EVERY = 100  # samples between progress reports
 BATCH_BODIES = 100  # phone bodies in the phone world (copies x phones): fewer calls vs a longer compile
+CHUNK_SAMPLES = 2000  # samples whose states are packed at once (and progress reported)
 IMU_COLUMNS = ["t", "phone_id", "ax", "ay", "az", "gx", "gy", "gz", "mx", "my", "mz"]
 
 
@@ -83,49 +83,50 @@ def read_phones(world: World, traj: Trajectories, steps: np.ndarray, on_step=Non
 
     Read in batches from a ``phone_world`` of ``world.scene`` (module docstring).
     ``on_step(k)``, when given, is called for every sample k with ``world`` posed at it
-    (``World.set_pose``: positions only); ``progress(n)`` every PROGRESS_EVERY samples (or so)
+    (``World.set_pose``: positions only); ``progress(n)`` every CHUNK_SAMPLES samples (or so)
     with the number done since its last call.
     """
     P, n = world.n_people, len(steps)
-    out = np.full((P, n, 9), np.nan)
+    out = np.empty((P, n, 9))
     phones = [i for i in range(P) if world.phone_sensors[i] is not None]
+    out[[i for i in range(P) if i not in phones]] = np.nan
     if phones and n:
         pw = phone_world(world.scene, max(1, min(n, BATCH_BODIES // len(phones))))
         K, m, d = pw.copies, pw.model, pw.data
-        nb = -(-n // K)  # passes; the last one padded with the last sample
-        # qpos, qvel, qacc of every pass: (pass, copy, phone, [x, y, z, yaw]) in the model's order
-        Q, V, A = (np.empty((nb * K, len(phones), 4)) for _ in range(3))
-        for j, i in enumerate(phones):
-            for full, xyz, yaw in ((Q, traj.pos, traj.yaw), (V, traj.vel, traj.yaw_rate), (A, traj.acc, traj.yaw_acc)):
-                full[:n, j, :3] = xyz[i, steps]
-                full[:n, j, 3] = yaw[i, steps]
-        for x in (Q, V, A):
-            x[n:] = x[n - 1]
-        Q, V, A = (x.reshape(nb, K * len(phones) * 4) for x in (Q, V, A))
-        S = np.empty((nb, m.nsensordata))
         kinematics, com_pos, com_vel = mujoco.mj_kinematics, mujoco.mj_comPos, mujoco.mj_comVel
         sensor_pos, sensor_vel, rne_post, sensor_acc = mujoco.mj_sensorPos, mujoco.mj_sensorVel, mujoco.mj_rnePostConstraint, mujoco.mj_sensorAcc
         qpos, qvel, qacc, sensordata = d.qpos, d.qvel, d.qacc, d.sensordata  # views, fetched once
-        reported = 0
-        for b in range(nb):
-            # World.sense's stages (the ones of mj_inverse the sensors read), unrolled
-            qpos[:] = Q[b]
-            qvel[:] = V[b]
-            qacc[:] = A[b]
-            kinematics(m, d)
-            com_pos(m, d)
-            com_vel(m, d)
-            sensor_pos(m, d)
-            sensor_vel(m, d)
-            rne_post(m, d)
-            sensor_acc(m, d)
-            S[b] = sensordata
-            if progress is not None and (b + 1) * K - reported >= PROGRESS_EVERY:
-                progress(min((b + 1) * K, n) - reported)
-                reported = min((b + 1) * K, n)
-        if progress is not None and reported < n:
-            progress(n - reported)
-        out[phones] = S.reshape(nb * K, len(phones), 9)[:n].transpose(1, 0, 2)
+        # qpos, qvel, qacc and readings of CHUNK passes at a time, (pass, copy, phone, [x, y, z, yaw])
+        # in the model's order: small buffers, reused (a 10-minute run's whole state would be ~60 MB)
+        chunk = max(1, CHUNK_SAMPLES // K)
+        Q, V, A = (np.empty((chunk * K, len(phones), 4)) for _ in range(3))
+        S = np.empty((chunk, m.nsensordata))
+        for j0 in range(0, n, chunk * K):
+            j1 = min(n, j0 + chunk * K)
+            part = steps[j0:j1]
+            for j, i in enumerate(phones):
+                for full, xyz, yaw in ((Q, traj.pos, traj.yaw), (V, traj.vel, traj.yaw_rate), (A, traj.acc, traj.yaw_acc)):
+                    full[: j1 - j0, j, :3] = xyz[i, part]
+                    full[: j1 - j0, j, 3] = yaw[i, part]
+            for x in (Q, V, A):
+                x[j1 - j0 :] = x[j1 - j0 - 1]  # a last, partial pass: padded with its last sample
+            Qb, Vb, Ab = (x.reshape(chunk, -1) for x in (Q, V, A))
+            for b in range(-(-(j1 - j0) // K)):
+                # World.sense's stages (the ones of mj_inverse the sensors read), unrolled
+                qpos[:] = Qb[b]
+                qvel[:] = Vb[b]
+                qacc[:] = Ab[b]
+                kinematics(m, d)
+                com_pos(m, d)
+                com_vel(m, d)
+                sensor_pos(m, d)
+                sensor_vel(m, d)
+                rne_post(m, d)
+                sensor_acc(m, d)
+                S[b] = sensordata
+            out[phones, j0:j1] = S.reshape(chunk * K, len(phones), 9)[: j1 - j0].transpose(1, 0, 2)
+            if progress is not None:
+                progress(j1 - j0)
     elif progress is not None and n:
         progress(n)
     if on_step is not None:
@@ -140,15 +141,15 @@ def imu_table(readings: np.ndarray, t: np.ndarray, phone_ids: list[str], scene, 
     phones = sorted((pid, i) for i, pid in enumerate(phone_ids) if pid)  # table order: t, then phone_id
     if not phones:
         return pd.DataFrame({c: pd.Series(dtype=object if c == "phone_id" else float) for c in IMU_COLUMNS})
-    # noise drawn per phone in scene order (the draws do not depend on the sort)
-    noisy = {}
-    for i, pid in enumerate(phone_ids):
+    n, m = readings.shape[1], len(phones)
+    col = {pid: c for c, (pid, _) in enumerate(phones)}
+    # one contiguous run per table column, rows in table order (built in place: no stacked copies)
+    values = np.empty((9, n, m))
+    for i, pid in enumerate(phone_ids):  # noise drawn per phone in scene order (the draws do not depend on the sort)
         if pid:
             r = readings[i]
-            noisy[pid] = np.concatenate(noise.imu(rng, r[:, 0:3], r[:, 3:6], r[:, 6:9], scene.sensors), axis=1)
-    stacked = np.stack([noisy[pid] for pid, _ in phones], axis=1)  # (n, phones, 9), rows sorted
-    n, m = stacked.shape[:2]
-    flat = stacked.reshape(n * m, 9)
+            for k, x in enumerate(noise.imu(rng, r[:, 0:3], r[:, 3:6], r[:, 6:9], scene.sensors)):
+                values[3 * k : 3 * k + 3, :, col[pid]] = x.T
     data = {"t": np.repeat(t, m), "phone_id": str_column([p for p, _ in phones], np.tile(np.arange(m), n))}
-    data.update({c: flat[:, j] for j, c in enumerate(IMU_COLUMNS[2:])})
-    return pd.DataFrame(data)
+    data.update({c: values[j].reshape(n * m) for j, c in enumerate(IMU_COLUMNS[2:])})
+    return pd.DataFrame(data, copy=False)
