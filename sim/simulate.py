@@ -86,15 +86,18 @@ def truth_people(scene: Scene, traj: Trajectories) -> pd.DataFrame:
     """Truth ``people`` at the simulation rate, sorted by t then walker (scene order)."""
     P, N = traj.n_people, traj.n_steps
     yaw = np.angle(np.exp(1j * traj.yaw))  # wrapped to (-pi, pi]
+    who = np.tile(np.arange(P), N)
+    # columns are fresh arrays: the frame takes them as they are (no second copy into blocks)
     return pd.DataFrame(
         {
-            "t": np.tile(traj.t, P).reshape(P, N).T.ravel() if P else np.zeros(0),
-            "person_id": analytic.str_column(traj.names, np.tile(np.arange(P), N)),
+            "t": np.repeat(traj.t, P),
+            "person_id": analytic.str_column(traj.names, who),
             "x": traj.pos[:, :, 0].T.ravel(), "y": traj.pos[:, :, 1].T.ravel(), "z": traj.pos[:, :, 2].T.ravel(),
             "yaw": yaw.T.ravel(), "vx": traj.vel[:, :, 0].T.ravel(), "vy": traj.vel[:, :, 1].T.ravel(),
             "walking": traj.walking.T.ravel(),
-            "phone_id": analytic.str_column(phone_ids(scene), np.tile(np.arange(P), N)),
-        }
+            "phone_id": analytic.str_column(phone_ids(scene), who),
+        },
+        copy=False,
     )
 
 
