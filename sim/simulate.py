@@ -4,7 +4,9 @@
 2. Build the MuJoCo world (``sim.world``).
 3. Read the phones' sensors at the IMU samples (``sim.imu``: MuJoCo's sensors on a world of the
    phone walkers, many samples per pass) and, in analytic mode, pose the world at every camera
-   frame and cast the occlusion rays (``sim.analytic.Occlusion``).
+   frame and cast the occlusion rays (``sim.analytic.Occlusion``) in a second thread meanwhile
+   (MuJoCo releases the GIL while casting; the two share no arrays, so the tables do not depend
+   on the threads' timing).
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
 5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
@@ -22,6 +24,8 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pandas as pd
@@ -167,6 +171,17 @@ def progress_bar(progress, total: int, desc: str, unit: str):
     return tqdm(total=total, desc=desc, unit=unit, mininterval=0.5, file=progress)
 
 
+def _locked(fn):
+    """``fn`` behind a lock (callable from several threads)."""
+    lock = threading.Lock()
+
+    def call(*args):
+        with lock:
+            return fn(*args)
+
+    return call
+
+
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
              render_workers: int | None = None) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
@@ -199,13 +214,18 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         # one bar over the IMU samples and the ray-cast camera frames
         bar = progress_bar(progress, len(steps) + len(occlusion.due), f"{scene.name} ({sensing})", "step")
 
-    readings = imu.read_phones(world, traj, steps, progress=bar.update if bar is not None else None)
-    if occlusion is not None:
-        occlusion.finish(progress=bar.update if bar is not None else None)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        # the rays are cast beside the IMU reading and its tables: MuJoCo releases the GIL while
+        # casting, and each side writes only its own arrays, so the results do not depend on it
+        tick = _locked(bar.update) if bar is not None else None  # one bar, two threads
+        rays = pool.submit(occlusion.finish, progress=tick) if occlusion is not None else None
+        readings = imu.read_phones(world, traj, steps, progress=tick)
+        tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
+        truth_tables = {"people": truth_people(scene, traj)}
+        if rays is not None:
+            rays.result()
     if bar is not None:
         bar.close()
-    tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
-    truth_tables = {"people": truth_people(scene, traj)}
     if sensing == "analytic":
         if model.ideal:
             tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
