@@ -4,9 +4,10 @@
 2. Build the MuJoCo world (``sim.world``).
 3. Read the phones' sensors at the IMU samples (``sim.imu``: MuJoCo's sensors on a world of the
    phone walkers, many samples per pass) and, in analytic mode, pose the world at every camera
-   frame and cast the occlusion rays (``sim.analytic.Occlusion``) in a second thread meanwhile
-   (MuJoCo releases the GIL while casting; the two share no arrays, so the tables do not depend
-   on the threads' timing).
+   frame and cast the occlusion rays (``sim.analytic.Occlusion``). The camera side (rays, then
+   step 4's camera tables) runs in a second thread beside the IMU side (MuJoCo releases the GIL
+   while casting, numpy in its array loops); the two share no arrays or random streams, so the
+   tables do not depend on the threads' timing.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
 5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
@@ -182,6 +183,17 @@ def _locked(fn):
     return call
 
 
+def analytic_cameras(scene: Scene, traj: Trajectories, geometry: dict, occlusion, cam_rngs: dict, model, progress=None):
+    """Analytic mode's camera side: cast the occlusion rays (``occlusion.finish``), then the
+    observation tables (through the perception model, or ideal) and the truth ``visibility``."""
+    occlusion.finish(progress=progress)
+    if model.ideal:
+        obs = analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs)
+    else:
+        obs = analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model)
+    return obs, analytic.visibility_table(scene, traj, geometry, occlusion.visible)
+
+
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
              render_workers: int | None = None) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
@@ -215,24 +227,20 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         bar = progress_bar(progress, len(steps) + len(occlusion.due), f"{scene.name} ({sensing})", "step")
 
     with ThreadPoolExecutor(max_workers=1) as pool:
-        # the rays are cast beside the IMU reading and its tables: MuJoCo releases the GIL while
-        # casting, and each side writes only its own arrays, so the results do not depend on it
+        # the camera side (rays, then the camera tables) runs beside the IMU side: MuJoCo releases
+        # the GIL while casting, numpy in its array loops, and each side has its own arrays and
+        # random streams, so the tables do not depend on the threads' timing
         tick = _locked(bar.update) if bar is not None else None  # one bar, two threads
-        rays = pool.submit(occlusion.finish, progress=tick) if occlusion is not None else None
+        cameras = pool.submit(analytic_cameras, scene, traj, geometry, occlusion, cam_rngs, model, tick) if occlusion is not None else None
         readings = imu.read_phones(world, traj, steps, progress=tick)
         tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
         truth_tables = {"people": truth_people(scene, traj)}
-        if rays is not None:
-            rays.result()
+        if cameras is not None:
+            obs, truth_tables["visibility"] = cameras.result()
+            tables.update(obs)
     if bar is not None:
         bar.close()
-    if sensing == "analytic":
-        if model.ideal:
-            tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
-        else:
-            tables.update(analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model))
-        truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
-    else:
+    if sensing == "rendered":
         try:
             rendered = importlib.import_module("trackroom.sim.rendered")
         except ModuleNotFoundError as e:
