@@ -183,15 +183,12 @@ def _locked(fn):
     return call
 
 
-def analytic_cameras(scene: Scene, traj: Trajectories, geometry: dict, occlusion, cam_rngs: dict, model, progress=None):
-    """Analytic mode's camera side: cast the occlusion rays (``occlusion.finish``), then the
-    observation tables (through the perception model, or ideal) and the truth ``visibility``."""
-    occlusion.finish(progress=progress)
+def camera_tables(scene: Scene, traj: Trajectories, geometry: dict, occlusion, cam_rngs: dict, model) -> dict:
+    """Analytic mode's observation tables from the cast rays (``occlusion``): through the
+    perception model, or ideal."""
     if model.ideal:
-        obs = analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs)
-    else:
-        obs = analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model)
-    return obs, analytic.visibility_table(scene, traj, geometry, occlusion.visible)
+        return analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs)
+    return analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model)
 
 
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
@@ -231,13 +228,16 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         # the GIL while casting, numpy in its array loops, and each side has its own arrays and
         # random streams, so the tables do not depend on the threads' timing
         tick = _locked(bar.update) if bar is not None else None  # one bar, two threads
-        cameras = pool.submit(analytic_cameras, scene, traj, geometry, occlusion, cam_rngs, model, tick) if occlusion is not None else None
+        if occlusion is not None:
+            rays = pool.submit(occlusion.finish, progress=tick)
+            cameras = pool.submit(camera_tables, scene, traj, geometry, occlusion, cam_rngs, model)  # after the rays
         readings = imu.read_phones(world, traj, steps, progress=tick)
         tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
         truth_tables = {"people": truth_people(scene, traj)}
-        if cameras is not None:
-            obs, truth_tables["visibility"] = cameras.result()
-            tables.update(obs)
+        if occlusion is not None:
+            rays.result()
+            truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
+            tables.update(cameras.result())
     if bar is not None:
         bar.close()
     if sensing == "rendered":
