@@ -306,23 +306,26 @@ def _track_ids(vis: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 
 def visibility_table(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], visible: dict[str, np.ndarray]) -> pd.DataFrame:
-    """Truth ``visibility``: t, camera, person_id, in_fov, visible for every frame and person."""
+    """Truth ``visibility``: t, camera, person_id, in_fov, visible for every frame and person,
+    sorted by t then camera (stably: people in scene order)."""
     names = np.array([w.name for w in scene.walkers], dtype=object)
-    frames = []
-    for cam in scene.cameras:
-        g = geometry[cam.name]
-        F, P = g.in_fov.shape
-        frames.append(
-            pd.DataFrame(
-                {
-                    "t": np.repeat(traj.t[g.steps], P), "camera": cam.name, "person_id": str_column(names, np.tile(np.arange(P), F)),
-                    "in_fov": g.in_fov.ravel(), "visible": visible[cam.name].ravel(),
-                }
-            )
-        )
-    if not frames:
+    if not scene.cameras:
         return pd.DataFrame({"t": pd.Series(dtype=float), "camera": pd.Series(dtype=object), "person_id": pd.Series(dtype=object), "in_fov": pd.Series(dtype=bool), "visible": pd.Series(dtype=bool)})
-    return pd.concat(frames, ignore_index=True).sort_values(["t", "camera"], kind="mergesort", ignore_index=True)
+    cams = [c.name for c in scene.cameras]
+    P = len(names)
+    t = np.concatenate([np.repeat(traj.t[geometry[c].steps], P) for c in cams])
+    cam = np.concatenate([np.full(geometry[c].in_fov.size, j) for j, c in enumerate(cams)])
+    # the order a stable sort by (t, camera name) gives, taken once for every column
+    order = np.lexsort((np.argsort(np.argsort(cams, kind="stable"), kind="stable")[cam], t))
+    return pd.DataFrame(
+        {
+            "t": t[order], "camera": str_column(cams, cam[order]),
+            "person_id": str_column(names, np.concatenate([np.tile(np.arange(P), geometry[c].in_fov.shape[0]) for c in cams])[order]),
+            "in_fov": np.concatenate([geometry[c].in_fov.ravel() for c in cams])[order],
+            "visible": np.concatenate([visible[c].ravel() for c in cams])[order],
+        },
+        copy=False,
+    )
 
 
 def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], fraction: dict[str, np.ndarray],
