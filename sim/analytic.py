@@ -132,7 +132,9 @@ class Occlusion:
 
     Cost: the rays are laid out once, before the loop, in one flat array per camera (only people
     in the field of view, frame after frame), so a camera frame is one ``mj_multiRay`` call on a
-    contiguous slice and the hits are judged for all frames at once in ``finish``.
+    contiguous slice and the hits are judged for all frames at once in ``finish``; the per-frame
+    schedule (``due``) is built on first use, so the simulator's ray thread builds it.
+    ``frame_steps``: the sorted steps at which some camera casts.
     """
 
     def __init__(self, world: World, scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry]):
@@ -144,8 +146,7 @@ class Occlusion:
         V = len(VIS_FRACTIONS)
         self._own = np.asarray(world.person_geom, np.int32)
         self._cams = []  # per camera: (frame index, person index) of each ray group, target lengths, hits
-        # step -> [(origin, directions, geomid, dist, nray, cutoff)]: views into the flat arrays
-        self.due: dict[int, list[tuple]] = {}
+        self._layout = []  # per camera: frame steps, ray bounds of each frame, origin, flat rays and hits, cutoff
         for cam in self.cams:
             g = geometry[cam.name]
             f_idx, p_idx = np.nonzero(g.near)  # row-major: frame after frame (near: in_fov and people cut by the border)
@@ -160,16 +161,30 @@ class Occlusion:
             geomid = np.full(length.size, -1, np.int32)
             dist = np.full(length.size, -1.0)
             self._cams.append((f_idx, p_idx, length, geomid, dist))
-            bounds = (V * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))).tolist()  # rays of each frame
-            due = self.due
-            for k, a, b in zip(g.steps.tolist(), bounds[:-1], bounds[1:]):
-                if b > a:
-                    item = (origin, vec[3 * a : 3 * b], geomid[a:b], dist[a:b], b - a, cutoff)
-                    if k in due:
-                        due[k].append(item)
-                    else:
-                        due[k] = [item]
+            bounds = V * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))  # rays of each frame
+            self._layout.append((g.steps, bounds, origin, vec, geomid, dist, cutoff))
+        # the trajectory steps at which some camera casts rays
+        self.frame_steps = np.unique(np.concatenate([steps[b[1:] > b[:-1]] for steps, b, *_ in self._layout] or [np.zeros(0, int)]))
+        self._due: dict[int, list[tuple]] | None = None
         self.done: set[int] = set()
+
+    @property
+    def due(self) -> dict[int, list[tuple]]:
+        """step -> [(origin, directions, geomid, dist, nray, cutoff)] of the cameras casting there:
+        views into the flat arrays (built on first use: ``finish`` may run in another thread)."""
+        if self._due is None:
+            due: dict[int, list[tuple]] = {}
+            for steps, bounds, origin, vec, geomid, dist, cutoff in self._layout:
+                bounds = bounds.tolist()
+                for k, a, b in zip(steps.tolist(), bounds[:-1], bounds[1:]):
+                    if b > a:
+                        item = (origin, vec[3 * a : 3 * b], geomid[a:b], dist[a:b], b - a, cutoff)
+                        if k in due:
+                            due[k].append(item)
+                        else:
+                            due[k] = [item]
+            self._due = due
+        return self._due
 
     def on_step(self, k: int) -> None:
         due = self.due.get(k)

@@ -221,7 +221,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         geometry = analytic.camera_geometry(scene, traj)
         occlusion = analytic.Occlusion(world, scene, traj, geometry)
         # one bar over the IMU samples and the ray-cast camera frames
-        bar = progress_bar(progress, len(steps) + len(occlusion.due), f"{scene.name} ({sensing})", "step")
+        bar = progress_bar(progress, len(steps) + len(occlusion.frame_steps), f"{scene.name} ({sensing})", "step")
 
     with ThreadPoolExecutor(max_workers=1) as pool:
         # the camera side (rays, then the camera tables) runs beside the IMU side: MuJoCo releases
