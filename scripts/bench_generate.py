@@ -10,6 +10,11 @@ best and median ratio of simulated to wall seconds (target: 200x, i.e. <= 3.0 s 
 1-minute load average is printed before and after: on a shared machine under load the wall time
 of the same work rises with it, so compare runs at similar load (the CPU time moves much less).
 ``/usr/bin/time trackroom generate ...`` gives the same wall figure.
+
+Measured here (2 cores shared with other jobs; README, "Simulator and analytic sensing"): best
+3.06 s wall = 196x, median 3.17 s = 189x, 3.85 s CPU at load average 3.1-3.7 (issue 14 part 4);
+3.55 s = 169x at load 0.7 before it. The CPU figure counts both of the command's threads (the
+camera side of the simulation runs beside the IMU side), so it can exceed the wall time.
 """
 from __future__ import annotations
 

@@ -47,6 +47,7 @@ from .world import World
 
 VIS_FRACTIONS = (0.5, 0.75, 0.95)  # of the person's height, floor = 0
 CIRCLE_SAMPLES = 16  # points on each rim of the cylinder for its window
+PROGRESS_EVERY = 100  # camera frames between progress reports of ``Occlusion.finish``
 
 
 def str_column(names, index) -> pd.api.extensions.ExtensionArray:
@@ -140,7 +141,9 @@ class Occlusion:
 
     Cost: the rays are laid out once, before the loop, in one flat array per camera (only people
     in the field of view, frame after frame), so a camera frame is one ``mj_multiRay`` call on a
-    contiguous slice and the hits are judged for all frames at once in ``finish``.
+    contiguous slice and the hits are judged for all frames at once in ``finish``; the per-frame
+    schedule (``due``) is built on first use, so the simulator's ray thread builds it.
+    ``frame_steps``: the sorted steps at which some camera casts.
     """
 
     def __init__(self, world: World, scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry]):
@@ -152,8 +155,7 @@ class Occlusion:
         V = len(VIS_FRACTIONS)
         self._own = np.asarray(world.person_geom, np.int32)
         self._cams = []  # per camera: (frame index, person index) of each ray group, target lengths, hits
-        # step -> [(origin, directions, geomid, dist, nray, cutoff)]: views into the flat arrays
-        self.due: dict[int, list[tuple]] = {}
+        self._layout = []  # per camera: frame steps, ray bounds of each frame, origin, flat rays and hits, cutoff
         for cam in self.cams:
             g = geometry[cam.name]
             f_idx, p_idx = np.nonzero(g.near)  # row-major: frame after frame (near: in_fov and people cut by the border)
@@ -168,16 +170,30 @@ class Occlusion:
             geomid = np.full(length.size, -1, np.int32)
             dist = np.full(length.size, -1.0)
             self._cams.append((f_idx, p_idx, length, geomid, dist))
-            bounds = (V * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))).tolist()  # rays of each frame
-            due = self.due
-            for k, a, b in zip(g.steps.tolist(), bounds[:-1], bounds[1:]):
-                if b > a:
-                    item = (origin, vec[3 * a : 3 * b], geomid[a:b], dist[a:b], b - a, cutoff)
-                    if k in due:
-                        due[k].append(item)
-                    else:
-                        due[k] = [item]
+            bounds = V * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))  # rays of each frame
+            self._layout.append((g.steps, bounds, origin, vec, geomid, dist, cutoff))
+        # the trajectory steps at which some camera casts rays
+        self.frame_steps = np.unique(np.concatenate([steps[b[1:] > b[:-1]] for steps, b, *_ in self._layout] or [np.zeros(0, int)]))
+        self._due: dict[int, list[tuple]] | None = None
         self.done: set[int] = set()
+
+    @property
+    def due(self) -> dict[int, list[tuple]]:
+        """step -> [(origin, directions, geomid, dist, nray, cutoff)] of the cameras casting there:
+        views into the flat arrays (built on first use: ``finish`` may run in another thread)."""
+        if self._due is None:
+            due: dict[int, list[tuple]] = {}
+            for steps, bounds, origin, vec, geomid, dist, cutoff in self._layout:
+                bounds = bounds.tolist()
+                for k, a, b in zip(steps.tolist(), bounds[:-1], bounds[1:]):
+                    if b > a:
+                        item = (origin, vec[3 * a : 3 * b], geomid[a:b], dist[a:b], b - a, cutoff)
+                        if k in due:
+                            due[k].append(item)
+                        else:
+                            due[k] = [item]
+            self._due = due
+        return self._due
 
     def on_step(self, k: int) -> None:
         due = self.due.get(k)
@@ -212,11 +228,24 @@ class Occlusion:
         mujoco.mj_multiRay(self.world.model, self.world.data, origin, vec, None, 1, -1, geomid, dist, None, len(length), float(length.max() + 1.0))
         return self._seen(geomid, dist, length, np.asarray(people))
 
-    def finish(self) -> None:
+    def finish(self, progress=None) -> None:
+        """Pose and cast every frame not visited yet, then judge the hits; ``progress(n)`` every
+        PROGRESS_EVERY frames with the number cast since its last call."""
         todo = sorted(set(self.due) - self.done)
-        for k in todo:
-            self.world.set_pose(self.traj, k)
-            self.on_step(k)
+        # World.set_pose and on_step, unrolled: this loop runs once per camera frame (12000 for
+        # 600 s at 20 Hz), so the MuJoCo functions and arrays are fetched once
+        world, ray, kinematics = self.world, mujoco.mj_multiRay, mujoco.mj_kinematics
+        m, d, Q, qpos = world.model, world.data, world.packed_positions(self.traj), world.data.qpos
+        for j, k in enumerate(todo):
+            qpos[:] = Q[k]
+            kinematics(m, d)
+            for origin, vec, geomid, dist, nray, cutoff in self.due[k]:
+                ray(m, d, origin, vec, None, 1, -1, geomid, dist, None, nray, cutoff)
+            if progress is not None and j % PROGRESS_EVERY == PROGRESS_EVERY - 1:
+                progress(PROGRESS_EVERY)
+        if progress is not None and len(todo) % PROGRESS_EVERY:
+            progress(len(todo) % PROGRESS_EVERY)
+        self.done.update(todo)
         for cam, (f_idx, p_idx, length, geomid, dist) in zip(self.cams, self._cams):
             g_in_fov = self.geometry[cam.name].in_fov
             vis, frac = self.visible[cam.name], self.fraction[cam.name]
@@ -301,23 +330,26 @@ def _track_ids(vis: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 
 def visibility_table(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], visible: dict[str, np.ndarray]) -> pd.DataFrame:
-    """Truth ``visibility``: t, camera, person_id, in_fov, visible for every frame and person."""
+    """Truth ``visibility``: t, camera, person_id, in_fov, visible for every frame and person,
+    sorted by t then camera (stably: people in scene order)."""
     names = np.array([w.name for w in scene.walkers], dtype=object)
-    frames = []
-    for cam in scene.cameras:
-        g = geometry[cam.name]
-        F, P = g.in_fov.shape
-        frames.append(
-            pd.DataFrame(
-                {
-                    "t": np.repeat(traj.t[g.steps], P), "camera": cam.name, "person_id": str_column(names, np.tile(np.arange(P), F)),
-                    "in_fov": g.in_fov.ravel(), "visible": visible[cam.name].ravel(),
-                }
-            )
-        )
-    if not frames:
+    if not scene.cameras:
         return pd.DataFrame({"t": pd.Series(dtype=float), "camera": pd.Series(dtype=object), "person_id": pd.Series(dtype=object), "in_fov": pd.Series(dtype=bool), "visible": pd.Series(dtype=bool)})
-    return pd.concat(frames, ignore_index=True).sort_values(["t", "camera"], kind="mergesort", ignore_index=True)
+    cams = [c.name for c in scene.cameras]
+    P = len(names)
+    t = np.concatenate([np.repeat(traj.t[geometry[c].steps], P) for c in cams])
+    cam = np.concatenate([np.full(geometry[c].in_fov.size, j) for j, c in enumerate(cams)])
+    # the order a stable sort by (t, camera name) gives, taken once for every column
+    order = np.lexsort((np.argsort(np.argsort(cams, kind="stable"), kind="stable")[cam], t))
+    return pd.DataFrame(
+        {
+            "t": t[order], "camera": str_column(cams, cam[order]),
+            "person_id": str_column(names, np.concatenate([np.tile(np.arange(P), geometry[c].in_fov.shape[0]) for c in cams])[order]),
+            "in_fov": np.concatenate([geometry[c].in_fov.ravel() for c in cams])[order],
+            "visible": np.concatenate([visible[c].ravel() for c in cams])[order],
+        },
+        copy=False,
+    )
 
 
 def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], fraction: dict[str, np.ndarray],

@@ -43,12 +43,16 @@ def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, 
     iu, ju = np.triu_indices(P, 1)
     u = correlated_uniforms(rng, eligible.shape, m.merge_rho)
     merge = eligible & det[:, iu] & det[:, ju] & (u < m.merge(feature))
-    for f, k in zip(*np.nonzero(merge)):
-        r = root[f]
-        a, b = r[iu[k]], r[ju[k]]
-        if a != b:
-            lo, hi = min(a, b), max(a, b)
-            r[r == hi] = lo
+    # each group's root is its lowest index (merging two groups keeps the lower root), so a
+    # minimum passed along the merged pairs until nothing changes gives every frame's groups at once
+    f, k = np.nonzero(merge)
+    i, j = iu[k], ju[k]
+    while len(f):
+        low = np.minimum(root[f, i], root[f, j])
+        if (low == root[f, i]).all() and (low == root[f, j]).all():
+            break
+        np.minimum.at(root, (f, i), low)
+        np.minimum.at(root, (f, j), low)
     return root
 
 

@@ -2,9 +2,12 @@
 
 1. Plan every walker's trajectory (``sim.walkers``) at ``sensors.sim_rate``.
 2. Build the MuJoCo world (``sim.world``).
-3. Step through the IMU samples: pose the world (qpos, qvel, qacc, ``World.sense``), read the
-   phones' sensors (``sim.imu``) and, at camera frames, cast the occlusion rays
-   (``sim.analytic.Occlusion``); camera frames between IMU samples are posed on their own.
+3. Read the phones' sensors at the IMU samples (``sim.imu``: MuJoCo's sensors on a world of the
+   phone walkers, many samples per pass) and, in analytic mode, pose the world at every camera
+   frame and cast the occlusion rays (``sim.analytic.Occlusion``). The camera side (rays, then
+   step 4's camera tables) runs in a second thread beside the IMU side (MuJoCo releases the GIL
+   while casting, numpy in its array loops); the two share no arrays or random streams, so the
+   tables do not depend on the threads' timing.
 4. Turn geometry + visibility into observation tables with noise (``sim.analytic``), or, with
    ``sensing="rendered"``, hand over to ``sim.rendered.observe``.
 5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
@@ -22,6 +25,8 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pandas as pd
@@ -86,15 +91,18 @@ def truth_people(scene: Scene, traj: Trajectories) -> pd.DataFrame:
     """Truth ``people`` at the simulation rate, sorted by t then walker (scene order)."""
     P, N = traj.n_people, traj.n_steps
     yaw = np.angle(np.exp(1j * traj.yaw))  # wrapped to (-pi, pi]
+    who = np.tile(np.arange(P), N)
+    # columns are fresh arrays: the frame takes them as they are (no second copy into blocks)
     return pd.DataFrame(
         {
-            "t": np.tile(traj.t, P).reshape(P, N).T.ravel() if P else np.zeros(0),
-            "person_id": analytic.str_column(traj.names, np.tile(np.arange(P), N)),
+            "t": np.repeat(traj.t, P),
+            "person_id": analytic.str_column(traj.names, who),
             "x": traj.pos[:, :, 0].T.ravel(), "y": traj.pos[:, :, 1].T.ravel(), "z": traj.pos[:, :, 2].T.ravel(),
             "yaw": yaw.T.ravel(), "vx": traj.vel[:, :, 0].T.ravel(), "vy": traj.vel[:, :, 1].T.ravel(),
             "walking": traj.walking.T.ravel(),
-            "phone_id": analytic.str_column(phone_ids(scene), np.tile(np.arange(P), N)),
-        }
+            "phone_id": analytic.str_column(phone_ids(scene), who),
+        },
+        copy=False,
     )
 
 
@@ -164,6 +172,25 @@ def progress_bar(progress, total: int, desc: str, unit: str):
     return tqdm(total=total, desc=desc, unit=unit, mininterval=0.5, file=progress)
 
 
+def _locked(fn):
+    """``fn`` behind a lock (callable from several threads)."""
+    lock = threading.Lock()
+
+    def call(*args):
+        with lock:
+            return fn(*args)
+
+    return call
+
+
+def camera_tables(scene: Scene, traj: Trajectories, geometry: dict, occlusion, cam_rngs: dict, model) -> dict:
+    """Analytic mode's observation tables from the cast rays (``occlusion``): through the
+    perception model, or ideal."""
+    if model.ideal:
+        return analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs)
+    return analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model)
+
+
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
              render_workers: int | None = None) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
@@ -171,7 +198,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     sensing: "analytic" (projection + ray-cast occlusion) or "rendered" (``sim.rendered``).
     save_frames: passed to the rendered mode (where to keep rendered frames), ignored otherwise.
     progress: a bar (tqdm) on stderr when it is a terminal (True), or on the given stream: over the
-    simulation steps in analytic mode, over the rendered camera frames in rendered mode (the
+    IMU samples and ray-cast camera frames in analytic mode, over the rendered camera frames in rendered mode (the
     rendering is nearly all of its time). render_workers: the rendered mode's worker threads
     (``sim.rendered.worker_count``; the tables do not depend on it).
     """
@@ -189,27 +216,31 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     pids = phone_ids(scene)
     steps = imu.imu_steps(traj, scene.sensors.imu_rate)
 
-    bar = progress_bar(progress, len(steps), f"{scene.name} ({sensing})", "step") if sensing == "analytic" else None
-    occlusion = None
+    occlusion, bar = None, None
     if sensing == "analytic":
         geometry = analytic.camera_geometry(scene, traj)
         occlusion = analytic.Occlusion(world, scene, traj, geometry)
+        # one bar over the IMU samples and the ray-cast camera frames
+        bar = progress_bar(progress, len(steps) + len(occlusion.frame_steps), f"{scene.name} ({sensing})", "step")
 
-    readings = imu.read_phones(
-        world, traj, steps, on_step=occlusion.on_step if occlusion is not None else None, progress=bar.update if bar is not None else None
-    )
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        # the camera side (rays, then the camera tables) runs beside the IMU side: MuJoCo releases
+        # the GIL while casting, numpy in its array loops, and each side has its own arrays and
+        # random streams, so the tables do not depend on the threads' timing
+        tick = _locked(bar.update) if bar is not None else None  # one bar, two threads
+        if occlusion is not None:
+            rays = pool.submit(occlusion.finish, progress=tick)
+            cameras = pool.submit(camera_tables, scene, traj, geometry, occlusion, cam_rngs, model)  # after the rays
+        readings = imu.read_phones(world, traj, steps, progress=tick)
+        tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
+        truth_tables = {"people": truth_people(scene, traj)}
+        if occlusion is not None:
+            rays.result()
+            truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
+            tables.update(cameras.result())
     if bar is not None:
         bar.close()
-    tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
-    truth_tables = {"people": truth_people(scene, traj)}
-    if sensing == "analytic":
-        occlusion.finish()
-        if model.ideal:
-            tables.update(analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs))
-        else:
-            tables.update(analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model))
-        truth_tables["visibility"] = analytic.visibility_table(scene, traj, geometry, occlusion.visible)
-    else:
+    if sensing == "rendered":
         try:
             rendered = importlib.import_module("trackroom.sim.rendered")
         except ModuleNotFoundError as e:

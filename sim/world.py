@@ -65,28 +65,40 @@ class World:
         if cache is None or cache[0] is not traj:
             m = self.model
             N = traj.n_steps
-            Q = np.tile(m.qpos0, (N, 1))
             V = np.zeros((N, m.nv))
             A = np.zeros((N, m.nv))
             for i in range(self.n_people):
-                q, v = self.qpos_adr[i], self.qvel_adr[i]
-                Q[:, q : q + 3] = traj.pos[i]
-                Q[:, q + 3] = traj.yaw[i]
+                v = self.qvel_adr[i]
                 V[:, v : v + 3] = traj.vel[i]
                 V[:, v + 3] = traj.yaw_rate[i]
                 A[:, v : v + 3] = traj.acc[i]
                 A[:, v + 3] = traj.yaw_acc[i]
-            self._packed = cache = (traj, Q, V, A)
+            self._packed = cache = (traj, self.packed_positions(traj), V, A)
         return cache[1], cache[2], cache[3]
+
+    def packed_positions(self, traj) -> np.ndarray:
+        """qpos of every trajectory step (N, nq), built once per trajectory (posing the world for
+        ray casts and rendering needs no velocities)."""
+        cache = getattr(self, "_packed_q", None)
+        if cache is None or cache[0] is not traj:
+            Q = np.tile(self.model.qpos0, (traj.n_steps, 1))
+            for i in range(self.n_people):
+                q = self.qpos_adr[i]
+                Q[:, q : q + 3] = traj.pos[i]
+                Q[:, q + 3] = traj.yaw[i]
+            self._packed_q = cache = (traj, Q)
+        return cache[1]
 
     def write_state(self, traj, k: int, with_derivatives: bool = True) -> None:
         """Write every walker's qpos (and qvel, qacc) at trajectory step k."""
-        Q, V, A = self.packed(traj)
         d = self.data
-        d.qpos[:] = Q[k]
         if with_derivatives:
+            Q, V, A = self.packed(traj)
             d.qvel[:] = V[k]
             d.qacc[:] = A[k]
+        else:
+            Q = self.packed_positions(traj)
+        d.qpos[:] = Q[k]
 
     def set_step(self, traj, k: int) -> None:
         """Put the world at trajectory step k: qpos, qvel, qacc, then ``sense`` (positions,
@@ -135,12 +147,59 @@ def _box(parent, name, pos, size, yaw=0.0, rgba=(0.8, 0.8, 0.8, 1.0)):
     return g
 
 
-def build_world(scene: Scene) -> World:
-    """Compile ``scene`` into a MuJoCo model (see the module docstring for what it holds)."""
+def new_spec(scene: Scene) -> mujoco.MjSpec:
+    """An empty ``MjSpec`` with the scene's options (name, magnetic field, time step; default gravity)."""
     spec = mujoco.MjSpec()
     spec.modelname = scene.name
     spec.option.magnetic = list(map(float, scene.sensors.magnetic_field))
     spec.option.timestep = 1.0 / scene.sensors.sim_rate
+    return spec
+
+
+def add_walker(spec: mujoco.MjSpec, w, name: str):
+    """Walker ``w``'s body ``name`` in ``spec``'s world: a capsule on slide joints x, y, z and a yaw
+    hinge (``name``_x, _y, _z, _yaw; geom ``name``_body), and with a phone a site ``name``_phone
+    carrying the accelerometer, gyro and magnetometer ``name``_acc, _gyro, _mag (module docstring).
+    One definition for the scene's world and the phone-only batch world of ``sim.imu``, so the two
+    compute the same sensor readings."""
+    body = spec.worldbody.add_body()
+    body.name = name
+    body.gravcomp = 1.0
+    for axis, jname in (((1, 0, 0), "x"), ((0, 1, 0), "y"), ((0, 0, 1), "z")):
+        jt = body.add_joint()
+        jt.name = f"{name}_{jname}"
+        jt.type = mujoco.mjtJoint.mjJNT_SLIDE
+        jt.axis = list(axis)
+    jt = body.add_joint()
+    jt.name = f"{name}_yaw"
+    jt.type = mujoco.mjtJoint.mjJNT_HINGE
+    jt.axis = [0, 0, 1]
+    g = body.add_geom()
+    g.name = f"{name}_body"
+    g.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+    g.size = [w.radius, max(0.5 * w.height - w.radius, 1e-3), 0.0]
+    g.rgba = [*w.color, 1.0]
+    g.group = PERSON_GROUP
+    g.mass = 70.0
+    g.contype = 0  # people are kinematic: no contacts
+    g.conaffinity = 0
+    if w.phone:
+        site = body.add_site()
+        site.name = f"{name}_phone"
+        site.pos = [0.0, 0.0, PHONE_HEIGHT - 0.5 * w.height]
+        site.size = [0.02, 0.02, 0.02]
+        for stype, suffix in ((mujoco.mjtSensor.mjSENS_ACCELEROMETER, "acc"), (mujoco.mjtSensor.mjSENS_GYRO, "gyro"), (mujoco.mjtSensor.mjSENS_MAGNETOMETER, "mag")):
+            s = spec.add_sensor()
+            s.name = f"{name}_{suffix}"
+            s.type = stype
+            s.objtype = mujoco.mjtObj.mjOBJ_SITE
+            s.objname = site.name
+    return body
+
+
+def build_world(scene: Scene) -> World:
+    """Compile ``scene`` into a MuJoCo model (see the module docstring for what it holds)."""
+    spec = new_spec(scene)
     fp = scene.floorplan
     x0, y0, x1, y1 = fp.bounds()
     world = spec.worldbody
@@ -185,38 +244,7 @@ def build_world(scene: Scene) -> World:
         spec.visual.global_.offheight = max(480, max(c.height for c in scene.cameras))
 
     for w in scene.walkers:
-        body = world.add_body()
-        body.name = w.name
-        body.gravcomp = 1.0
-        for axis, jname in (((1, 0, 0), "x"), ((0, 1, 0), "y"), ((0, 0, 1), "z")):
-            jt = body.add_joint()
-            jt.name = f"{w.name}_{jname}"
-            jt.type = mujoco.mjtJoint.mjJNT_SLIDE
-            jt.axis = list(axis)
-        jt = body.add_joint()
-        jt.name = f"{w.name}_yaw"
-        jt.type = mujoco.mjtJoint.mjJNT_HINGE
-        jt.axis = [0, 0, 1]
-        g = body.add_geom()
-        g.name = f"{w.name}_body"
-        g.type = mujoco.mjtGeom.mjGEOM_CAPSULE
-        g.size = [w.radius, max(0.5 * w.height - w.radius, 1e-3), 0.0]
-        g.rgba = [*w.color, 1.0]
-        g.group = PERSON_GROUP
-        g.mass = 70.0
-        g.contype = 0  # people are kinematic: no contacts
-        g.conaffinity = 0
-        if w.phone:
-            site = body.add_site()
-            site.name = f"{w.name}_phone"
-            site.pos = [0.0, 0.0, PHONE_HEIGHT - 0.5 * w.height]
-            site.size = [0.02, 0.02, 0.02]
-            for stype, suffix in ((mujoco.mjtSensor.mjSENS_ACCELEROMETER, "acc"), (mujoco.mjtSensor.mjSENS_GYRO, "gyro"), (mujoco.mjtSensor.mjSENS_MAGNETOMETER, "mag")):
-                s = spec.add_sensor()
-                s.name = f"{w.name}_{suffix}"
-                s.type = stype
-                s.objtype = mujoco.mjtObj.mjOBJ_SITE
-                s.objname = site.name
+        add_walker(spec, w, w.name)
 
     model = spec.compile()
     data = mujoco.MjData(model)

@@ -92,3 +92,33 @@ def test_readings_are_mj_inverse_bit_for_bit():
         cols = np.concatenate([np.arange(a, a + 3) for a in adr])
         np.testing.assert_array_equal(fast[i], ref[:, cols])
     assert np.abs(ref).max() > 1.0  # real readings (gravity at least), not zeros on both sides
+
+
+def test_batched_phone_world_reads_what_the_scene_world_reads(monkeypatch):
+    """The phone world (copies of the phone walkers only, many samples per pass) gives the scene
+    world's sensor readings bit for bit: a scene with scripted, standing and phoneless walkers, a
+    sample count that leaves the last pass partial, and states packed in one chunk or several."""
+    import mujoco
+
+    scene = load_scene("occlusion_lab", ["walkers.people.2.phone=false"])  # waypoints, standing, one without a phone
+    traj = plan_trajectories(scene, 3.0, np.random.default_rng(2))
+    world = build_world(scene)
+    phones = [i for i, s in enumerate(world.phone_sensors) if s is not None]
+    steps = imu.imu_steps(traj, scene.sensors.imu_rate)[:-3]
+    assert phones and len(steps) % max(1, imu.BATCH_BODIES // len(phones))  # a partial last pass
+    fast = imu.read_phones(world, traj, steps)
+    m, d = world.model, mujoco.MjData(world.model)
+    Q, V, A = world.packed(traj)
+    for j, k in enumerate(steps):
+        d.qpos[:], d.qvel[:], d.qacc[:] = Q[k], V[k], A[k]
+        mujoco.mj_inverse(m, d)
+        for i in range(world.n_people):
+            if world.phone_sensors[i] is None:
+                assert np.isnan(fast[i, j]).all()
+            else:
+                cols = np.concatenate([np.arange(a, a + 3) for a in world.phone_sensors[i]])
+                np.testing.assert_array_equal(fast[i, j], d.sensordata[cols])
+    monkeypatch.setattr(imu, "CHUNK_SAMPLES", 60)  # several chunks of passes, each with its own packing
+    np.testing.assert_array_equal(imu.read_phones(world, traj, steps), fast)
+    pw = imu.phone_world(scene, 3)
+    assert pw.copies == 3 and pw.model.nbody == 1 + 3 * len(phones)  # the phone walkers only

@@ -73,6 +73,38 @@ def test_oblique_windows_merge_when_two_people_overlap_in_the_image():
     assert boxes.groupby("t").size().max() <= 2 + 1  # two people, at most a fragment or false window more
 
 
+def test_merged_groups_take_their_lowest_index_as_one_pair_after_another_would():
+    """merge_roots' groups equal merging the chosen pairs one at a time, frame by frame, in pair
+    order (the lower root absorbs the higher), on random frames of 1-11 people."""
+    from trackroom.sim import analytic_detectors as det
+
+    class Half:  # merges an eligible detected pair when its uniform falls below 1/2
+        rho = 0.5
+
+        def merge(self, feature):
+            return np.full(feature.shape, 0.5)
+
+    g = np.random.default_rng(0)
+    merges = 0
+    for trial in range(200):
+        P, F = int(g.integers(1, 12)), int(g.integers(1, 40))
+        detected = g.random((F, P)) < g.random()
+        feature, eligible = g.random((F, P * (P - 1) // 2)), g.random((F, P * (P - 1) // 2)) < g.random()
+        root = det.merge_roots(np.random.default_rng(trial), detected, feature, eligible, Half())
+        # the same draws, merged one pair at a time
+        expect = np.tile(np.arange(P), (F, 1))
+        if P > 1 and eligible.any():
+            iu, ju = np.triu_indices(P, 1)
+            u = det.correlated_uniforms(np.random.default_rng(trial), eligible.shape, Half.rho)
+            for f, k in zip(*np.nonzero(eligible & detected[:, iu] & detected[:, ju] & (u < 0.5))):
+                r = expect[f]
+                a, b = sorted((r[iu[k]], r[ju[k]]))
+                r[r == b] = a
+                merges += 1
+        np.testing.assert_array_equal(root, expect)
+    assert merges > 500  # chains of merges were exercised, not just singletons
+
+
 def test_ideal_perception_never_merges_the_same_pair(tmp_path):
     scene = parse_scene({**ROOM, "sensors": {"perception": "ideal"}})
     boxes = simulate(scene, seed=0, duration=6.0).observations["boxes"]
