@@ -79,7 +79,7 @@ def test_merged_groups_take_their_lowest_index_as_one_pair_after_another_would()
     from trackroom.sim import analytic_detectors as det
 
     class Half:  # merges an eligible detected pair when its uniform falls below 1/2
-        rho = 0.5
+        merge_rho = 0.5
 
         def merge(self, feature):
             return np.full(feature.shape, 0.5)
@@ -95,7 +95,7 @@ def test_merged_groups_take_their_lowest_index_as_one_pair_after_another_would()
         expect = np.tile(np.arange(P), (F, 1))
         if P > 1 and eligible.any():
             iu, ju = np.triu_indices(P, 1)
-            u = det.correlated_uniforms(np.random.default_rng(trial), eligible.shape, Half.rho)
+            u = det.correlated_uniforms(np.random.default_rng(trial), eligible.shape, Half.merge_rho)
             for f, k in zip(*np.nonzero(eligible & detected[:, iu] & detected[:, ju] & (u < 0.5))):
                 r = expect[f]
                 a, b = sorted((r[iu[k]], r[ju[k]]))
