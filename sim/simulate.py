@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pandas as pd
 
-from trackroom.scenes.loader import scene_sha256, scene_toml
+from trackroom.scenes.loader import SceneError, scene_sha256, scene_toml
 from trackroom.scenes.spec import Scene
 
 from . import analytic, imu
@@ -206,6 +206,8 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be a positive, finite number of seconds, got {duration}")
+    if not scene.walkers:
+        raise SceneError(f"{scene.source or scene.name}: no people to simulate (walkers.count is 0)")
     model = perception_model(scene)
     rng = np.random.default_rng(seed)
     motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)

@@ -20,6 +20,7 @@ def run_cli(*args):
         (["generate", "no_such_scene", "--out", "x"], "no_such_scene: not a scene file or a bundled scene"),
         (["generate", "bearing_hall", "--duration", "-1", "--out", "x"], "--duration must be positive"),
         (["generate", "bearing_hall", "--set", "walkers.count=99", "--out", "x"], "walkers.count"),
+        (["generate", "bearing_hall", "--set", "walkers.count=0", "--out", "x"], "no people to simulate"),
         (["show", "."], "not a trackroom recording"),
         (["generate", "bearing_hall", "--sensing", "rendered", "--render-workers", "-1", "--out", "x"],
          "--render-workers must be a whole number >= 0"),
