@@ -52,7 +52,7 @@ class PhoneFactorSettings:
     """Noise levels and the step-length law (module docstring); angles in radians."""
 
     f0: float = 1.8  # reference cadence of the step length l, Hz
-    beta: float = 0.5  # step length slope in cadence, m / Hz
+    beta: float = 0.62  # step length slope in cadence, m / Hz
     sigma_speed: float = 0.05  # m/s
     rel_speed: float = 0.08  # relative speed error from cadence
     sigma_psi: float = 0.15  # rad
@@ -65,7 +65,7 @@ class PhoneFactorSettings:
     gyro: bool = False
 
 
-LOSSES = ("huber", "cauchy", "l2")
+LOSSES = ("huber", "cauchy", "geman_mcclure", "l2")
 
 
 def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.ndarray, np.ndarray]:
@@ -73,6 +73,8 @@ def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.nd
 
     huber: rho = r^2 / 2 for |r| <= c, c |r| - c^2 / 2 beyond (convex, bounded influence);
     cauchy: rho = c^2 / 2 log(1 + (r / c)^2) (redescending: a gross outlier loses its pull);
+    geman_mcclure: rho = (c^2 / 2) r^2 / (c^2 + r^2) (bounded by c^2 / 2: a false detection costs
+    the same wherever the path goes, so nothing is gained by bending the path to explain it);
     l2: rho = r^2 / 2.
     """
     r = np.asarray(r, float)
@@ -93,23 +95,32 @@ def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.nd
         rt[nz] = np.sign(r[nz]) * c * np.sqrt(np.log1p(q))
         w[nz] = (r[nz] / (1.0 + q)) / rt[nz]
         return rt, w
+    if loss == "geman_mcclure":
+        nz = a > 1e-12 * c
+        d = c * c + r[nz] ** 2
+        rt[nz] = np.sign(r[nz]) * c * a[nz] / np.sqrt(d)
+        w[nz] = (c**4 * r[nz] / d**2) / rt[nz]
+        return rt, w
     raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
 
 
 class Robust:
     """A residual block (``raw_residual(X)`` and ``raw_jacobian(X, n)``, or a ``qp_model.Bearings``)
-    seen through a robust loss: 0.5 ||r~||^2 = sum rho(r)."""
+    seen through a robust loss: 0.5 ||r~||^2 = sum rho(r / scale). ``scale`` (optional, per row)
+    widens the noise of some rows (e.g. bearings at the image border)."""
 
-    def __init__(self, block, c: float, loss: str = "huber"):
+    def __init__(self, block, c: float, loss: str = "huber", scale: np.ndarray | None = None):
         if loss not in LOSSES:
             raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
         self.block, self.c, self.loss = block, float(c), loss
+        self.inv = None if scale is None else 1.0 / np.asarray(scale, float)
 
     def __len__(self) -> int:
         return len(self.block)
 
     def _r(self, X):
-        return self.block.raw_residual(X) if hasattr(self.block, "raw_residual") else self.block.residual(X)
+        r = self.block.raw_residual(X) if hasattr(self.block, "raw_residual") else self.block.residual(X)
+        return r if self.inv is None else r * self.inv
 
     def residual(self, X: np.ndarray) -> np.ndarray:
         return robust_residual(self._r(X), self.c, self.loss)[0]
@@ -117,7 +128,7 @@ class Robust:
     def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
         _, w = robust_residual(self._r(X), self.c, self.loss)
         J = self.block.raw_jacobian(X, n) if hasattr(self.block, "raw_jacobian") else self.block.jacobian(X, n)
-        return (sp.diags(w) @ J).tocsc()
+        return (sp.diags(w if self.inv is None else w * self.inv) @ J).tocsc()
 
 
 @dataclass

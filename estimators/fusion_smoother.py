@@ -69,6 +69,8 @@ class FusionSmoother(QPSmoother):
         q_pos: float = param(1e-4, "Gauss-Markov process noise of position per second, m^2/s")
         q_vel: float = param(0.05, "Gauss-Markov process noise of velocity per second, m^2/s^3 (the simulator's "
                                    "default Gauss-Markov walker)")
+        discretisation: str = param("paper", '"paper" (default here: diag(q_pos dt, q_vel dt), positions tied to '
+                                             'x + dt v whatever q_vel is) or "exact"; see qp_model.process_covariance')
         q_vel_phone: float = param(5.0, "process noise of velocity where the phone measures it (a cadence), "
                                         "m^2/s^3 (see phone_prior)")
         gait_model: str = param("", 'file: gait-model JSON (`trackroom train-gait`); "": the bundled one')
@@ -76,7 +78,8 @@ class FusionSmoother(QPSmoother):
         step_length_sigma: float = param(0.1, "prior std of the step length, m")
         step_length_min: float = param(0.3, "least step length (a constraint), m")
         cadence_ref: float = param(1.8, "reference cadence of step_length, Hz")
-        step_length_slope: float = param(0.5, "step length growth with cadence, m/Hz (population constant)")
+        step_length_slope: float = param(0.62, "step length growth with cadence, m/Hz (population constant; fitted on "
+                                               "development recordings, docs/fusion_smoother.md)")
         offset_sigma_deg: float = param(180.0, "prior std of the phone's yaw offset in the pocket, deg")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
@@ -85,15 +88,20 @@ class FusionSmoother(QPSmoother):
         nominal_speed: float = param(0.8, "walking speed assumed where no cadence was found, m/s")
         huber: float = param(2.0, "threshold of the phone rows' robust loss, in sigmas")
         phone_loss: str = param("huber", 'robust loss of the phone rows: "huber", "cauchy" or "l2"')
-        bearing_loss: str = param("cauchy", 'robust loss of the bearings with a phone: "cauchy", "huber" or "l2"')
+        bearing_loss: str = param("geman_mcclure", 'robust loss of the bearings with a phone: "geman_mcclure" (bounded: '
+                                                   'a false detection costs the same wherever the path goes), '
+                                                   '"cauchy", "huber" or "l2"')
         bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
+        border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
+        border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
         turn_lag_s: float = param(0.3, "heading noise in turns: the body turns this long before or after the path "
                                        "(sigma widened by the gyro's yaw rate times this), s")
         gyro: bool = param(False, "add the gyro's heading change between frames")
         gyro_sigma_deg: float = param(3.0, "gyro heading-change noise per camera frame, deg")
         offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
         match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
-        match_max: float = param(2.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats")
+        match_max: float = param(4.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats (right phones: "
+                                      "at most 3.0 on development seeds, docs/fusion_smoother.md)")
 
     # ------------------------------------------------------------------------------------------
     def _validate(self) -> None:
@@ -124,12 +132,15 @@ class FusionSmoother(QPSmoother):
         c = self.config
         self.diagnostics_: dict[str, dict] = {}
         grid = self.grid(observations, calibration)
+        self.cameras_ = calibration.cameras
         if grid is None:
             df = pd.DataFrame({k: pd.Series(dtype=float) for k in ("t", "x", "y", "vx", "vy")})
             df.insert(1, "track_id", pd.Series(dtype=object))
             df["phone_id"] = pd.Series(dtype=object)
             return df
-        motions = self.phone_motions(observations, calibration, np.arange(grid.T) * grid.dt) if c.match else {}
+        # the state's velocity v_k carries x_k to x_{k+1} (x_{k+1} = x_k + dt v_k, the prior's A):
+        # it is the mean velocity over [t_k, t_k+1], so the phone is read at t_k + dt / 2
+        motions = self.phone_motions(observations, calibration, (np.arange(grid.T) + 0.5) * grid.dt) if c.match else {}
         origin = (0.0, 0.0)
         if c.walls and calibration.floorplan is not None:
             origin = feasible_origin(calibration.floorplan, c.wall_margin)
@@ -142,7 +153,7 @@ class FusionSmoother(QPSmoother):
             for label in grid.labels:
                 prior, obs, C, lower, extra = problems[label]
                 X0 = self.initial_guess(obs, grid.T, grid.cameras, origin)
-                robust[label] = solve_map(prior, self.robust_bearings(obs), X0, C, lower, extra, self._settings())
+                robust[label] = solve_map(prior, self.robust_bearings(obs, grid.cameras), X0, C, lower, extra, self._settings())
                 for pid, m in motions.items():
                     fused[label, pid] = self.solve_fused(problems[label], m, calibration)
             assignment, mismatch = self.assign(grid, robust, phone_only, fused, problems)
@@ -226,8 +237,17 @@ class FusionSmoother(QPSmoother):
         X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
         return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._settings())
 
-    def robust_bearings(self, obs: Bearings) -> Residuals:
-        return Residuals(Robust(obs, self.config.bearing_robust, self.config.bearing_loss))
+    def robust_bearings(self, obs: Bearings, cameras) -> Robust:
+        """The bearings through the robust loss, with the noise widened near the image's left
+        and right edges, where a detector sees a person cut by the border:
+        sigma_j^2 = sigma^2 + (border_sigma_px max(0, 1 - d_j / border_px))^2, d_j the distance of
+        u_j from the nearer edge (px)."""
+        c = self.config
+        width = np.array([cameras[n].width for n in obs.names], float)[obs.cam] if len(obs) else np.zeros(0)
+        d = np.minimum(obs.u, width - obs.u)
+        extra = c.border_sigma_px * np.clip(1.0 - d / c.border_px, 0.0, 1.0)
+        scale = np.sqrt(1.0 + (extra / obs.sigma) ** 2)
+        return Robust(obs, c.bearing_robust, c.bearing_loss, scale)
 
     def phone_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> Prior:
         """The prior with ``q_vel_phone`` on the transitions into and out of steps whose velocity
@@ -263,7 +283,7 @@ class FusionSmoother(QPSmoother):
                 Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
                 return (Ce,) + tuple(out[1:])
         X0 = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration)
-        obs_r = Robust(obs, self.config.bearing_robust, self.config.bearing_loss)
+        obs_r = self.robust_bearings(obs, self.cameras_)
         return solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, extra_a, self._settings())
 
     def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:

@@ -46,7 +46,8 @@ class MotionSettings:
     band_hz: tuple[float, float] = (0.6, 4.0)
     cadence_window_s: float = 0.5
     step_min_accel: float = 0.5  # m/s^2, bob envelope below which no cadence is given
-    max_cadence_hz: float = 3.5
+    min_cadence_hz: float = 0.8  # walking cadences (a harmonic locked onto by a weak bob falls outside)
+    max_cadence_hz: float = 2.2
 
 
 @dataclass(frozen=True)
@@ -120,7 +121,7 @@ def phone_motion(imu: pd.DataFrame, phone_id: str, t_grid: np.ndarray, gait: Gai
     phi, env = step_phase(t, acc, u, rate, s)
     n_c = max(1, int(round(s.cadence_window_s * rate)))
     f = _centred_mean(np.gradient(phi, t) / (2 * np.pi), n_c)
-    ok = (_centred_mean(env, n_c) >= s.step_min_accel) & (f > 0) & (f <= s.max_cadence_hz)
+    ok = (_centred_mean(env, n_c) >= s.step_min_accel) & (f >= s.min_cadence_hz) & (f <= s.max_cadence_hz)
     cadence = np.where(ok[j], f[j], np.nan)
     cycles = np.floor(phi / (2 * np.pi))
     steps = t[1:][(np.diff(cycles) > 0) & ok[1:]]

@@ -131,8 +131,10 @@ def run_seed(seed: int, walker: str, duration: float, params: dict, which=VARIAN
             d = est.diagnostics_.get(label, {})
             row.update(converged=d.get("converged"), iterations=d.get("iterations"))
             if est_name == "fusion_smoother":
+                mism = d.get("mismatch", {})
                 row.update(phone=d.get("phone_id", ""), step_length=d.get("step_length"),
-                           heading_offset_deg=d.get("heading_offset_deg"))
+                           heading_offset_deg=d.get("heading_offset_deg"),
+                           mismatch_per_bearing=mism.get(w["phone_id"], float("nan")) / max(1, row["n_obs"]))
                 bb = b if name == "fusion" else b[b.camera == one]
                 c0, c1 = crb_pair(rec, d, xy, vxy, bb, dt, params, w["phone_id"] or None)
                 row.update(sqrt_crb_no_phone=c0, sqrt_crb_phone=c1)
