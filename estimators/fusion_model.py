@@ -181,32 +181,42 @@ class PhoneFactors:
         cl, cd = NS * T + IL, NS * T + ID
         res, R, C, V = [], [], [], []
         row0 = 0
-        # along-track speed
+        # along-track speed and cross-track heading. With a cadence both are read relative to
+        # the speed the step length implies, s_k(l) (their sigmas scale with s_k(l) / s~_k): a
+        # path shrunk towards a camera together with l then costs the phone rows nothing, so
+        # only the step length's prior, not the rows' noise model, decides the scale
         ka, fa = self.kw[self.ia], self.f[self.ia]
         th = self.psi[self.ia] - delta
         e = np.stack([np.cos(th), np.sin(th)], axis=1)
         nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
         v = np.stack([X[ka * NS + IVX], X[ka * NS + IVY]], axis=1)
-        sa = self.sig_a[self.ia]
-        speed = fa * (l + s.beta * (fa - s.f0))
-        res.append((np.einsum("ij,ij->i", e, v) - speed) / sa)
+        ev, nv = np.einsum("ij,ij->i", e, v), np.einsum("ij,ij->i", nrm, v)
+        speed = np.maximum(fa * (l + s.beta * (fa - s.f0)), 0.1)
+        ratio = speed / self.s_nom[self.ia]  # s_k(l) / s~_k
+        sa = self.sig_a[self.ia] * ratio
+        res.append((ev - speed) / sa)
+        # r = (e.v - s) / (c s), c = sig_a / s~:  dr/ds = -(e.v) / (c s^2), ds/dl = f
         rows = row0 + np.arange(len(ka))
         R += [rows, rows, rows, rows]
         C += [ka * NS + IVX, ka * NS + IVY, np.full(len(ka), cl), np.full(len(ka), cd)]
-        V += [e[:, 0] / sa, e[:, 1] / sa, -fa / sa, -np.einsum("ij,ij->i", nrm, v) / sa]
+        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * fa / sa, -nv / sa]
         row0 += len(ka)
-        # cross-track heading
+        # cross-track heading (rows with a cadence relative to s_k(l); the others to s~_k)
         kw = self.kw
         th = self.psi - delta
         e = np.stack([np.cos(th), np.sin(th)], axis=1)
         nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
         v = np.stack([X[kw * NS + IVX], X[kw * NS + IVY]], axis=1)
-        sc = self.sig_c
-        res.append(np.einsum("ij,ij->i", nrm, v) / sc)
+        ev, nv = np.einsum("ij,ij->i", e, v), np.einsum("ij,ij->i", nrm, v)
+        sc = self.sig_c.copy()
+        dl = np.zeros(len(kw))
+        sc[self.ia] *= ratio
+        dl[self.ia] = -(nv[self.ia] / speed) * fa / sc[self.ia]
+        res.append(nv / sc)
         rows = row0 + np.arange(len(kw))
-        R += [rows, rows, rows]
-        C += [kw * NS + IVX, kw * NS + IVY, np.full(len(kw), cd)]
-        V += [nrm[:, 0] / sc, nrm[:, 1] / sc, np.einsum("ij,ij->i", e, v) / sc]
+        R += [rows, rows, rows, rows]
+        C += [kw * NS + IVX, kw * NS + IVY, np.full(len(kw), cd), np.full(len(kw), cl)]
+        V += [nrm[:, 0] / sc, nrm[:, 1] / sc, ev / sc, dl]
         row0 += len(kw)
         # stopped
         ks = self.ks

@@ -67,8 +67,8 @@ class FusionSmoother(QPSmoother):
         velocity, the prior only its smoothness) and the phone factors' (``fusion_model``)."""
 
         q_pos: float = param(1e-4, "Gauss-Markov process noise of position per second, m^2/s")
-        q_vel: float = param(0.05, "Gauss-Markov process noise of velocity per second, m^2/s^3 (the simulator's "
-                                   "default Gauss-Markov walker)")
+        q_vel: float = param(0.5, "Gauss-Markov process noise of velocity per second, m^2/s^3 (a walker turning "
+                                  "at 1 m/s; chosen on development seeds, docs/fusion_smoother.md)")
         discretisation: str = param("paper", '"paper" (default here: diag(q_pos dt, q_vel dt), positions tied to '
                                              'x + dt v whatever q_vel is) or "exact"; see qp_model.process_covariance')
         q_vel_phone: float = param(5.0, "process noise of velocity where the phone measures it (a cadence), "
