@@ -52,6 +52,9 @@ from .qp_smoother import QPSmoother, feasible_origin, track_frame
 from .qp_solver import SolveResult, solve_map
 
 
+EVIDENCE_ITER = 6  # Gauss-Newton steps of the no-phone and phone-only solves (``_evidence_settings``)
+
+
 @register
 class FusionSmoother(QPSmoother):
     """QP smoother + phone factors (heading, cadence speed, walking/stopped, gyro), phones matched to labels."""
@@ -149,13 +152,20 @@ class FusionSmoother(QPSmoother):
             k, cams, u = grid.of_label(label)
             problems[label] = self.problem(k, cams, u, grid.T, grid.dt, grid.cameras, grid.sigma, calibration)
         if motions:
-            phone_only = {pid: self.solve_phone_only(problems[grid.labels[0]][0], m, calibration) for pid, m in motions.items()}
             for label in grid.labels:
-                prior, obs, C, lower, extra = problems[label]
-                X0 = self.initial_guess(obs, grid.T, grid.cameras, origin)
-                robust[label] = solve_map(prior, self.robust_bearings(obs, grid.cameras), X0, C, lower, extra, self._settings())
                 for pid, m in motions.items():
                     fused[label, pid] = self.solve_fused(problems[label], m, calibration)
+            # the explanations alone, started from the best fused solution (a nearby minimum:
+            # few iterations, and no worse than one from the paper's start)
+            phone_only = {}
+            for pid, m in motions.items():
+                best = min((fused[h, pid] for h in grid.labels), key=lambda r: r.cost[-1])
+                phone_only[pid] = self.solve_phone_only(problems[grid.labels[0]][0], m, calibration, best.X)
+            for label in grid.labels:
+                prior, obs, C, lower, extra = problems[label]
+                best = min((fused[label, pid] for pid in motions), key=lambda r: r.cost[-1])
+                robust[label] = solve_map(prior, Residuals(self.robust_bearings(obs, grid.cameras)), best.X[:NS * grid.T],
+                                          C, lower, extra, self._evidence_settings())
             assignment, mismatch = self.assign(grid, robust, phone_only, fused, problems)
         else:
             assignment, mismatch = {}, {}
@@ -186,10 +196,12 @@ class FusionSmoother(QPSmoother):
         return tracks
 
     def _settings(self, keep_iterates: bool = False):
-        """The QP smoother's settings, stopping at 1 mm steps (the phone rows make each step
-        cheap to get right, and the last iterations of a robust fit move millimetres)."""
+        """The QP smoother's settings, stopping at 1 mm steps or a relative cost decrease below
+        1e-6 (the last iterations of a robust fit with the global step length and offset creep
+        by millimetres)."""
         s = super()._settings(keep_iterates)
         s.tol_step = 1e-3
+        s.tol_cost = 1e-6
         return s
 
     # --- phones --------------------------------------------------------------------------------
@@ -226,16 +238,26 @@ class FusionSmoother(QPSmoother):
         c = self.config
         return prior.with_parameters([c.step_length, 0.0], [c.step_length_sigma, np.radians(c.offset_sigma_deg)], [0.1, 0.1])
 
-    def solve_phone_only(self, prior: Prior, m: PhoneMotion, calibration: Calibration) -> SolveResult:
-        """The phone's own explanation: prior + phone rows, no bearings, no constraints."""
+    def solve_phone_only(self, prior: Prior, m: PhoneMotion, calibration: Calibration, X0: np.ndarray | None = None) -> SolveResult:
+        """The phone's own explanation: prior + phone rows, no bearings, no constraints (from X0,
+        else the phone's dead reckoning from the origin)."""
         T = prior.T
         fac = self.factors(m, T)
         pa = self.phone_prior(prior, fac, calibration)
-        X0 = np.zeros(pa.n)
-        X0[NS * T + IL] = self.config.step_length
-        v = self._phone_velocity(fac, m, T, self.config.step_length, 0.0)
-        X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-        return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._settings())
+        if X0 is None:
+            X0 = np.zeros(pa.n)
+            X0[NS * T + IL] = self.config.step_length
+            v = self._phone_velocity(fac, m, T, self.config.step_length, 0.0)
+            X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
+        return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._evidence_settings())
+
+    def _evidence_settings(self):
+        """The explanations alone only price the mismatch: a few Gauss-Newton steps from the fused
+        solution (each lowers the cost; the phone alone leaves the path's place and turn free, and
+        converges slowly to a minimum a few nats lower)."""
+        s = self._settings()
+        s.max_iter = min(s.max_iter, EVIDENCE_ITER)
+        return s
 
     def robust_bearings(self, obs: Bearings, cameras) -> Robust:
         """The bearings through the robust loss, with the noise widened near the image's left
