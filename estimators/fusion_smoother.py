@@ -72,6 +72,10 @@ class FusionSmoother(QPSmoother):
         q_pos: float = param(1e-4, "Gauss-Markov process noise of position per second, m^2/s")
         q_vel: float = param(0.5, "Gauss-Markov process noise of velocity per second, m^2/s^3 (a walker turning "
                                   "at 1 m/s; chosen on development seeds, docs/fusion_smoother.md)")
+        see_walls: bool = param(False, "with walls: observed points between their camera and the first wall on their ray "
+                                       "(qp_walls.ray_limits); off here: a false detection's ray would be a hard "
+                                       "constraint that no robust loss can discount (office_floor: 6-10 m with it, "
+                                       "0.2-0.4 m without)")
         discretisation: str = param("paper", '"paper" (default here: diag(q_pos dt, q_vel dt), positions tied to '
                                              'x + dt v whatever q_vel is) or "exact"; see qp_model.process_covariance')
         q_vel_phone: float = param(5.0, "process noise of velocity where the phone measures it (a cadence), "
@@ -306,6 +310,11 @@ class FusionSmoother(QPSmoother):
                 return (Ce,) + tuple(out[1:])
         X0 = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration)
         obs_r = self.robust_bearings(obs, self.cameras_)
+        if extra_a is not None:
+            # walls and obstacles choose their face from the side the iterate is on: a dead
+            # reckoning that runs through a wall would lock the wrong face in, so the path is
+            # first found without them (the fixed rows stay), then the walls are added
+            X0 = solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, None, self._settings()).X
         return solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, extra_a, self._settings())
 
     def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:
