@@ -33,7 +33,7 @@ which is linear in X. For a horizontal camera n = (cos yaw, sin yaw) is the opti
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -73,12 +73,34 @@ def pos_index(T: int) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class Prior:
-    """The whitened linear prior r_p = G X - g (sparse G, (4T, 4T))."""
+    """The whitened linear prior r_p = G X - g (sparse G, (n, n), n = 4T + extra parameters).
+
+    ``par_scale``: the solver's variable scale of each extra parameter after the 4T trajectory
+    entries (``with_parameters``); empty for a trajectory alone.
+    """
 
     G: sp.csc_matrix
     g: np.ndarray
     dt: float
     T: int
+    par_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def n(self) -> int:
+        """Number of variables: 4T trajectory entries, then the extra parameters."""
+        return self.G.shape[1]
+
+    def with_parameters(self, mean, sigma, scale) -> "Prior":
+        """This prior with extra parameters theta appended to X, each with an independent
+        Gaussian prior N(mean, sigma^2): rows (theta - mean) / sigma below G (block diagonal, so
+        G stays square as the lifted solver needs). ``scale``: their typical step (the solver's
+        variable scaling), in their own units."""
+        mean, sigma, scale = (np.asarray(a, float).ravel() for a in (mean, sigma, scale))
+        if not (len(mean) == len(sigma) == len(scale)) or np.any(sigma <= 0) or np.any(scale <= 0):
+            raise ValueError("extra parameters need one mean, positive sigma and positive scale each")
+        G = sp.block_diag([self.G, sp.diags(1.0 / sigma)], format="csc")
+        g = np.concatenate([self.g, mean / sigma])
+        return Prior(G=G, g=g, dt=self.dt, T=self.T, par_scale=np.concatenate([self.par_scale, scale]))
 
     @staticmethod
     def build(
@@ -88,9 +110,12 @@ class Prior:
         first_mean=(0.0, 0.0, 0.0, 0.0),
         first_sigma=(100.0, 10.0, 100.0, 10.0),
         discretisation: str = "exact",
+        alt: tuple[GaussMarkovParams, np.ndarray] | None = None,
     ) -> "Prior":
         """Build G (eq. 3) for T steps of dt seconds, plus the weak first-state prior.
 
+        alt: (params', mask) -- transitions k-1 -> k with mask[k-1] True use the process noise
+        params' instead (a prior that is looser where another sensor measures the velocity).
         first_sigma: standard deviations (m, m/s, m, m/s) of the first state about first_mean.
         discretisation: how Sigma(dt) follows from the per-second q (``process_covariance``).
         W = L^{-1} with Sigma = L L^T, so that W^T W = Sigma^{-1}.
@@ -100,13 +125,17 @@ class Prior:
         if not dt > 0:
             raise ValueError(f"time step must be positive, got dt={dt}")
         A = params.A(dt)
-        Sig = process_covariance(params, dt, discretisation)
-        if np.any(np.diag(Sig) <= 0) or params.q_vel <= 0:
-            raise ValueError(f"process noise must be positive, got q_pos={params.q_pos}, q_vel={params.q_vel}")
-        W = np.linalg.inv(np.linalg.cholesky(Sig))
-        W[np.abs(W) < 1e-300] = 0.0
+
+        def whitener(par):
+            Sig = process_covariance(par, dt, discretisation)
+            if np.any(np.diag(Sig) <= 0) or par.q_vel <= 0:
+                raise ValueError(f"process noise must be positive, got q_pos={par.q_pos}, q_vel={par.q_vel}")
+            W = np.linalg.inv(np.linalg.cholesky(Sig))
+            W[np.abs(W) < 1e-300] = 0.0
+            return W
+
+        W = whitener(params)
         W0 = np.diag(1.0 / np.asarray(first_sigma, float))
-        WA = W @ A
         nb = T - 1
         # block rows: first-state prior, then one per transition
         blocks_r, blocks_c, vals = [], [], []
@@ -116,13 +145,23 @@ class Prior:
         vals.append(W0[ii, jj])
         if nb:
             k = np.arange(1, T)
-            for M, col_off in ((WA, -1), (-W, 0)):
-                mi, mj = np.nonzero(M)
+            # the whitener of each transition k-1 -> k (the alternative where ``alt`` says so)
+            Wk = np.broadcast_to(W, (nb, NS, NS)).copy()
+            if alt is not None:
+                par_alt, mask = alt
+                mask = np.asarray(mask, bool)
+                if mask.shape != (nb,):
+                    raise ValueError(f"alt mask needs one entry per transition ({nb}), got {mask.shape}")
+                Wk[mask] = whitener(par_alt)
+            mi, mj = np.nonzero(np.ones((NS, NS)))
+            for M, col_off in ((Wk @ A, -1), (-Wk, 0)):
                 r = (k[:, None] * NS + mi[None, :]).ravel()
                 c = ((k + col_off)[:, None] * NS + mj[None, :]).ravel()
-                blocks_r.append(r)
-                blocks_c.append(c)
-                vals.append(np.tile(M[mi, mj], nb))
+                v = M[:, mi, mj].ravel()
+                nz = v != 0
+                blocks_r.append(r[nz])
+                blocks_c.append(c[nz])
+                vals.append(v[nz])
         G = sp.csc_matrix(
             (np.concatenate(vals), (np.concatenate(blocks_r), np.concatenate(blocks_c))), shape=(NS * T, NS * T)
         )
@@ -184,9 +223,9 @@ class Bearings:
         return len(self.k)
 
     def positions(self, X: np.ndarray) -> np.ndarray:
-        """(J, 2) floor positions of the observed steps in trajectory X."""
-        ix, iy = pos_index(len(X) // NS)
-        return np.stack([X[ix[self.k]], X[iy[self.k]]], axis=1)
+        """(J, 2) floor positions of the observed steps in trajectory X (extra parameters after
+        the trajectory are ignored)."""
+        return np.stack([X[self.k * NS + IX], X[self.k * NS + IY]], axis=1)
 
     def depth(self, X: np.ndarray) -> np.ndarray:
         """Signed distance in front of the camera, n^T (x - p) (m), per observation."""

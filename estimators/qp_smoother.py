@@ -98,17 +98,36 @@ class QPSmoother(Estimator):
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
         self._validate()
         c = self.config
-        bearings = observations["bearings"]
         self.diagnostics_: dict[str, dict] = {}
-        if len(bearings) == 0:
+        grid = self.grid(observations, calibration)
+        if grid is None:
             return _empty_tracks(self.diagnostics_)
+        frames = []
+        for label in grid.labels:
+            k, cam_names, u = grid.of_label(label)
+            k0, k1 = (0, grid.T) if c.span == "recording" else (int(k.min()), int(k.max()) + 1)
+            X, diag = self._solve_label(k - k0, cam_names, u, k1 - k0, grid.dt, grid.cameras, grid.sigma, calibration)
+            self.diagnostics_[label] = diag
+            frames.append(track_frame(label, X, k0, k1, grid.dt))
+            if not diag["converged"]:
+                warnings.warn(f"qp_smoother: label {label!r} did not converge: {diag['reason']}", RuntimeWarning, stacklevel=2)
+        tracks = check_tracks(pd.concat(frames, ignore_index=True), "qp_smoother")
+        tracks.attrs["qp_smoother"] = self.diagnostics_
+        return tracks
+
+    def grid(self, observations: Observations, calibration: Calibration) -> "BearingGrid | None":
+        """The bearings checked and put on the camera frame grid (None: no bearings at all)."""
+        c = self.config
+        bearings = observations["bearings"]
+        if len(bearings) == 0:
+            return None
         unknown = sorted(set(bearings["camera"]) - set(calibration.cameras))
         if unknown:
-            raise EstimatorError(f"qp_smoother: bearings from camera(s) {unknown} not in the calibration")
+            raise EstimatorError(f"{self.name}: bearings from camera(s) {unknown} not in the calibration")
         cams = {n: calibration.cameras[n] for n in sorted(set(bearings["camera"]))}
         not_bearing = [n for n, cam in cams.items() if cam.kind == "overhead"]
         if not_bearing:
-            raise EstimatorError(f"qp_smoother: overhead camera(s) {not_bearing} cannot give bearings")
+            raise EstimatorError(f"{self.name}: overhead camera(s) {not_bearing} cannot give bearings")
         fps = max(cam.fps for cam in cams.values())
         dt = 1.0 / fps
         t_obs = bearings["t"].to_numpy(float)
@@ -116,48 +135,26 @@ class QPSmoother(Estimator):
         off = np.abs(t_obs - k_all * dt)
         if np.any(off > 0.25 * dt):
             raise EstimatorError(
-                f"qp_smoother: bearing times are not on the {fps:g} Hz camera frame grid (off by up to {off.max():.3f} s)"
+                f"{self.name}: bearing times are not on the {fps:g} Hz camera frame grid (off by up to {off.max():.3f} s)"
             )
         T_rec = max(int(np.rint(observations.duration / dt)), int(k_all.max()) + 1)
         sigma = c.sigma_px if c.sigma_px is not None else float(calibration.noise.get("bearing_sigma_px", 1.0))
-        frames = []
+        if not sigma > 0:
+            raise EstimatorError(f"{self.name}: the calibration's bearing_sigma_px is {sigma}; give sigma_px (> 0), the "
+                                 "noise the estimator assumes")
         # one trajectory per appearance label; a blob without a label ("": no colour votes, e.g. a
         # false detection) cannot be told apart and is left out
         labels = sorted(set(bearings["label"].astype(str)) - {""})
         if not labels:
-            raise EstimatorError("qp_smoother: every bearing is unlabelled (label \"\"); it needs appearance labels to tell people apart")
-        for label in labels:
-            m = (bearings["label"].astype(str) == label).to_numpy()
-            k = k_all[m]
-            k0, k1 = (0, T_rec) if c.span == "recording" else (int(k.min()), int(k.max()) + 1)
-            X, diag = self._solve_label(
-                k - k0, bearings["camera"].to_numpy(object)[m], bearings["u"].to_numpy(float)[m],
-                k1 - k0, dt, cams, sigma, calibration,
-            )
-            self.diagnostics_[label] = diag
-            t = (np.arange(k0, k1)) * dt
-            frames.append(
-                pd.DataFrame({
-                    "t": t, "track_id": label, "x": X[IX::NS], "y": X[IY::NS], "vx": X[IVX::NS], "vy": X[IVY::NS],
-                })
-            )
-            if not diag["converged"]:
-                warnings.warn(f"qp_smoother: label {label!r} did not converge: {diag['reason']}", RuntimeWarning, stacklevel=2)
-        tracks = check_tracks(pd.concat(frames, ignore_index=True), "qp_smoother")
-        tracks.attrs["qp_smoother"] = self.diagnostics_
-        return tracks
+            raise EstimatorError(f"{self.name}: every bearing is unlabelled (label \"\"); it needs appearance labels to tell people apart")
+        return BearingGrid(bearings, cams, dt, T_rec, k_all, sigma, labels)
 
     # ------------------------------------------------------------------------------------------
     def problem(self, k, cam_names, u, T: int, dt: float, cameras, sigma: float, calibration: Calibration):
         """The pieces of one label's problem: prior, bearings, fixed rows (C, l), iterate rows."""
         c = self.config
         fp = calibration.floorplan
-        centre = np.asarray(fp.outline, float).mean(axis=0) if fp is not None and len(fp.outline) else np.zeros(2)
-        prior = Prior.build(
-            T, dt, GaussMarkovParams(c.q_pos, c.q_vel), first_mean=(centre[0], 0.0, centre[1], 0.0),
-            first_sigma=(c.first_pos_sigma, c.first_vel_sigma, c.first_pos_sigma, c.first_vel_sigma),
-            discretisation=c.discretisation,
-        )
+        prior = self.prior(T, dt, calibration)
         obs = Bearings.from_arrays(k, cam_names, u, cameras, sigma, z_h=c.person_height)
         n = NS * T
         rows = []
@@ -178,6 +175,18 @@ class QPSmoother(Estimator):
         C = sp.vstack([r[0] for r in rows], format="csc") if rows else sp.csc_matrix((0, n))
         lower = np.concatenate([r[1] for r in rows]) if rows else np.zeros(0)
         return prior, obs, C, lower, extra
+
+    def prior(self, T: int, dt: float, calibration: Calibration, alt=None) -> Prior:
+        """The Gauss-Markov prior with the weak first-state prior about the room centre
+        (``alt``: looser process noise on some transitions, ``Prior.build``)."""
+        c = self.config
+        fp = calibration.floorplan
+        centre = np.asarray(fp.outline, float).mean(axis=0) if fp is not None and len(fp.outline) else np.zeros(2)
+        return Prior.build(
+            T, dt, GaussMarkovParams(c.q_pos, c.q_vel), first_mean=(centre[0], 0.0, centre[1], 0.0),
+            first_sigma=(c.first_pos_sigma, c.first_vel_sigma, c.first_pos_sigma, c.first_vel_sigma),
+            discretisation=c.discretisation, alt=alt,
+        )
 
     def initial_guess(self, obs: Bearings, T: int, cameras, origin=(0.0, 0.0)) -> np.ndarray:
         """The paper's initial iterate (sec. 6: unobserved points at the origin), or the "ray"
@@ -278,6 +287,32 @@ class QPSmoother(Estimator):
             "windows": len(summaries),
         }
         return X_out, d
+
+
+@dataclasses.dataclass(frozen=True)
+class BearingGrid:
+    """Bearings on the camera frame grid t_k = k dt, k = 0..T-1: ``k_all`` the step of every row
+    of ``bearings``; ``labels`` the appearance labels (one person each); ``sigma`` the pixel noise."""
+
+    bearings: pd.DataFrame
+    cameras: dict
+    dt: float
+    T: int
+    k_all: np.ndarray
+    sigma: float
+    labels: list[str]
+
+    def of_label(self, label: str):
+        """(k, camera names, u) of one label's bearings."""
+        m = (self.bearings["label"].astype(str) == label).to_numpy()
+        return self.k_all[m], self.bearings["camera"].to_numpy(object)[m], self.bearings["u"].to_numpy(float)[m]
+
+
+def track_frame(label: str, X: np.ndarray, k0: int, k1: int, dt: float) -> pd.DataFrame:
+    """One label's track rows from the trajectory X over steps k0..k1-1."""
+    t = np.arange(k0, k1) * dt
+    n = NS * (k1 - k0)
+    return pd.DataFrame({"t": t, "track_id": label, "x": X[IX:n:NS], "y": X[IY:n:NS], "vx": X[IVX:n:NS], "vy": X[IVY:n:NS]})
 
 
 def feasible_origin(fp, margin: float) -> tuple[float, float]:

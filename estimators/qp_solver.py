@@ -1,6 +1,10 @@
 """Gauss-Newton with one sparse QP per step (Rahimi et al. eqs. 8-10), solved by osqp.
 
 Problem: minimise eps(X) = 0.5 ||r(X)||^2, r = [G X - g; (u(X) - y) / sigma]  s.t.  C X >= l.
+X is the trajectory, optionally followed by extra parameters with a prior of their own
+(``Prior.with_parameters``); the observation model ``obs`` is anything with ``residual(X)``,
+``jacobian(X, n)`` and ``len`` (``qp_model.Bearings``, or a stack of residual blocks such as
+``fusion_model.Residuals``).
 
 Each step linearises the bearing residuals about the iterate X0 (eq. 10) and solves, for the
 step dX, the constrained least-squares problem in the *lifted* form (the prior residual
@@ -399,13 +403,14 @@ def solve_map(
     """
     s = settings or SolverSettings()
     t_start = time.perf_counter()
-    n = NS * prior.T
+    n = prior.n  # trajectory (NS T) and any extra parameters (``Prior.with_parameters``)
+    nx = NS * prior.T
     X = np.asarray(X0, float).copy()
     if X.shape != (n,):
         raise ValueError(f"initial trajectory has shape {X.shape}, expected ({n},)")
     if C is None:
         C, lower = sp.csc_matrix((0, n)), np.zeros(0)
-    scale = np.tile([s.pos_scale, s.vel_scale, s.pos_scale, s.vel_scale], prior.T)
+    scale = np.concatenate([np.tile([s.pos_scale, s.vel_scale, s.pos_scale, s.vel_scale], prior.T), prior.par_scale])
     S = sp.diags(scale)
     GS = (prior.G @ S).tocsc()
     res = SolveResult(X=X, converged=False, reason="", iterations=0)
@@ -460,7 +465,7 @@ def solve_map(
         res.cost.append(eps_now)
         if s.keep_iterates:
             res.iterates.append(X.copy())
-        step_pos = float(np.max(np.abs(alpha * dX[np.r_[0:n:NS, 2:n:NS]]))) if n else 0.0
+        step_pos = float(np.max(np.abs(alpha * dX[np.r_[0:nx:NS, 2:nx:NS]]))) if nx else 0.0
         if step_pos < s.tol_step:
             res.converged, res.reason = True, f"step below {s.tol_step} m"
             break

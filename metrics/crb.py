@@ -72,26 +72,35 @@ def smoothed_covariances(A, Q, P0, T: int, k, H, sigma: float) -> np.ndarray:
     measurement updates P by the Joseph form P <- (I - K h) P (I - K h)^T + sigma^2 K K^T,
     K = P h^T / (h P h^T + sigma^2), and the smoother gain is a linear solve, not an inverse.
     """
+    H = np.asarray(H, float).reshape(-1, np.asarray(A).shape[0])
+    return smoothed_covariances_rows(A, Q, P0, T, k, H / sigma)
+
+
+def smoothed_covariances_rows(A, Q, P0, T: int, k, H) -> np.ndarray:
+    """``smoothed_covariances`` for whitened rows h (unit noise) of any state size n, and a process
+    noise Q that is one (n, n) matrix or one per transition ((T - 1, n, n)). Returns (T, n, n)."""
     A, Q, P0 = (np.asarray(M, float) for M in (A, Q, P0))
+    n = A.shape[0]
     k = np.asarray(k, int)
-    H = np.asarray(H, float).reshape(-1, 4)
+    H = np.asarray(H, float).reshape(-1, n)
+    Qk = np.broadcast_to(Q, (max(T - 1, 0), n, n)) if Q.ndim == 2 else Q
     order = np.argsort(k, kind="stable")
     k, H = k[order], H[order]
     starts = np.searchsorted(k, np.arange(T + 1))
-    eye = np.eye(4)
-    Pf = np.empty((T, 4, 4))
-    Pp = np.empty((T, 4, 4))
+    eye = np.eye(n)
+    Pf = np.empty((T, n, n))
+    Pp = np.empty((T, n, n))
     Pp[0] = P0
     for t in range(T):
         P = Pp[t]
         for h in H[starts[t] : starts[t + 1]]:
             Ph = P @ h
-            K = Ph / (h @ Ph + sigma**2)
+            K = Ph / (h @ Ph + 1.0)
             IKH = eye - np.outer(K, h)
-            P = IKH @ P @ IKH.T + sigma**2 * np.outer(K, K)
+            P = IKH @ P @ IKH.T + np.outer(K, K)
         Pf[t] = P
         if t + 1 < T:
-            Pp[t + 1] = A @ P @ A.T + Q
+            Pp[t + 1] = A @ P @ A.T + Qk[t]
     Ps = Pf.copy()
     for t in range(T - 2, -1, -1):
         Ck = np.linalg.solve(Pp[t + 1], A @ Pf[t]).T  # P_t|t A^T P_t+1|t^{-1} (both symmetric)
@@ -176,3 +185,101 @@ def rmse(xy_est, xy_true) -> float:
 def rmse_over_crb(xy_est, xy_true, bound: TrajectoryCRB) -> float:
     """RMSE / sqrt(CRB): 1 for an efficient estimator, larger for one that falls short of the bound."""
     return rmse(xy_est, xy_true) / bound.sqrt_crb
+
+
+# --- the bound with the phone (issue 13) -----------------------------------------------------
+@dataclass(frozen=True)
+class PhoneRows:
+    """The phone's factors as the fusion smoother models them (``estimators/fusion_model.py``), per
+    grid step k: ``walking`` (T,) bool; ``cadence`` f_k (T,) Hz, NaN where none; noise of the speed
+    row ``sigma_a`` and of the heading row ``sigma_c`` (T,) m/s; ``sigma_stop`` m/s; the step-length
+    law's ``f0``, ``beta`` and the priors of the step length l and heading offset delta
+    (``sigma_l`` m, ``sigma_delta`` rad); ``loose``: (T - 1,) transitions whose velocity noise is
+    ``q_vel_phone`` (where the phone measures the velocity)."""
+
+    walking: np.ndarray
+    cadence: np.ndarray
+    sigma_a: np.ndarray
+    sigma_c: np.ndarray
+    sigma_stop: float
+    sigma_l: float
+    sigma_delta: float
+    loose: np.ndarray
+    q_vel_phone: float
+
+
+def _gm_Q(q_pos: float, q_vel: float, dt: float, discretisation: str) -> np.ndarray:
+    if discretisation == "paper":
+        return np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
+    if discretisation == "exact":
+        return np.kron(np.eye(2), [[q_pos * dt + q_vel * dt**3 / 3, q_vel * dt**2 / 2], [q_vel * dt**2 / 2, q_vel * dt]])
+    raise ValueError(f"discretisation must be 'exact' or 'paper', got {discretisation!r}")
+
+
+def trajectory_crb_phone(
+    xy_true,
+    vxy_true,
+    k,
+    cam_names,
+    cameras: dict[str, Camera],
+    sigma_px: float,
+    dt: float,
+    q_pos: float,
+    q_vel: float,
+    phone: PhoneRows | None,
+    first_sigma=(100.0, 10.0, 100.0, 10.0),
+    z_h: float = 0.9,
+    discretisation: str = "paper",
+) -> TrajectoryCRB:
+    """The trajectory bound with the phone's factors (``phone``; None: bearings alone, the same
+    prior). State [x, vx, y, vy, l, delta] with l, delta constant; at the true state (true
+    velocity v_k, direction e_k = v_k / |v_k|, normal n_k, true offset 0) the phone rows are
+
+        speed    h = [0, e_x, 0, e_y, -f_k, -(n_k . v_k)] / sigma_a,k     (walking, cadence f_k)
+        heading  h = [0, n_x, 0, n_y, 0, e_k . v_k] / sigma_c,k             (walking)
+        stopped  h = [0, 1, 0, 0, 0, 0] / sigma_stop and [0, 0, 0, 1, 0, 0] / sigma_stop
+
+    (the robust losses are left out: a Gaussian bound). Returns the position bound as
+    ``trajectory_crb`` does."""
+    xy_true = np.asarray(xy_true, float)
+    vxy = np.asarray(vxy_true, float)
+    T = len(xy_true)
+    k = np.asarray(k, int)
+    n = 6
+    A = np.eye(n)
+    A[:4, :4] = np.kron(np.eye(2), np.array([[1.0, dt], [0.0, 1.0]]))
+    Q0 = np.zeros((n, n))
+    Q0[:4, :4] = _gm_Q(q_pos, q_vel, dt, discretisation)
+    Qk = np.broadcast_to(Q0, (max(T - 1, 0), n, n)).copy()
+    P0 = np.zeros((n, n))
+    P0[:4, :4] = np.diag(np.asarray(first_sigma, float) ** 2)
+    P0[4, 4], P0[5, 5] = 1.0, 1.0  # unused without the phone (no row touches l, delta)
+    Hb = np.zeros((len(k), n))
+    if len(k):
+        Hb[:, :4] = bearing_jacobians(cameras, cam_names, xy_true[k], z_h) / sigma_px
+    rows_k, rows_H = [k], [Hb]
+    if phone is not None:
+        P0[4, 4], P0[5, 5] = phone.sigma_l**2, phone.sigma_delta**2
+        if T > 1 and np.any(phone.loose):
+            Qk[np.asarray(phone.loose, bool), :4, :4] = _gm_Q(q_pos, phone.q_vel_phone, dt, discretisation)
+        speed = np.hypot(vxy[:, 0], vxy[:, 1])
+        e = vxy / np.maximum(speed, 1e-9)[:, None]
+        nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
+        walk = np.asarray(phone.walking, bool)
+        kw = np.flatnonzero(walk)
+        has = kw[np.isfinite(phone.cadence[kw])]
+        Ha = np.zeros((len(has), n))
+        Ha[:, 1], Ha[:, 3], Ha[:, 4] = e[has, 0], e[has, 1], -phone.cadence[has]
+        Ha[:, 5] = -np.einsum("ij,ij->i", nrm[has], vxy[has])
+        Ha /= phone.sigma_a[has][:, None]
+        Hc = np.zeros((len(kw), n))
+        Hc[:, 1], Hc[:, 3], Hc[:, 5] = nrm[kw, 0], nrm[kw, 1], speed[kw]
+        Hc /= phone.sigma_c[kw][:, None]
+        ks = np.flatnonzero(~walk)
+        Hs = np.zeros((2 * len(ks), n))
+        Hs[: len(ks), 1] = Hs[len(ks):, 3] = 1.0 / phone.sigma_stop
+        rows_k += [has, kw, np.concatenate([ks, ks])]
+        rows_H += [Ha, Hc, Hs]
+    cov = smoothed_covariances_rows(A, Qk, P0, T, np.concatenate(rows_k), np.concatenate(rows_H))
+    pos_var = cov[:, 0, 0] + cov[:, 2, 2]
+    return TrajectoryCRB(cov=cov, pos_var=pos_var, crb=float(np.mean(pos_var)))

@@ -264,6 +264,22 @@ class SensorSpec:
     flow_sigma_px_s: float = 5.0
     flow_min_px_s: float = 3.0
     perception: str = "fitted"
+    # phone errors (``sim/phone_errors.py``; simulator only): indoor magnetic disturbance (deg at
+    # a wall, decaying over the range, m), accelerometer bias (m/s^2, per axis), the phone's yaw
+    # offset and tilt in the pocket (deg, largest), phone-in-hand swings (episodes per minute,
+    # amplitude deg)
+    mag_disturbance_deg: float = 0.0
+    mag_disturbance_range_m: float = 1.0
+    accel_bias: float = 0.0
+    pocket_yaw_deg: float = 0.0
+    pocket_tilt_deg: float = 0.0
+    swing_per_min: float = 0.0
+    swing_deg: float = 30.0
+
+    def phone_errors(self) -> bool:
+        """Whether any phone error is switched on."""
+        return any(v > 0 for v in (self.mag_disturbance_deg, self.accel_bias, self.pocket_yaw_deg,
+                                   self.pocket_tilt_deg, self.swing_per_min))
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ import pandas as pd
 from trackroom.scenes.loader import SceneError, scene_sha256, scene_toml
 from trackroom.scenes.spec import Scene
 
-from . import analytic, imu
+from . import analytic, imu, phone_errors
 from trackroom.provenance import versions
 from trackroom.recording import SENSING_MODES, Calibration, Observations, Recording, Truth
 from .walkers import GM_DISCRETISATION, Trajectories, plan_trajectories
@@ -43,7 +43,8 @@ from .world import build_world
 # ``SensorSpec`` fields that configure the simulated detectors (a privacy camera's blindness to
 # people slower than ``still_speed``, the flow tracker's ``flow_min_px_s``): the simulator's own
 # knobs, not measurements, so they stay out of ``calibration.noise`` (calibration/sensors.json).
-SIMULATOR_ONLY = ("still_speed", "flow_min_px_s", "perception")
+SIMULATOR_ONLY = ("still_speed", "flow_min_px_s", "perception", "mag_disturbance_deg", "mag_disturbance_range_m",
+                  "accel_bias", "pocket_yaw_deg", "pocket_tilt_deg", "swing_per_min", "swing_deg")
 
 
 def perception_model(scene: Scene):
@@ -234,6 +235,11 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
             rays = pool.submit(occlusion.finish, progress=tick)
             cameras = pool.submit(camera_tables, scene, traj, geometry, occlusion, cam_rngs, model)  # after the rays
         readings = imu.read_phones(world, traj, steps, progress=tick)
+        if scene.sensors.phone_errors():
+            # a stream of its own (the fifth child): the other streams, and so the rest of the
+            # recording, are the same with or without phone errors
+            readings = phone_errors.apply(readings, traj.pos[:, steps, :2], traj.t[steps], scene.floorplan, scene.sensors,
+                                          rng.spawn(1)[0])
         tables = {"imu": imu.imu_table(readings, traj.t[steps], pids, scene, imu_rng)}
         truth_tables = {"people": truth_people(scene, traj)}
         if occlusion is not None:

@@ -33,6 +33,7 @@ CASES = {
     "ekf": ("overhead_lab", ["walkers.count=2"], {}),
     "ekf_bearings": ("bearing_hall", ["walkers.count=2"], {}),
     "qp_smoother": ("bearing_hall", ["walkers.count=2"], {}),
+    "fusion_smoother": ("bearing_hall", ["walkers.count=2"], {}),
     "hmm_matcher": ("overhead_lab", ["walkers.count=2"], {}),
     "target_planes": ("occlusion_lab", [], {"multi_person": True}),
 }

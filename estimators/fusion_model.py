@@ -1,0 +1,276 @@
+"""Phone factors on a trajectory's velocity, for the fusion smoother (``fusion_smoother``).
+
+Variables: the trajectory X (state s_k = [x, vx, y, vy], ``qp_model``) followed by two per-person
+parameters theta = [l, delta]: l the step length at the reference cadence f_0 (m) and delta the
+phone's yaw offset in the pocket (rad; walking direction = phone yaw - delta). Their priors are
+extra rows of the prior factor (``Prior.with_parameters``).
+
+For grid step k with phone heading psi_k (``phone_motion``), unit walking direction
+e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
+
+- **speed from cadence** (walking, a cadence f_k): step length L(f) = l + beta (f - f_0) (linear in
+  cadence, beta a population constant), speed s_k = f_k L(f_k);
+      r_a = (e_k . v_k - s_k) / sigma_a,k,     sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2
+  (people slow down in turns faster than a cadence over half a second follows: tau and omega_k
+  as below)
+- **heading** (walking): the velocity's component across the phone heading, a von Mises heading
+  error of concentration kappa in its small-angle (Gaussian) form, sigma_psi = 1 / sqrt(kappa),
+  widened in turns, where the body (and the phone with it) turns a little before or after the
+  path: sigma_psi,k^2 = sigma_psi^2 + (tau omega_k)^2, omega_k the gyro's yaw rate, tau the lag:
+      r_c = (n_k . v_k) / (s~_k sigma_psi,k)
+  with s~_k the speed the priors predict (f_k L(f_k) at the prior l, or ``nominal_speed`` where
+  no cadence was found), so that the weights stay fixed.
+- **stopped** (the gait model says stopped): r_s = v_k / sigma_stop (two rows).
+- **gyro** (optional, walking at k and k+1): the heading change equals the integrated yaw rate
+  dpsi_k, whatever delta and the magnetic field:
+      r_g = (n~_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~_k sigma_gyro)
+  with n~ the normal of the phone heading (fixed, so the row is linear in v).
+
+Robust loss (missed steps, a phone taken out of the pocket): every row r goes through Huber's
+rho with threshold c (in sigmas); the bearings, whose detector reports clipped people at the
+image border and the odd false detection, through Cauchy's. A robust rho is written as a
+least-squares residual so that each Gauss-Newton step stays one QP (Triggs et al., "Bundle
+adjustment - a modern synthesis", sec. 4.3):
+    r~ = sign(r) sqrt(2 rho(r)),   J~ = (rho'(r) / r~) J,
+so 0.5 ||r~||^2 = sum rho(r) is the cost the line search sees.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .qp_model import IVX, IVY, NS
+
+N_PAR = 2  # [l, delta]
+IL, ID = 0, 1
+
+
+@dataclass(frozen=True)
+class PhoneFactorSettings:
+    """Noise levels and the step-length law (module docstring); angles in radians."""
+
+    f0: float = 1.8  # reference cadence of the step length l, Hz
+    beta: float = 0.62  # step length slope in cadence, m / Hz
+    sigma_speed: float = 0.05  # m/s
+    rel_speed: float = 0.08  # relative speed error from cadence
+    sigma_psi: float = 0.15  # rad
+    sigma_stop: float = 0.05  # m/s
+    sigma_gyro: float = 0.05  # rad per grid step
+    nominal_speed: float = 0.8  # m/s, heading weight where no cadence was found
+    huber: float = 2.0  # robust threshold, sigmas
+    turn_lag: float = 0.3  # s, tau
+    loss: str = "huber"
+    gyro: bool = False
+
+
+LOSSES = ("huber", "cauchy", "geman_mcclure", "l2")
+
+
+def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.ndarray, np.ndarray]:
+    """(r~, w): r~ = sign(r) sqrt(2 rho(r)) and the row weight w = rho'(r) / r~ (module docstring).
+
+    huber: rho = r^2 / 2 for |r| <= c, c |r| - c^2 / 2 beyond (convex, bounded influence);
+    cauchy: rho = c^2 / 2 log(1 + (r / c)^2) (redescending: a gross outlier loses its pull);
+    geman_mcclure: rho = (c^2 / 2) r^2 / (c^2 + r^2) (bounded by c^2 / 2: a false detection costs
+    the same wherever the path goes, so nothing is gained by bending the path to explain it);
+    l2: rho = r^2 / 2.
+    """
+    r = np.asarray(r, float)
+    if loss == "l2":
+        return r, np.ones_like(r)
+    a = np.abs(r)
+    rt = r.copy()
+    w = np.ones_like(r)
+    if loss == "huber":
+        big = a > c
+        if big.any():
+            rt[big] = np.sign(r[big]) * np.sqrt(2.0 * c * a[big] - c * c)
+            w[big] = c * np.sign(r[big]) / rt[big]
+        return rt, w
+    if loss == "cauchy":
+        nz = a > 1e-12 * c
+        q = (r[nz] / c) ** 2
+        rt[nz] = np.sign(r[nz]) * c * np.sqrt(np.log1p(q))
+        w[nz] = (r[nz] / (1.0 + q)) / rt[nz]
+        return rt, w
+    if loss == "geman_mcclure":
+        nz = a > 1e-12 * c
+        d = c * c + r[nz] ** 2
+        rt[nz] = np.sign(r[nz]) * c * a[nz] / np.sqrt(d)
+        w[nz] = (c**4 * r[nz] / d**2) / rt[nz]
+        return rt, w
+    raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+
+
+class Robust:
+    """A residual block (``raw_residual(X)`` and ``raw_jacobian(X, n)``, or a ``qp_model.Bearings``)
+    seen through a robust loss: 0.5 ||r~||^2 = sum rho(r / scale). ``scale`` (optional, per row)
+    widens the noise of some rows (e.g. bearings at the image border)."""
+
+    def __init__(self, block, c: float, loss: str = "huber", scale: np.ndarray | None = None):
+        if loss not in LOSSES:
+            raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+        self.block, self.c, self.loss = block, float(c), loss
+        self.inv = None if scale is None else 1.0 / np.asarray(scale, float)
+
+    def __len__(self) -> int:
+        return len(self.block)
+
+    def _r(self, X):
+        r = self.block.raw_residual(X) if hasattr(self.block, "raw_residual") else self.block.residual(X)
+        return r if self.inv is None else r * self.inv
+
+    def residual(self, X: np.ndarray) -> np.ndarray:
+        return robust_residual(self._r(X), self.c, self.loss)[0]
+
+    def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
+        _, w = robust_residual(self._r(X), self.c, self.loss)
+        J = self.block.raw_jacobian(X, n) if hasattr(self.block, "raw_jacobian") else self.block.jacobian(X, n)
+        return (sp.diags(w if self.inv is None else w * self.inv) @ J).tocsc()
+
+
+@dataclass
+class PhoneFactors:
+    """The phone rows of one person: walking steps ``kw`` with heading ``psi`` and cadence ``f``
+    (NaN: none), stopped steps ``ks``, gyro pairs ``kg`` -> ``kg + 1`` with heading change ``dpsi``.
+    ``T``: trajectory steps (the parameters sit at columns NS T, NS T + 1). ``l_prior``: the prior
+    mean of l, for the fixed weights."""
+
+    T: int
+    kw: np.ndarray
+    psi: np.ndarray
+    f: np.ndarray
+    ks: np.ndarray
+    kg: np.ndarray
+    dpsi: np.ndarray
+    psi_g: np.ndarray
+    l_prior: float
+    s: PhoneFactorSettings
+    omega: np.ndarray | None = None  # yaw rate at the walking steps, rad/s (None: no widening)
+
+    def __post_init__(self):
+        f = self.f
+        has = np.isfinite(f)
+        self.has_f = has
+        nominal = np.full(len(f), self.s.nominal_speed)
+        nominal[has] = np.maximum(f[has] * (self.l_prior + self.s.beta * (f[has] - self.s.f0)), 0.1)
+        self.s_nom = nominal
+        turn = np.zeros(len(f)) if self.omega is None else self.s.turn_lag * self.omega
+        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2)
+        sig_psi = self.s.sigma_psi
+        if self.omega is not None:
+            sig_psi = np.sqrt(sig_psi**2 + (self.s.turn_lag * self.omega) ** 2)
+        self.sig_c = np.maximum(nominal, 0.2) * sig_psi
+        self.ia = np.flatnonzero(has)  # along-track rows exist only with a cadence
+        self.sig_g = np.maximum(self.s.nominal_speed, 0.2) * self.s.sigma_gyro
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.ia) + len(self.kw) + 2 * len(self.ks) + (len(self.kg) if self.s.gyro else 0)
+
+    def __len__(self) -> int:
+        return self.n_rows
+
+    # raw (non-robust) rows ------------------------------------------------------------------
+    def _raw(self, X: np.ndarray):
+        """Raw whitened residuals and their Jacobian as (rows, cols, vals) triplets."""
+        s, T = self.s, self.T
+        l, delta = X[NS * T + IL], X[NS * T + ID]
+        cl, cd = NS * T + IL, NS * T + ID
+        res, R, C, V = [], [], [], []
+        row0 = 0
+        # along-track speed and cross-track heading. With a cadence both are read relative to
+        # the speed the step length implies, s_k(l) (their sigmas scale with s_k(l) / s~_k): a
+        # path shrunk towards a camera together with l then costs the phone rows nothing, so
+        # only the step length's prior, not the rows' noise model, decides the scale
+        ka, fa = self.kw[self.ia], self.f[self.ia]
+        th = self.psi[self.ia] - delta
+        e = np.stack([np.cos(th), np.sin(th)], axis=1)
+        nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
+        v = np.stack([X[ka * NS + IVX], X[ka * NS + IVY]], axis=1)
+        ev, nv = np.einsum("ij,ij->i", e, v), np.einsum("ij,ij->i", nrm, v)
+        speed = np.maximum(fa * (l + s.beta * (fa - s.f0)), 0.1)
+        ratio = speed / self.s_nom[self.ia]  # s_k(l) / s~_k
+        sa = self.sig_a[self.ia] * ratio
+        res.append((ev - speed) / sa)
+        # r = (e.v - s) / (c s), c = sig_a / s~:  dr/ds = -(e.v) / (c s^2), ds/dl = f
+        rows = row0 + np.arange(len(ka))
+        R += [rows, rows, rows, rows]
+        C += [ka * NS + IVX, ka * NS + IVY, np.full(len(ka), cl), np.full(len(ka), cd)]
+        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * fa / sa, -nv / sa]
+        row0 += len(ka)
+        # cross-track heading (rows with a cadence relative to s_k(l); the others to s~_k)
+        kw = self.kw
+        th = self.psi - delta
+        e = np.stack([np.cos(th), np.sin(th)], axis=1)
+        nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
+        v = np.stack([X[kw * NS + IVX], X[kw * NS + IVY]], axis=1)
+        ev, nv = np.einsum("ij,ij->i", e, v), np.einsum("ij,ij->i", nrm, v)
+        sc = self.sig_c.copy()
+        dl = np.zeros(len(kw))
+        sc[self.ia] *= ratio
+        dl[self.ia] = -(nv[self.ia] / speed) * fa / sc[self.ia]
+        res.append(nv / sc)
+        rows = row0 + np.arange(len(kw))
+        R += [rows, rows, rows, rows]
+        C += [kw * NS + IVX, kw * NS + IVY, np.full(len(kw), cd), np.full(len(kw), cl)]
+        V += [nrm[:, 0] / sc, nrm[:, 1] / sc, ev / sc, dl]
+        row0 += len(kw)
+        # stopped
+        ks = self.ks
+        for iv in (IVX, IVY):
+            res.append(X[ks * NS + iv] / s.sigma_stop)
+            rows = row0 + np.arange(len(ks))
+            R.append(rows)
+            C.append(ks * NS + iv)
+            V.append(np.full(len(ks), 1.0 / s.sigma_stop))
+            row0 += len(ks)
+        # gyro: heading change between consecutive walking steps
+        if s.gyro and len(self.kg):
+            k0 = self.kg
+            c, sn = np.cos(self.dpsi), np.sin(self.dpsi)
+            n1 = np.stack([-np.sin(self.psi_g), np.cos(self.psi_g)], axis=1)  # normal at k0 + 1
+            # n1 . (v1 - R v0):  R v0 = (c vx - s vy, s vx + c vy)
+            a_x = -(n1[:, 0] * c + n1[:, 1] * sn)
+            a_y = -(-n1[:, 0] * sn + n1[:, 1] * c)
+            v0x, v0y = X[k0 * NS + IVX], X[k0 * NS + IVY]
+            v1x, v1y = X[(k0 + 1) * NS + IVX], X[(k0 + 1) * NS + IVY]
+            sg = self.sig_g
+            res.append((n1[:, 0] * v1x + n1[:, 1] * v1y + a_x * v0x + a_y * v0y) / sg)
+            rows = row0 + np.arange(len(k0))
+            R += [rows] * 4
+            C += [(k0 + 1) * NS + IVX, (k0 + 1) * NS + IVY, k0 * NS + IVX, k0 * NS + IVY]
+            V += [n1[:, 0] / sg, n1[:, 1] / sg, a_x / sg, a_y / sg]
+            row0 += len(k0)
+        return np.concatenate(res), np.concatenate(R), np.concatenate(C), np.concatenate(V), row0
+
+    def raw_residual(self, X: np.ndarray) -> np.ndarray:
+        return self._raw(X)[0]
+
+    def raw_jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
+        _, R, C, V, m = self._raw(X)
+        return sp.csc_matrix((V, (R, C)), shape=(m, n))
+
+    def robust(self) -> Robust:
+        """These rows through Huber's loss (threshold ``huber`` sigmas)."""
+        return Robust(self, self.s.huber, self.s.loss)
+
+
+class Residuals:
+    """A stack of residual blocks seen by ``qp_solver.solve_map`` as one observation model."""
+
+    def __init__(self, *blocks):
+        self.blocks = [b for b in blocks if b is not None]
+
+    def __len__(self) -> int:
+        return int(sum(len(b) for b in self.blocks))
+
+    def residual(self, X: np.ndarray) -> np.ndarray:
+        parts = [b.residual(X) for b in self.blocks if len(b)]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
+        parts = [b.jacobian(X, n) for b in self.blocks if len(b)]
+        return sp.vstack(parts, format="csc") if parts else sp.csc_matrix((0, n))

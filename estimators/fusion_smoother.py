@@ -1,0 +1,412 @@
+"""``fusion_smoother``: the Rahimi MAP smoother with the phone each person carries.
+
+Bearing-only tracking with sparse non-overlapping cameras leaves depth unobservable between
+views (Rahimi et al. Fig. 1a: with the target's speed known, one camera fixes depth). Every
+walker carries a phone, and a phone tells how its carrier moves: walking or stopped (the gait
+model's bobbing feature), the walking direction (tilt-compensated magnetometer heading, up to the
+phone's yaw offset in the pocket), the speed (step cadence times the person's step length) and
+the turn rate (gyro). This estimator adds those cues to the QP smoother's problem as residuals on
+the trajectory's velocity (``fusion_model.PhoneFactors``), with the step length l and the heading
+offset delta of each person estimated jointly (``Prior.with_parameters``), so that each
+Gauss-Newton step is still one sparse QP (``qp_solver.solve_map``, the same prior, bearing model,
+field-of-view and wall constraints as ``qp_smoother``, which this class extends).
+
+Phones are matched to bearing tracks, not assumed. For every appearance label h the plain MAP
+(no phone, the bearings through the same robust loss) has cost E(h); for every phone i the phone-only problem has cost E(i); the fused MAP
+of (h, i) has cost E(h, i). The mismatch
+
+    D(h, i) = E(h, i) - E(h) - E(i)   (>= 0 up to solver tolerance; ~ chi^2 / 2 for the right phone)
+
+is how much the two explanations contradict each other. ``linear_sum_assignment`` minimises the
+total D over labels and phones, with one "no phone" column per label at D = ``match_max`` times
+the label's bearing count, so a person without a phone (or whose best phone contradicts the
+cameras) keeps the plain prior: exactly the ``qp_smoother`` answer with the same parameters.
+The claimed phone is the output's ``phone_id``.
+
+The initial iterate of a fused solve is dead reckoning aligned to the bearings: for each heading
+offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integrated from the phone is
+linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
+(``qp_model.Bearings``: (a - u b) . x + (c - u d) = 0), so (p_0, l) is a small least-squares fit;
+the offset with the least residual starts the Gauss-Newton iterations.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pandas as pd
+import scipy.sparse as sp
+from scipy.optimize import linear_sum_assignment
+
+from trackroom.recording import Calibration, Observations
+
+from .base import EstimatorError, check_tracks, param, register
+from .fusion_model import ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust
+from .gait import GaitModel, load_default
+from .phone_motion import MotionSettings, PhoneMotion, phone_motion
+from trackroom.scenes.spec import GaussMarkovParams
+
+from .qp_model import IVX, IVY, IX, IY, NS, Bearings, Prior
+from .qp_smoother import QPSmoother, feasible_origin, track_frame
+from .qp_solver import SolveResult, solve_map
+
+
+EVIDENCE_ITER = 6  # Gauss-Newton steps of the no-phone and phone-only solves (``_evidence_settings``)
+
+
+@register
+class FusionSmoother(QPSmoother):
+    """QP smoother + phone factors (heading, cadence speed, walking/stopped, gyro), phones matched to labels."""
+
+    name = "fusion_smoother"
+    description = ("MAP trajectory from bearings and the carrier's phone (heading, step cadence, gait), phones matched "
+                   "to bearing tracks (Rahimi 2004 + phone factors)")
+    requires = ("bearings",)
+
+    @dataclasses.dataclass
+    class Config(QPSmoother.Config):
+        """The QP smoother's parameters (a walker-like prior by default: the phone gives the
+        velocity, the prior only its smoothness) and the phone factors' (``fusion_model``)."""
+
+        q_pos: float = param(1e-4, "Gauss-Markov process noise of position per second, m^2/s")
+        q_vel: float = param(0.5, "Gauss-Markov process noise of velocity per second, m^2/s^3 (a walker turning "
+                                  "at 1 m/s; chosen on development seeds, docs/fusion_smoother.md)")
+        see_walls: bool = param(False, "with walls: observed points between their camera and the first wall on their ray "
+                                       "(qp_walls.ray_limits); off here: a false detection's ray would be a hard "
+                                       "constraint that no robust loss can discount (office_floor: 6-10 m with it, "
+                                       "0.2-0.4 m without)")
+        discretisation: str = param("paper", '"paper" (default here: diag(q_pos dt, q_vel dt), positions tied to '
+                                             'x + dt v whatever q_vel is) or "exact"; see qp_model.process_covariance')
+        q_vel_phone: float = param(5.0, "process noise of velocity where the phone measures it (a cadence), "
+                                        "m^2/s^3 (see phone_prior)")
+        gait_model: str = param("", 'file: gait-model JSON (`trackroom train-gait`); "": the bundled one')
+        step_length: float = param(0.7, "prior mean of the person's step length at the reference cadence, m")
+        step_length_sigma: float = param(0.1, "prior std of the step length, m")
+        step_length_min: float = param(0.3, "least step length (a constraint), m")
+        cadence_ref: float = param(1.8, "reference cadence of step_length, Hz")
+        step_length_slope: float = param(0.62, "step length growth with cadence, m/Hz (population constant; fitted on "
+                                               "development recordings, docs/fusion_smoother.md)")
+        offset_sigma_deg: float = param(180.0, "prior std of the phone's yaw offset in the pocket, deg")
+        heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
+        speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
+        speed_rel: float = param(0.08, "relative speed noise of cadence x step length")
+        stop_sigma: float = param(0.05, "velocity noise while the gait model says stopped, m/s")
+        nominal_speed: float = param(0.8, "walking speed assumed where no cadence was found, m/s")
+        huber: float = param(2.0, "threshold of the phone rows' robust loss, in sigmas")
+        phone_loss: str = param("huber", 'robust loss of the phone rows: "huber", "cauchy" or "l2"')
+        bearing_loss: str = param("geman_mcclure", 'robust loss of the bearings with a phone: "geman_mcclure" (bounded: '
+                                                   'a false detection costs the same wherever the path goes), '
+                                                   '"cauchy", "huber" or "l2"')
+        bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
+        border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
+        border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
+        turn_lag_s: float = param(0.3, "heading noise in turns: the body turns this long before or after the path "
+                                       "(sigma widened by the gyro's yaw rate times this), s")
+        gyro: bool = param(False, "add the gyro's heading change between frames")
+        gyro_sigma_deg: float = param(3.0, "gyro heading-change noise per camera frame, deg")
+        offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
+        match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
+        match_max: float = param(4.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats (right phones: "
+                                      "at most 3.0 on development seeds, docs/fusion_smoother.md)")
+
+    # ------------------------------------------------------------------------------------------
+    def _validate(self) -> None:
+        super()._validate()
+        c = self.config
+        if c.window_s > 0 or c.span != "recording":
+            raise EstimatorError("fusion_smoother: only the batch smoother over the recording (window_s=0, "
+                                 'span="recording") is implemented')
+        for key in ("step_length", "step_length_sigma", "cadence_ref", "offset_sigma_deg", "heading_sigma_deg",
+                    "speed_sigma", "stop_sigma", "nominal_speed", "huber", "gyro_sigma_deg", "match_max"):
+            if not getattr(c, key) > 0:
+                raise EstimatorError(f"fusion_smoother: {key} must be positive, got {getattr(c, key)}")
+        if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
+            raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
+        if c.speed_rel < 0 or c.offset_grid < 1:
+            raise EstimatorError("fusion_smoother: need speed_rel >= 0 and offset_grid >= 1")
+
+    def factor_settings(self) -> PhoneFactorSettings:
+        c = self.config
+        return PhoneFactorSettings(
+            f0=c.cadence_ref, beta=c.step_length_slope, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
+            sigma_psi=np.radians(c.heading_sigma_deg), sigma_stop=c.stop_sigma, sigma_gyro=np.radians(c.gyro_sigma_deg),
+            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, loss=c.phone_loss,
+        )
+
+    def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
+        self._validate()
+        c = self.config
+        self.diagnostics_: dict[str, dict] = {}
+        grid = self.grid(observations, calibration)
+        self.cameras_ = calibration.cameras
+        if grid is None:
+            df = pd.DataFrame({k: pd.Series(dtype=float) for k in ("t", "x", "y", "vx", "vy")})
+            df.insert(1, "track_id", pd.Series(dtype=object))
+            df["phone_id"] = pd.Series(dtype=object)
+            return df
+        # the state's velocity v_k carries x_k to x_{k+1} (x_{k+1} = x_k + dt v_k, the prior's A):
+        # it is the mean velocity over [t_k, t_k+1], so the phone is read at t_k + dt / 2
+        motions = self.phone_motions(observations, calibration, (np.arange(grid.T) + 0.5) * grid.dt) if c.match else {}
+        origin = (0.0, 0.0)
+        if c.walls and calibration.floorplan is not None:
+            origin = feasible_origin(calibration.floorplan, c.wall_margin)
+        problems, fused, robust = {}, {}, {}
+        for label in grid.labels:
+            k, cams, u = grid.of_label(label)
+            problems[label] = self.problem(k, cams, u, grid.T, grid.dt, grid.cameras, grid.sigma, calibration)
+        if motions:
+            for label in grid.labels:
+                for pid, m in motions.items():
+                    fused[label, pid] = self.solve_fused(problems[label], m, calibration)
+            # the explanations alone, started from the best fused solution (a nearby minimum:
+            # few iterations, and no worse than one from the paper's start)
+            phone_only = {}
+            for pid, m in motions.items():
+                best = min((fused[h, pid] for h in grid.labels), key=lambda r: r.cost[-1])
+                phone_only[pid] = self.solve_phone_only(problems[grid.labels[0]][0], m, calibration, best.X)
+            for label in grid.labels:
+                prior, obs, C, lower, extra = problems[label]
+                best = min((fused[label, pid] for pid in motions), key=lambda r: r.cost[-1])
+                robust[label] = solve_map(prior, Residuals(self.robust_bearings(obs, grid.cameras)), best.X[:NS * grid.T],
+                                          C, lower, extra, self._evidence_settings())
+            assignment, mismatch = self.assign(grid, robust, phone_only, fused, problems)
+        else:
+            assignment, mismatch = {}, {}
+        plain = {}
+        for label in grid.labels:
+            if label not in assignment:  # no phone: exactly the qp_smoother answer
+                prior, obs, C, lower, extra = problems[label]
+                X0 = self.initial_guess(obs, grid.T, grid.cameras, origin)
+                plain[label] = solve_map(prior, obs, X0, C, lower, extra, QPSmoother._settings(self))
+        frames = []
+        for label in grid.labels:
+            pid = assignment.get(label, "")
+            res = fused[label, pid] if pid else plain[label]
+            d = res.summary()
+            d["phone_id"] = pid
+            d["mismatch"] = {p: float(v) for p, v in mismatch.get(label, {}).items()}
+            if pid:
+                d["step_length"] = float(res.X[NS * grid.T + IL])
+                d["heading_offset_deg"] = float(np.degrees(np.angle(np.exp(1j * res.X[NS * grid.T + ID]))))
+            self.diagnostics_[label] = d
+            f = track_frame(label, res.X, 0, grid.T, grid.dt)
+            f["phone_id"] = pid
+            frames.append(f)
+            if not d["converged"]:
+                warnings.warn(f"fusion_smoother: label {label!r} did not converge: {d['reason']}", RuntimeWarning, stacklevel=2)
+        tracks = check_tracks(pd.concat(frames, ignore_index=True), self.name)
+        tracks.attrs[self.name] = self.diagnostics_
+        return tracks
+
+    def _settings(self, keep_iterates: bool = False):
+        """The QP smoother's settings, stopping at 1 mm steps or a relative cost decrease below
+        1e-6 (the last iterations of a robust fit with the global step length and offset creep
+        by millimetres)."""
+        s = super()._settings(keep_iterates)
+        s.tol_step = 1e-3
+        s.tol_cost = 1e-6
+        return s
+
+    # --- phones --------------------------------------------------------------------------------
+    def phone_motions(self, observations: Observations, calibration: Calibration, t_grid: np.ndarray) -> dict[str, PhoneMotion]:
+        if not observations.has("imu"):
+            return {}
+        c = self.config
+        try:
+            gait = GaitModel.from_json(c.gait_model) if c.gait_model else load_default()
+        except (OSError, ValueError, TypeError) as e:
+            raise EstimatorError(f"fusion_smoother: cannot load the gait model: {e}") from None
+        field = calibration.noise.get("magnetic_field", (0.0, -0.5, 0.0))
+        imu = observations["imu"]
+        out = {}
+        for pid in sorted(imu["phone_id"].astype(str).unique()):
+            try:
+                out[pid] = phone_motion(imu, pid, t_grid, gait, field, MotionSettings())
+            except ValueError as e:
+                raise EstimatorError(f"fusion_smoother: phone {pid!r}: {e}") from None
+        return out
+
+    def factors(self, m: PhoneMotion, T: int) -> PhoneFactors:
+        kw = np.flatnonzero(m.walking)
+        ks = np.flatnonzero(~m.walking)
+        both = m.walking[:-1] & m.walking[1:]
+        kg = np.flatnonzero(both)
+        dt = float(m.t[1] - m.t[0]) if len(m.t) > 1 else 1.0
+        rate = np.abs(np.concatenate([m.dyaw, [0.0]]) + np.concatenate([[0.0], m.dyaw])) / (2 * dt)  # yaw rate at t_k
+        return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
+                            psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
+                            omega=rate[kw])
+
+    def augmented_prior(self, prior: Prior) -> Prior:
+        c = self.config
+        return prior.with_parameters([c.step_length, 0.0], [c.step_length_sigma, np.radians(c.offset_sigma_deg)], [0.1, 0.1])
+
+    def solve_phone_only(self, prior: Prior, m: PhoneMotion, calibration: Calibration, X0: np.ndarray | None = None) -> SolveResult:
+        """The phone's own explanation: prior + phone rows, no bearings, no constraints (from X0,
+        else the phone's dead reckoning from the origin)."""
+        T = prior.T
+        fac = self.factors(m, T)
+        pa = self.phone_prior(prior, fac, calibration)
+        if X0 is None:
+            X0 = np.zeros(pa.n)
+            X0[NS * T + IL] = self.config.step_length
+            v = self._phone_velocity(fac, m, T, self.config.step_length, 0.0)
+            X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
+        return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._evidence_settings())
+
+    def _evidence_settings(self):
+        """The explanations alone only price the mismatch: a few Gauss-Newton steps from the fused
+        solution (each lowers the cost; the phone alone leaves the path's place and turn free, and
+        converges slowly to a minimum a few nats lower)."""
+        s = self._settings()
+        s.max_iter = min(s.max_iter, EVIDENCE_ITER)
+        return s
+
+    def robust_bearings(self, obs: Bearings, cameras) -> Robust:
+        """The bearings through the robust loss, with the noise widened near the image's left
+        and right edges, where a detector sees a person cut by the border:
+        sigma_j^2 = sigma^2 + (border_sigma_px max(0, 1 - d_j / border_px))^2, d_j the distance of
+        u_j from the nearer edge (px)."""
+        c = self.config
+        width = np.array([cameras[n].width for n in obs.names], float)[obs.cam] if len(obs) else np.zeros(0)
+        d = np.minimum(obs.u, width - obs.u)
+        extra = c.border_sigma_px * np.clip(1.0 - d / c.border_px, 0.0, 1.0)
+        scale = np.sqrt(1.0 + (extra / obs.sigma) ** 2)
+        return Robust(obs, c.bearing_robust, c.bearing_loss, scale)
+
+    def phone_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> Prior:
+        """The prior with ``q_vel_phone`` on the transitions into and out of steps whose velocity
+        the phone measures (a cadence), and the step length and heading offset appended.
+
+        Why looser there: a Gaussian prior on the velocity's changes prefers a path shrunk
+        towards the camera (its cost falls as the square of the scale), and with one camera the
+        scale is what only the step length then holds; where the phone measures the velocity the
+        prior has nothing to add but that pull."""
+        c = self.config
+        T = prior.T
+        if c.q_vel_phone != c.q_vel and T > 1:
+            measured = np.zeros(T, bool)
+            measured[fac.kw[fac.has_f]] = True
+            mask = measured[1:] & measured[:-1]
+            prior = self.prior(T, prior.dt, calibration, alt=(GaussMarkovParams(c.q_pos, c.q_vel_phone), mask))
+        return self.augmented_prior(prior)
+
+    def solve_fused(self, problem, m: PhoneMotion, calibration: Calibration) -> SolveResult:
+        prior, obs, C, lower, extra = problem
+        T = prior.T
+        fac = self.factors(m, T)
+        pa = self.phone_prior(prior, fac, calibration)
+        # and the step length positive (l >= step_length_min): a walk run backwards with a
+        # negative step length explains the bearings of a straight walk as well
+        l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + N_PAR))
+        Ca = sp.vstack([sp.hstack([C, sp.csc_matrix((C.shape[0], N_PAR))]), l_row], format="csc")
+        lower = np.append(lower, self.config.step_length_min)
+        extra_a = None
+        if extra is not None:
+            def extra_a(X, _f=extra, _nx=NS * T):  # noqa: F811 (the padded version of extra)
+                out = _f(X[:_nx])
+                Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
+                return (Ce,) + tuple(out[1:])
+        X0 = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration)
+        obs_r = self.robust_bearings(obs, self.cameras_)
+        if extra_a is not None:
+            # walls and obstacles choose their face from the side the iterate is on: a dead
+            # reckoning that runs through a wall would lock the wrong face in, so the path is
+            # first found without them (the fixed rows stay), then the walls are added
+            X0 = solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, None, self._settings()).X
+        return solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, extra_a, self._settings())
+
+    def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:
+        """(T, 2) velocity the phone implies for step length l and offset delta."""
+        a, b = self._speed_terms(fac, T)
+        th = m.heading - delta
+        s = np.maximum(l * a + b, 0.0)
+        return s[:, None] * np.stack([np.cos(th), np.sin(th)], axis=1)
+
+    def _speed_terms(self, fac: PhoneFactors, T: int) -> tuple[np.ndarray, np.ndarray]:
+        """speed_k = l a_k + b_k: cadence steps f (l + beta (f - f0)), walking without cadence the
+        nominal speed, stopped 0."""
+        s = fac.s
+        a, b = np.zeros(T), np.zeros(T)
+        f = fac.f
+        has = np.isfinite(f)
+        kc = fac.kw[has]
+        a[kc] = f[has]
+        b[kc] = s.beta * f[has] * (f[has] - s.f0)
+        b[fac.kw[~has]] = s.nominal_speed
+        return a, b
+
+    def dead_reckoning_init(self, obs: Bearings, fac: PhoneFactors, m: PhoneMotion, T: int, dt: float,
+                            calibration: Calibration) -> np.ndarray:
+        """Dead reckoning aligned to the bearings (module docstring), with [l, delta] appended.
+        It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
+        restores feasibility, while moving points onto their rays would put jumps in the path
+        that the prior then spends iterations (and wrong turns) undoing."""
+        c = self.config
+        a, b = self._speed_terms(fac, T)
+        nrm = obs.a - obs.u[:, None] * obs.b
+        h = obs.c - obs.u * obs.d
+        scale = np.linalg.norm(nrm, axis=1)
+        nrm, h = nrm / scale[:, None], h / scale
+        best = None
+        sig_d = 1.0  # m: dead-reckoning drift between views, for the weight of the step-length prior
+        deltas = np.linspace(-np.pi, np.pi, c.offset_grid, endpoint=False)
+        for delta in deltas:
+            e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
+            va, vb = a[:, None] * e, b[:, None] * e
+            A = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (va[1:] + va[:-1]), axis=0)])
+            B = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (vb[1:] + vb[:-1]), axis=0)])
+            if len(obs) == 0:
+                sol, cost = np.array([0.0, 0.0, c.step_length]), 0.0
+            else:
+                M = np.column_stack([nrm, np.einsum("ij,ij->i", nrm, A[obs.k])]) / sig_d
+                r = -(h + np.einsum("ij,ij->i", nrm, B[obs.k])) / sig_d
+                M = np.vstack([M, [0.0, 0.0, 1.0 / c.step_length_sigma]])
+                r = np.append(r, c.step_length / c.step_length_sigma)
+                # iteratively reweighted (Cauchy, 1 sigma_d): false detections and clipped
+                # people at the image border must not decide the offset
+                w = np.ones(len(r))
+                for _ in range(6):
+                    sol = np.linalg.lstsq(M * w[:, None], r * w, rcond=None)[0]
+                    e = M @ sol - r
+                    w = 1.0 / np.sqrt(1.0 + e**2)
+                    w[-1] = 1.0
+                sol[2] = np.clip(sol[2], max(0.5 * c.step_length, c.step_length_min), 1.5 * c.step_length)
+                e = M @ sol - r
+                cost = float(np.sum(np.log1p(e[:-1] ** 2)) + e[-1] ** 2)
+            if best is None or cost < best[0]:
+                best = (cost, delta, sol, A, B, e)
+        _, delta, sol, A, B, e = best
+        l = float(sol[2])
+        xy = sol[:2] + l * A + B
+        v = (l * a + b)[:, None] * e
+        X = np.zeros(NS * T + N_PAR)
+        X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
+        X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
+        X[NS * T + IL], X[NS * T + ID] = l, delta
+        return X
+
+    # --- matching ------------------------------------------------------------------------------
+    def assign(self, grid, alone, phone_only, fused, problems):
+        """Label -> phone id (absent: no phone), and the mismatch D(h, i) of every pair."""
+        c = self.config
+        labels, phones = grid.labels, sorted(phone_only)
+        mismatch = {h: {} for h in labels}
+        if not phones:
+            return {}, mismatch
+        L, P = len(labels), len(phones)
+        D = np.zeros((L, P))
+        for a, h in enumerate(labels):
+            for j, pid in enumerate(phones):
+                r = fused[h, pid]
+                D[a, j] = r.cost[-1] - alone[h].cost[-1] - phone_only[pid].cost[-1]
+                mismatch[h][pid] = D[a, j]
+        n_obs = np.array([max(1, len(problems[h][1])) for h in labels], float)
+        none = c.match_max * n_obs
+        cost = np.full((L, P + L), np.inf)
+        cost[:, :P] = D
+        cost[np.arange(L), P + np.arange(L)] = none
+        cost = np.where(np.isfinite(cost), cost, 1e18)
+        ri, ci = linear_sum_assignment(cost)
+        return {labels[r]: phones[j] for r, j in zip(ri, ci) if j < P}, mismatch

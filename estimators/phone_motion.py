@@ -1,0 +1,132 @@
+"""What a phone in a pocket says about its carrier's motion, on a camera frame grid.
+
+From the phone's 100 Hz accelerometer f (specific force, m/s^2), gyro w (rad/s) and magnetometer
+m (phone frame), for every grid time t_k:
+
+- **Walking / stopped** (``gait.bobbing_feature`` and the fitted ``GaitModel``, as the HMM
+  matcher uses them): g_k = std of the vertical specific force over a window; walking where
+  p(g | walking) > p(g | stopped).
+- **Gravity** (the phone's "up" in its own frame): u = mean(f) / |mean(f)| over a centred window
+  of ``gravity_window_s`` (walking accelerations average out; the pocket tilt does not).
+- **Heading, tilt-compensated**: the field's horizontal part m_h = m - (m . u) u and the phone's
+  x axis projected on the horizontal plane, x_h = e_x - u_x u; the angle from x_h to m_h about u,
+  theta = atan2(u . (x_h x m_h), x_h . m_h), gives the phone's yaw in the world as
+  psi = atan2(H_y, H_x) - theta (H the world field; for an upright phone u = e_z this is
+  atan2(H_y, H_x) - atan2(m_y, m_x), ``gait.phone_heading``). Averaged on the unit circle over a
+  centred window of ``heading_window_s``. The walking direction is psi - delta, with delta the
+  phone's yaw offset in the pocket (estimated by the smoother, not here).
+- **Steps and cadence**: the vertical specific force a_v = f . u is band-passed
+  (``scipy.signal`` Butterworth, zero phase, ``band_hz``); one gait bob per step, so the phase
+  phi(t) of its analytic signal (``scipy.signal.hilbert``) advances 2 pi per step: the steps are
+  where phi crosses a multiple of 2 pi, and the cadence is the step phase's rate,
+  f = (dphi/dt) / 2 pi, averaged over ``cadence_window_s`` (Hz). It follows the cadence through
+  starts and stops, where intervals between peaks lag by a step. Where the bob's envelope is
+  below ``step_min_accel`` (slow shuffling, standing) there is no cadence. A step the detector
+  gets wrong gives one bad cadence (the smoother's robust loss absorbs it).
+- **Yaw rate**: the gyro about u, w . u (rad/s), integrated between grid times (the change of
+  heading from one frame to the next, free of the magnetometer's disturbances and offset).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import ndimage, signal
+
+from .gait import GaitModel, bobbing_feature
+
+
+@dataclass(frozen=True)
+class MotionSettings:
+    """Feature windows and step-detector thresholds (see the module docstring)."""
+
+    gravity_window_s: float = 2.0
+    heading_window_s: float = 0.5
+    band_hz: tuple[float, float] = (0.6, 4.0)
+    cadence_window_s: float = 0.5
+    step_min_accel: float = 0.5  # m/s^2, bob envelope below which no cadence is given
+    min_cadence_hz: float = 0.8  # walking cadences (a harmonic locked onto by a weak bob falls outside)
+    max_cadence_hz: float = 2.2
+
+
+@dataclass(frozen=True)
+class PhoneMotion:
+    """One phone's motion cues on the grid t (K,): walking (bool), heading psi (rad, world, phone
+    yaw), cadence (Hz, NaN where none), dyaw (rad, gyro yaw change from t_k to t_{k+1}; K - 1),
+    and the detected step times (s)."""
+
+    phone_id: str
+    t: np.ndarray
+    walking: np.ndarray
+    heading: np.ndarray
+    cadence: np.ndarray
+    dyaw: np.ndarray
+    steps: np.ndarray
+
+
+def _centred_mean(x: np.ndarray, n: int) -> np.ndarray:
+    return ndimage.uniform_filter1d(x, size=max(1, n), axis=0, mode="nearest")
+
+
+def tilt_compensated_yaw(acc: np.ndarray, mag: np.ndarray, field_world, n_gravity: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample phone yaw psi (rad) and unit up vector u (N, 3) (module docstring)."""
+    hx, hy = float(field_world[0]), float(field_world[1])
+    if np.hypot(hx, hy) < 1e-9:
+        raise ValueError("magnetic field has no horizontal component: heading is undefined")
+    g = _centred_mean(acc, n_gravity)
+    u = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
+    mh = mag - np.einsum("ij,ij->i", mag, u)[:, None] * u
+    xh = np.zeros_like(u)
+    xh[:, 0] = 1.0
+    xh = xh - u[:, [0]] * u
+    theta = np.arctan2(np.einsum("ij,ij->i", u, np.cross(xh, mh)), np.einsum("ij,ij->i", xh, mh))
+    return np.arctan2(hy, hx) - theta, u
+
+
+def step_phase(t: np.ndarray, acc: np.ndarray, u: np.ndarray, rate: float, s: MotionSettings):
+    """(phi, envelope): unwrapped step phase (rad) and bob envelope (m/s^2) of the band-passed
+    vertical specific force."""
+    av = np.einsum("ij,ij->i", acc, u)
+    if len(t) < 16:
+        return np.zeros(len(t)), np.zeros(len(t))
+    lo, hi = s.band_hz
+    sos = signal.butter(2, [lo, min(hi, 0.45 * rate)], btype="bandpass", fs=rate, output="sos")
+    padlen = min(len(av) - 1, 3 * int(rate / lo))
+    z = signal.hilbert(signal.sosfiltfilt(sos, av - av.mean(), padlen=padlen))
+    return np.unwrap(np.angle(z)), np.abs(z)
+
+
+def phone_motion(imu: pd.DataFrame, phone_id: str, t_grid: np.ndarray, gait: GaitModel, field_world,
+                 s: MotionSettings = MotionSettings()) -> PhoneMotion:
+    """The motion cues of one phone (rows of ``imu`` with that phone_id) on the grid t_grid."""
+    d = imu[imu["phone_id"].astype(str) == phone_id]
+    # one sample per time (the first), in time order
+    t, first = np.unique(d["t"].to_numpy(float), return_index=True)
+    if len(t) < 2:
+        raise ValueError(f"phone {phone_id!r} has fewer than 2 IMU samples at distinct times")
+    rate = 1.0 / float(np.median(np.diff(t)))
+    acc = d[["ax", "ay", "az"]].to_numpy(float)[first]
+    gyro = d[["gx", "gy", "gz"]].to_numpy(float)[first]
+    mag = d[["mx", "my", "mz"]].to_numpy(float)[first]
+    psi, u = tilt_compensated_yaw(acc, mag, field_world, int(round(s.gravity_window_s * rate)))
+    # circular mean of the heading over a centred window, read at the grid times
+    n_h = max(1, int(round(s.heading_window_s * rate)))
+    c, sn = _centred_mean(np.cos(psi), n_h), _centred_mean(np.sin(psi), n_h)
+    j = np.clip(np.searchsorted(t, t_grid), 0, len(t) - 1)
+    heading = np.arctan2(sn[j], c[j])
+    # walking from the gait model's bobbing feature, its window centred on t_k
+    g = bobbing_feature(t, acc, t_grid + 0.5 * gait.window_s, gait.window_s)
+    walking = gait.walking(g)
+    phi, env = step_phase(t, acc, u, rate, s)
+    n_c = max(1, int(round(s.cadence_window_s * rate)))
+    f = _centred_mean(np.gradient(phi, t) / (2 * np.pi), n_c)
+    ok = (_centred_mean(env, n_c) >= s.step_min_accel) & (f >= s.min_cadence_hz) & (f <= s.max_cadence_hz)
+    cadence = np.where(ok[j], f[j], np.nan)
+    cycles = np.floor(phi / (2 * np.pi))
+    steps = t[1:][(np.diff(cycles) > 0) & ok[1:]]
+    # gyro yaw rate about "up", integrated from each grid time to the next
+    w_up = np.einsum("ij,ij->i", gyro, u)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (w_up[1:] + w_up[:-1]) * np.diff(t))])
+    yaw_int = np.interp(t_grid, t, cum)
+    return PhoneMotion(phone_id, np.asarray(t_grid, float), walking, heading, cadence, np.diff(yaw_int), steps)
