@@ -164,3 +164,29 @@ def test_local_workers_share_the_cores_for_render_threads(monkeypatch):
         seen = set(client.run(lambda: __import__("os").environ.get("TRACKROOM_RENDER_WORKERS")).values())
     assert seen == {str(max(1, _cores() // 2))}
     assert "TRACKROOM_RENDER_WORKERS" not in os.environ
+
+
+def test_check_thresholds_runs_every_group_on_one_local_cluster(tmp_path, monkeypatch, capsys):
+    """``check-thresholds --jobs 2`` starts one local cluster for all its (scene, sensing) groups,
+    not one per group, and checks the bounds as a single process would."""
+    import trackroom.cluster as cluster
+    from trackroom.cli.main import main
+
+    started = []
+    real = cluster.connect
+
+    def counting(scheduler, workers, plugins=None):
+        started.append(scheduler)
+        return real(scheduler, workers, plugins)
+
+    monkeypatch.setattr(cluster, "connect", counting)
+    th = tmp_path / "mine.csv"
+    th.write_text("scene,sensing,estimator,metric,op,bound\n"
+                  "overhead_lab,analytic,ekf,mota,>=,0.5\n"
+                  "bearing_corridor,analytic,qp_smoother,mota,>=,0.5\n")
+    assert main(["check-thresholds", "--thresholds", str(th), "--no-bundled", "--jobs", "2", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "overhead_lab (analytic" in out and "bearing_corridor (analytic" in out and "all 2 bounds met" in out
+    local = [s for s in started if s is None]
+    assert len(local) == 1  # one LocalCluster; the groups join it by its address
+    assert len(started) == 3

@@ -9,6 +9,9 @@ with the table of failures.
 """
 from __future__ import annotations
 
+import contextlib
+import os
+
 from trackroom.cli.commands import add_plugin_argument
 
 NAME = "check-thresholds"
@@ -50,13 +53,14 @@ def run(args) -> int:
     except CompareError as e:
         raise CommandError(str(e)) from None
     checked = []
-    for (scene, sensing), spec in zip(groups, specs):
-        comp = run_comparison(spec, progress=not args.quiet)
-        rows = th[(th["scene"] == scene) & (th["sensing"] == sensing)]
-        c = check_thresholds(comp.results, rows)
-        print(f"{scene} ({sensing}, {len(spec.seeds)} seeds, {spec.duration:g} s): {int(c['passed'].sum())} of "
-              f"{len(c)} bounds met ({comp.seconds:.1f} s)")
-        checked.append(c)
+    with _one_cluster(args.jobs, plugins) as scheduler:  # every group's runs on the same workers
+        for (scene, sensing), spec in zip(groups, specs):
+            comp = run_comparison(spec, progress=not args.quiet, scheduler=scheduler)
+            rows = th[(th["scene"] == scene) & (th["sensing"] == sensing)]
+            c = check_thresholds(comp.results, rows)
+            print(f"{scene} ({sensing}, {len(spec.seeds)} seeds, {spec.duration:g} s): {int(c['passed'].sum())} of "
+                  f"{len(c)} bounds met ({comp.seconds:.1f} s)")
+            checked.append(c)
     allc = pd.concat(checked, ignore_index=True)
     table = failure_table(allc)
     if table:
@@ -64,3 +68,16 @@ def run(args) -> int:
         return 1
     print(f"all {len(allc)} bounds met")
     return 0
+
+
+@contextlib.contextmanager
+def _one_cluster(jobs: int, plugins: list[str]):
+    """The scheduler address of one local dask cluster for every group (``jobs`` > 1), started once
+    and stopped at the end, instead of a cluster per group; None (run in this process) for 1."""
+    if jobs <= 1:
+        yield None
+        return
+    from trackroom.cluster import connect
+
+    with connect(None, min(jobs, os.cpu_count() or 1), plugins) as (client, _):
+        yield client.scheduler.address
