@@ -201,3 +201,30 @@ def test_bearing_corridor_alone_within_30cm_on_development_seeds():
         one_cam.append(rmse(tr1[tr1.track_id == w["color"]], xy))
     assert np.median(all_cams) <= 0.3, all_cams
     assert min(one_cam) > 2.0, one_cam
+
+
+def test_bordered_lu_equals_a_plain_lu_and_is_only_used_for_dense_columns():
+    """``sparse_lu``: a banded KKT-like matrix with two dense rows and columns (the fusion smoother's
+    step length and pocket offset) is solved through its border to the same answer as one sparse
+    LU; a matrix without dense columns gets the plain LU (qp_smoother's factorisation unchanged)."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from trackroom.estimators.qp_solver import BorderedLU, sparse_lu
+
+    g = np.random.default_rng(3)
+    n = 600
+    band = sp.diags([g.normal(size=n - 2), g.normal(size=n - 1), 4.0 + g.random(n), g.normal(size=n - 1), g.normal(size=n - 2)],
+                    [-2, -1, 0, 1, 2]).tolil()
+    for d in (200, 201):  # two dense rows and columns in the middle, as the parameters sit
+        band[:, d] = g.normal(size=(n, 1))
+        band[d, :] = g.normal(size=(1, n))
+        band[d, d] = 50.0
+    K = band.tocsc()
+    rhs = g.normal(size=(n, 3))
+    lu = sparse_lu(K)
+    assert isinstance(lu, BorderedLU) and sorted(lu.d.tolist()) == [200, 201]
+    np.testing.assert_allclose(lu.solve(rhs), spla.splu(K).solve(rhs), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(lu.solve(rhs[:, 0]), spla.splu(K).solve(rhs[:, 0]), rtol=1e-9, atol=1e-9)
+    plain = sparse_lu(sp.diags([np.ones(n - 1), 4.0 * np.ones(n), np.ones(n - 1)], [-1, 0, 1]).tocsc())
+    assert not isinstance(plain, BorderedLU)
