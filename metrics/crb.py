@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trackroom.scenes.camera import Camera
+from trackroom.scenes.spec import GaussMarkovParams
 
 POS = (0, 2)  # x and y in the state [x, vx, y, vy]
 
@@ -163,12 +164,7 @@ def trajectory_crb(
     if len(k) and (k.min() < 0 or k.max() >= T):
         raise ValueError(f"observation steps outside 0..{T - 1}")
     A = np.kron(np.eye(2), np.array([[1.0, dt], [0.0, 1.0]]))
-    if discretisation == "paper":
-        Q = np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
-    elif discretisation == "exact":
-        Q = np.kron(np.eye(2), [[q_pos * dt + q_vel * dt**3 / 3, q_vel * dt**2 / 2], [q_vel * dt**2 / 2, q_vel * dt]])
-    else:
-        raise ValueError(f"discretisation must be 'exact' or 'paper', got {discretisation!r}")
+    Q = _gm_Q(q_pos, q_vel, dt, discretisation)
     P0 = np.diag(np.asarray(first_sigma, float) ** 2)
     H = bearing_jacobians(cameras, cam_names, xy_true[k], z_h) if len(k) else np.zeros((0, 4))
     cov = smoothed_covariances(A, Q, P0, T, k, H, sigma_px)
@@ -209,11 +205,8 @@ class PhoneRows:
 
 
 def _gm_Q(q_pos: float, q_vel: float, dt: float, discretisation: str) -> np.ndarray:
-    if discretisation == "paper":
-        return np.diag([q_pos * dt, q_vel * dt, q_pos * dt, q_vel * dt])
-    if discretisation == "exact":
-        return np.kron(np.eye(2), [[q_pos * dt + q_vel * dt**3 / 3, q_vel * dt**2 / 2], [q_vel * dt**2 / 2, q_vel * dt]])
-    raise ValueError(f"discretisation must be 'exact' or 'paper', got {discretisation!r}")
+    """One step's process covariance: the walkers' and the smoothers' own (``GaussMarkovParams.Sigma``)."""
+    return GaussMarkovParams(q_pos=q_pos, q_vel=q_vel).Sigma(dt, discretisation)
 
 
 def trajectory_crb_phone(
