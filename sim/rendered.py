@@ -51,6 +51,7 @@ import pandas as pd
 from trackroom.scenes.camera import Camera
 from trackroom.sim.perception import Appearance, OverheadDetector, PerceptionParams, PersonModel, detect_bearings
 from trackroom.sim.perception_flow import FlowTracker
+from trackroom.cluster import available_cores
 from trackroom.sim.lanes import Lane
 from trackroom.sim.render import SceneRenderer, VideoSink
 
@@ -182,10 +183,7 @@ def worker_count(workers: int | None = None, option: str = "workers") -> int:
     if workers is None:
         env = os.environ.get(WORKERS_ENV, "").strip()
         if not env:
-            try:
-                return len(os.sched_getaffinity(0))
-            except AttributeError:  # not on Linux
-                return os.cpu_count() or 1
+            return available_cores()
         source, workers = WORKERS_ENV, env
     try:
         n = int(workers)

@@ -155,14 +155,14 @@ def test_local_workers_share_the_cores_for_render_threads(monkeypatch):
     threads, not one per core each; the parent's environment is left as it was."""
     import os
 
-    from trackroom.cluster import _cores, connect
+    from trackroom.cluster import available_cores, connect
 
     monkeypatch.delenv("TRACKROOM_RENDER_WORKERS", raising=False)
     with connect(None, 2) as (client, _):
         # a lambda travels by value and reads the worker's own environment (os.environ.get would
         # carry this process's environment along with it)
         seen = set(client.run(lambda: __import__("os").environ.get("TRACKROOM_RENDER_WORKERS")).values())
-    assert seen == {str(max(1, _cores() // 2))}
+    assert seen == {str(max(1, available_cores() // 2))}
     assert "TRACKROOM_RENDER_WORKERS" not in os.environ
 
 

@@ -30,7 +30,8 @@ def _load_plugins_on_worker(plugins: list[str]) -> str | None:
     return None
 
 
-def _cores() -> int:
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity; every core where that is unknown)."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -49,7 +50,7 @@ def connect(scheduler: str | None, workers: int, plugins: list[str] | None = Non
         # process would otherwise start one per core: n x cores threads on n workers)
         os.environ.setdefault("MUJOCO_GL", "egl")
         env = {} if "TRACKROOM_RENDER_WORKERS" in os.environ else {  # sim.rendered.WORKERS_ENV
-            "TRACKROOM_RENDER_WORKERS": str(max(1, _cores() // max(1, workers)))}
+            "TRACKROOM_RENDER_WORKERS": str(max(1, available_cores() // max(1, workers)))}
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR, env=env)
         client, what = Client(cluster), f"local cluster ({workers} workers)"
