@@ -143,6 +143,14 @@ class Camera:
             & (uv[..., 1] < self.height + margin)
         )
 
+    def vertical_vanishing_point(self) -> np.ndarray | None:
+        """Image point (2,) where vertical world lines meet (the nadir for a downward camera);
+        None when they meet behind the camera (a horizontal or upward camera)."""
+        d = self.K @ (self.R @ np.array([0.0, 0.0, -1.0]))
+        if d[2] <= 1e-9:
+            return None
+        return d[:2] / d[2]
+
     def in_fov(self, points) -> np.ndarray:
         """Field-of-view test for world points (..., 3)."""
         uv, z = self.project(points)

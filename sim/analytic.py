@@ -115,14 +115,20 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
             ],
             axis=-2,
         )
-        puv, _ = cam.project(pts)
-        geo.span = np.stack([puv[..., 0].min(-1), puv[..., 0].max(-1)], -1)
+        puv, pz = cam.project(pts)
+        # points behind the camera project mirrored: a person beside a wall camera, partly behind
+        # its image plane, would otherwise span the whole image and be "seen" in its middle
+        front = (pz > 1e-6)[..., None]
+        puv = np.where(front, puv, np.nan)
+        with np.errstate(invalid="ignore"):
+            geo.span = np.stack([np.fmin.reduce(puv[..., 0], -1), np.fmax.reduce(puv[..., 0], -1)], -1)
+        geo.span = np.nan_to_num(geo.span, nan=-np.inf)  # wholly behind: an empty span left of the image
         geo.near = in_fov | (rows & (geo.span[..., 1] > 0) & (geo.span[..., 0] < cam.width))
         if cam.kind == "horizontal":
             return geo
-        edges = np.concatenate([geo.span, puv[..., 1].min(-1)[..., None], puv[..., 1].max(-1)[..., None]], -1)
+        edges = np.concatenate([geo.span, np.fmin.reduce(puv[..., 1], -1)[..., None], np.fmax.reduce(puv[..., 1], -1)[..., None]], -1)
         edges[..., 0:2] = np.clip(edges[..., 0:2], 0, cam.width)
-        edges[..., 2:4] = np.clip(edges[..., 2:4], 0, cam.height)
+        edges[..., 2:4] = np.clip(np.nan_to_num(edges[..., 2:4], nan=0.0), 0, cam.height)
         pc = cam.to_camera(c)  # (F, P, 3)
         vc = traj.vel[:, steps].transpose(1, 0, 2) @ cam.R.T
         with np.errstate(divide="ignore", invalid="ignore"):

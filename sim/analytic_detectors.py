@@ -76,7 +76,8 @@ def visible_span(g, width: float):
     """Clipped image span [a, b] of each person and the share of the span inside the image."""
     a = np.clip(g.span[..., 0], 0, width)
     b = np.clip(g.span[..., 1], 0, width)
-    full = np.maximum(g.span[..., 1] - g.span[..., 0], 1e-9)
+    with np.errstate(invalid="ignore"):  # -inf - -inf: someone wholly behind the camera
+        full = np.maximum(np.nan_to_num(g.span[..., 1] - g.span[..., 0], nan=0.0), 1e-9)
     return a, b, np.clip((b - a) / full, 0, 1)
 
 
@@ -98,10 +99,29 @@ def window_candidates(g, width: float):
     return clip, speed, g.near & (clip > 0) & (e[..., 1] > e[..., 0]) & (e[..., 3] > e[..., 2])
 
 
-def floor_state(g, traj):
-    """(xy (F, P, 2), floor speed (F, P)) of every person at an overhead camera's frames."""
+def floor_state(cam: Camera, g, traj):
+    """(xy (F, P, 2), floor speed (F, P), axis clip (F, P)) of every person at an overhead
+    camera's frames; the clip is the share of the person's image axis (feet to the top of the
+    head) inside the image: a ceiling camera cuts the heads of people near its image's border
+    (its tile's far corners), and the rendered detector then misses many more of them."""
     xy = traj.pos[:, g.steps, :2].transpose(1, 0, 2)
-    return xy, np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    speed = np.hypot(traj.vel[:, g.steps, 0], traj.vel[:, g.steps, 1]).T
+    return xy, speed, segment_clip(g.axis[..., 0, :], g.axis[..., 1, :], cam.width, cam.height)
+
+
+def segment_clip(p0: np.ndarray, p1: np.ndarray, width: float, height: float) -> np.ndarray:
+    """Share (...,) of the image segments p0-p1 (..., 2) inside [0, width] x [0, height]
+    (Liang-Barsky: the segment's parameter interval inside each of the four half-planes)."""
+    d = p1 - p0
+    lo, hi = np.zeros(d.shape[:-1]), np.ones(d.shape[:-1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k, size in ((0, width), (1, height)):
+            for pk, qk in ((-d[..., k], p0[..., k]), (d[..., k], size - p0[..., k])):
+                r = qk / pk
+                lo = np.where(pk < 0, np.maximum(lo, r), lo)
+                hi = np.where(pk > 0, np.minimum(hi, r), hi)
+                hi = np.where((pk == 0) & (qk < 0), -1.0, hi)  # parallel to this edge and outside it
+    return np.nan_to_num(np.clip(hi - lo, 0.0, 1.0))
 
 
 def segment_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
@@ -377,11 +397,36 @@ class WindowIds:
         return frame, edges, fl[k], ids[k]
 
 
+def merged_blob_member(cam: Camera, axis: np.ndarray, members: np.ndarray) -> int:
+    """Which of the people merged into one overhead blob the rendered detector places it on.
+
+    ``sim.perception.floor_from_blob`` places a blob by its outermost point along the radial
+    direction e from the vertical vanishing point n through the blob: the top of the head of the
+    member reaching farthest out. When that end is cut by the image border it uses the innermost
+    point instead: the feet of the member reaching farthest in. ``axis`` (P, 2, 2) holds every
+    person's image feet and head points at this frame. At a tile edge this is what makes a merged
+    pair vanish: each camera places the pair on the person beyond its tile and drops it.
+    """
+    feet, head = axis[members, 0], axis[members, 1]
+    n = cam.vertical_vanishing_point()
+    if n is None:
+        return int(members[0])
+    radial = 0.5 * (feet + head).mean(axis=0) - n
+    dist = float(np.hypot(*radial))
+    if dist < 1.0:  # under the camera: head and feet project together
+        return int(members[0])
+    e = radial / dist
+    out = int(np.argmax((head - n) @ e))
+    if cam.in_image(head[out], 1.0, margin=-1.0):
+        return int(members[out])
+    return int(members[np.argmin((feet - n) @ e)])
+
+
 def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
-    xy, speed = floor_state(g, traj)
-    det = detected(rng, g.near, m.detect(frac, speed), m.rho)
+    xy, speed, clip = floor_state(cam, g, traj)
+    det = detected(rng, g.near, m.detect(frac, speed, clip), m.rho)
     F, P = det.shape
     edges = m.merge.edges[0]
     reach = edges[-2] if len(edges) > 2 else 0.0
@@ -393,10 +438,9 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     cnt = grouped.sum(axis=1)
     # a merged detection lies on one of the merged people, not between them: in the rendered
     # development recordings 80 % of merged detections lie within 2 cm (regular cameras) or 8 cm
-    # (privacy, 15 cm grid) of one person along the line to the other; which one is drawn at random
+    # (privacy, 15 cm grid) of one person along the line to the other
     for i in np.nonzero(cnt > 1)[0]:
-        members = np.nonzero(grouped[i])[0]
-        pos[i] = xy[f[i], members[rng.integers(len(members))]]
+        pos[i] = xy[f[i], merged_blob_member(cam, g.axis[f[i]], np.nonzero(grouped[i])[0])]
     err = m.error("xy")
     gx, gy = error_uniforms(rng, det.shape, m, 2)
     e = np.stack([err.at(gx[f, p]), err.at(gy[f, p])], -1)

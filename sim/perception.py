@@ -246,14 +246,6 @@ class PersonModel:
     bottom_radius: float = 0.2
 
 
-def vertical_vanishing_point(cam: Camera) -> np.ndarray | None:
-    """Image point (2,) where vertical world lines meet (the nadir for a downward camera)."""
-    d = cam.K @ (cam.R @ np.array([0.0, 0.0, -1.0]))
-    if d[2] <= 1e-9:
-        return None
-    return d[:2] / d[2]
-
-
 def floor_from_blob(cam: Camera, xs: np.ndarray, ys: np.ndarray, person: PersonModel, border_px: float = 1.0):
     """Floor (x, y) of a person from its silhouette pixels in a downward-looking camera.
 
@@ -268,7 +260,7 @@ def floor_from_blob(cam: Camera, xs: np.ndarray, ys: np.ndarray, person: PersonM
     """
     H, W = cam.height, cam.width
     uv = np.column_stack([xs + 0.5, ys + 0.5]).astype(float)
-    n = vertical_vanishing_point(cam)
+    n = cam.vertical_vanishing_point()
     centroid = uv.mean(axis=0)
     if n is None:
         p = cam.backproject_to_plane(centroid, 0.5 * (person.top_centre + person.bottom_centre))

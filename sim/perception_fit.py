@@ -38,6 +38,10 @@ CLIP_EDGES = [-INF, 0.25, 0.5, 0.75, 0.999, INF]
 IMAGE_SPEED_EDGES = [-INF, 3, 6, 12, 25, 50, INF]  # px/s
 FLOOR_SPEED_EDGES = [-INF, 0.05, 0.1, 0.2, 0.4, 0.8, INF]  # m/s (privacy cameras)
 OVERLAP_EDGES = [-INF, 0.25, 0.5, 0.75, INF]
+# overhead: share of the image axis (feet to head) inside the image. People whose head the image
+# border cuts (a ceiling camera's far corners) are detected less often: on the rendered
+# development recordings 97.3 % of them at least 0.3 m inside the tile, against 99.8 % of whole ones
+AXIS_CLIP_EDGES = [-INF, 0.5, 0.8, 0.999, INF]
 # overhead: distance between two people's silhouettes in the image, in body widths
 # (``silhouette_pairs``); pairs nearer than 1.5 widths may merge
 SILHOUETTE_EDGES = [-INF, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, INF]
@@ -50,8 +54,8 @@ FLOOR_GATE_M = 0.75
 MOVING_PX_S = 6.0
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
 DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],  # detection table bins
-                "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF]],
-                "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES]}
+                "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF], AXIS_CLIP_EDGES],
+                "privacy": [SEEN_EDGES, FLOOR_SPEED_EDGES, AXIS_CLIP_EDGES]}
 RHO_GRID = (0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.998)
 
 
@@ -78,8 +82,9 @@ class DetectorStats:
     splits: int = 0
     swaps: int = 0
 
-    def arrays(self):
-        X = np.asarray(self.feats, float).reshape(-1, 2) if self.feats else np.zeros((0, 2))
+    def arrays(self, n_features: int):
+        """(features (candidates, n_features), hit (candidates,))."""
+        X = np.asarray(self.feats, float).reshape(-1, n_features) if self.feats else np.zeros((0, n_features))
         return X, np.asarray(self.hit, bool)
 
 
@@ -324,7 +329,7 @@ def _window_ids(s: DetectorStats, window_of, members, own):
 
 
 def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
-    xy, speed = floor_state(g, traj)
+    xy, speed, clip = floor_state(cam, g, traj)
     cand = g.near.copy()
     F, P = cand.shape
     inside = np.ones((F, P), bool)
@@ -372,7 +377,7 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
         for k in np.nonzero(both)[0]:
             if gap[f, k] < reach:
                 _pair(s, cam.name, int(iu[k]), int(ju[k]), f, gap[f, k], merged_with)
-    _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p]), hit)
+    _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p], clip[f, p]), hit)
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -502,9 +507,9 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
     out = {}
     for k in DETECTORS:
         s = stats[k]
-        X, hit = s.arrays()
-        detect = Table.fit(DETECT_EDGES[k], [X[:, 0], X[:, 1]] if len(X) else [np.zeros(0), np.zeros(0)], hit)
-        p = detect(X[:, 0], X[:, 1]) if len(X) else np.zeros(0)
+        X, hit = s.arrays(len(DETECT_EDGES[k]))
+        detect = Table.fit(DETECT_EDGES[k], list(X.T), hit)
+        p = detect(*X.T) if len(X) else np.zeros(0)
         pair_edges = SILHOUETTE_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
         merge = Table.fit([pair_edges], [np.asarray(s.pair_feat, float)], np.asarray(s.pair_merged, bool))
         errors = {}
@@ -555,9 +560,9 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
         if not r.hit or not a.hit:
             continue
         edges = DETECT_EDGES[k]
-        (Xr, hr), (Xa, ha) = r.arrays(), a.arrays()
-        tr = Table.fit(edges, [Xr[:, 0], Xr[:, 1]], hr, strength=1e-9)
-        ta = Table.fit(edges, [Xa[:, 0], Xa[:, 1]], ha, strength=1e-9)
+        (Xr, hr), (Xa, ha) = r.arrays(len(edges)), a.arrays(len(edges))
+        tr = Table.fit(edges, list(Xr.T), hr, strength=1e-9)
+        ta = Table.fit(edges, list(Xa.T), ha, strength=1e-9)
         ok = (tr.n >= 20) & (ta.n >= 20) & (ta.p > 0)
         scale = np.where(ok, np.clip(tr.p / np.where(ok, ta.p, 1.0), 1 / max_step, max_step), 1.0)
         m.detect.p = np.clip(m.detect.p * scale, 0.0, 1.0)

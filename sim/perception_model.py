@@ -12,6 +12,8 @@ Features, per camera frame and person in the field of view (``sim.analytic``):
            0, 1/3, 2/3, 1 (0: in the field of view, all rays blocked; legs may still show);
   clip     share of the person's image width (the projected cylinder) inside the image;
   speed    image speed of the body centre (px/s, oblique windows) or floor speed (m/s, privacy);
+  axis clip (overhead, privacy) share of the person's image axis, feet to the top of the head,
+           inside the image: a ceiling camera cuts the heads of people in its tile's far corners;
   overlap  for a pair of people in one image: overlap of their image spans / the narrower span;
   gap      for a pair on the floor (overhead): their distance (m).
 
@@ -22,8 +24,10 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            P are a Gaussian AR(1) copula per person and camera with frame correlation ``rho``,
            fitted so the mean run of misses matches the rendered one.
   merge    P(two people give one detection | overlap or gap): the merged detection spans both
-           (union of their image spans / windows) or, on the floor, lies on one of them (as the
-           rendered overhead detector's does), and carries the measurement error once. Merges
+           (union of their image spans / windows) or, on the floor, lies on the one the rendered
+           overhead detector places it on (the member reaching farthest out from the point below
+           the camera, ``analytic_detectors.merged_blob_member``), and carries the measurement
+           error once. Merges
            come in runs (two people walking together stay merged): the uniforms compared with
            P are an AR(1) copula per pair and camera with frame correlation ``merge_rho``, fitted
            so the mean run of merges matches the rendered one.

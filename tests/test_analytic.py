@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trackroom.scenes.loader import parse_scene
+from trackroom.scenes.loader import load_scene, parse_scene
 from trackroom.recording import OBSERVATION_COLUMNS, TRUTH_COLUMNS, check_table
 from trackroom.sim.simulate import simulate
 
@@ -142,3 +142,25 @@ def test_look_alikes_given_one_colour_share_the_label():
     west = simulate(scene, seed=0, duration=1.0).observations["bearings"].query("camera == 'west'")
     per_frame = west.groupby("t")["label"].apply(sorted)
     assert len(per_frame) == 10 and all(v[:2] == ["blue", "blue"] for v in per_frame)
+
+
+def test_a_person_beside_a_wall_camera_is_not_seen_in_its_image():
+    """Someone walking along the wall a horizontal camera hangs on, a few centimetres in front of
+    its image plane and metres to its side, projects far outside the image. Ring points of their
+    cylinder behind the camera must not mirror into the image (they made the person span the
+    whole image and be reported in its middle, u = 160 px, in 3-16 % of bearing_hall's bearings)."""
+    from types import SimpleNamespace
+
+    from trackroom.sim.analytic import project_people
+
+    scene = load_scene("bearing_hall")
+    cam = next(c for c in scene.cameras if c.kind == "horizontal")
+    yaw = cam.yaw
+    ahead, side = np.array([np.cos(yaw), np.sin(yaw)]), np.array([np.sin(yaw), -np.cos(yaw)])
+    at = np.asarray(cam.position[:2], float)
+    beside = at + 0.06 * ahead + 3.0 * side  # 6 cm in front of the image plane, 3 m to the side
+    in_view = at + 3.0 * ahead  # and someone straight ahead, for contrast
+    pos = np.array([[[*beside, 0.9]], [[*in_view, 0.9]]])
+    g = project_people(cam, SimpleNamespace(pos=pos), np.array([1.7, 1.7]), np.array([0.2, 0.2]), np.array([0]))
+    assert not g.near[0, 0] and g.span[0, 0, 0] > cam.width  # wholly right of the image
+    assert g.near[0, 1] and 0 < g.span[0, 1, 0] < cam.width / 2 < g.span[0, 1, 1] < cam.width

@@ -366,3 +366,65 @@ def test_silhouette_pairs_within_reach_equal_the_exact_distance():
         assert near.any()
         np.testing.assert_array_equal(fast[near], exact[near])
         assert (fast[~near] >= 1.5).all()
+
+
+def _ceiling_camera():
+    from trackroom.scenes.camera import Camera
+
+    # 3 m above (2, 2), looking straight down, 120 deg: the nadir is the image centre (160, 120)
+    return Camera("o", "overhead", np.array([2.0, 2.0, 3.0]), 0.0, -np.pi / 2, np.radians(120), 320, 240, 20.0)
+
+
+def _axes(cam, xy, height=1.7):
+    """(P, 2, 2) image feet and head points of people standing at floor points xy (P, 2)."""
+    xy = np.asarray(xy, float)
+    ends = np.stack([np.c_[xy, np.zeros(len(xy))], np.c_[xy, np.full(len(xy), height)]], 1)
+    return cam.project(ends)[0]
+
+
+def test_a_merged_overhead_blob_lies_on_the_member_reaching_farthest_out():
+    from trackroom.sim.analytic_detectors import merged_blob_member
+
+    cam = _ceiling_camera()
+    assert np.allclose(cam.vertical_vanishing_point(), [160.0, 120.0])
+    # in file along +x from below the camera: the blob's outer end is the head of the one farther
+    # out (sim.perception.floor_from_blob places a blob by it), whichever order they are listed in
+    axis = _axes(cam, [[2.6, 2.0], [3.1, 2.0]])
+    assert merged_blob_member(cam, axis, np.array([0, 1])) == 1
+    assert merged_blob_member(cam, axis[::-1], np.array([0, 1])) == 0
+    # the farther one's head beyond the image border: the detector uses the innermost point,
+    # the feet of the one nearer the camera
+    far = _axes(cam, [[3.0, 2.0], [5.6, 2.0]])
+    assert not cam.in_image(far[1, 1], 1.0) and cam.in_image(far[0, 1], 1.0)
+    assert merged_blob_member(cam, far, np.array([0, 1])) == 0
+
+
+def test_segment_clip_is_the_share_of_an_image_segment_inside_the_image():
+    from trackroom.sim.analytic_detectors import segment_clip
+
+    p0 = np.array([[-10.0, 10.0], [2.0, 2.0], [-5.0, -5.0], [5.0, -1.0], [10.0, 30.0], [0.0, 0.0]])
+    p1 = np.array([[10.0, 10.0], [18.0, 18.0], [-1.0, 25.0], [15.0, -1.0], [10.0, 10.0], [0.0, 0.0]])
+    # half in; all in; all left of the image; parallel to the top edge, above it; from 10 px
+    # below the image to its middle (10 of 20 px inside); a point in the image
+    got = segment_clip(p0, p1, 20.0, 20.0)
+    assert np.allclose(got, [0.5, 1.0, 0.0, 0.0, 0.5, 1.0])
+
+
+def test_the_fit_recovers_overhead_misses_of_people_whose_head_the_border_cuts(tmp_path):
+    """A ceiling camera cuts the heads of people in its tile's far corners. Simulated with a model
+    that misses half of those and none of the whole ones, the measurement and the fit of the
+    detection table (seen share x floor speed x axis clip) find both rates back."""
+    edges = pf.DETECT_EDGES["overhead"]
+    p = np.ones([len(e) - 1 for e in edges])
+    p[..., :-1] = 0.5  # the last clip bin holds whole axes (clip >= 0.999)
+
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.rho, o.merge, o.clutter = Table(edges, p), 0.0, constant(0.0), 0.0
+    scene = load_scene("overhead_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=8"])
+    s = pf.measure(simulate(scene, seed=0, duration=60.0), scene)["overhead"]
+    X, hit = s.arrays(len(edges))
+    cut = X[:, 2] < 0.999
+    assert cut.sum() > 200 and (~cut).sum() > 2000
+    fitted = Table.fit(edges, list(X.T), hit, strength=1e-9)
+    assert abs(fitted(1.0, 0.0, 0.9) - 0.5) < 0.1 and fitted(1.0, 0.0, 1.0) > 0.99
