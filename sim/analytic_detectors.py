@@ -422,6 +422,25 @@ def merged_blob_member(cam: Camera, axis: np.ndarray, members: np.ndarray) -> in
     return int(members[np.argmin((feet - n) @ e)])
 
 
+def radial_frame(cam: Camera, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors (..., 2) on the floor along and across the direction from the point below a
+    ceiling camera to floor points xy (..., 2)."""
+    d = np.asarray(xy, float) - np.asarray(cam.position, float)[:2]
+    er = d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-9)
+    return er, np.stack([-er[..., 1], er[..., 0]], -1)
+
+
+def _floor_error(err, u: np.ndarray, cam: Camera) -> np.ndarray:
+    """Floor position errors (m) at uniforms u from an error table. The fitted residuals of a
+    quantising camera include its rounding (variance q^2 / 12), which ``floor`` adds again: only
+    the rest of the scatter is kept."""
+    e = err.at(u)
+    if cam.quantum > 0 and err.sigma > 0:
+        keep = np.sqrt(max(0.0, err.sigma**2 - cam.quantum**2 / 12)) / err.sigma
+        e = err.bias + (e - err.bias) * keep
+    return e
+
+
 def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
@@ -441,14 +460,16 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     # (privacy, 15 cm grid) of one person along the line to the other
     for i in np.nonzero(cnt > 1)[0]:
         pos[i] = xy[f[i], merged_blob_member(cam, g.axis[f[i]], np.nonzero(grouped[i])[0])]
-    err = m.error("xy")
     gx, gy = error_uniforms(rng, det.shape, m, 2)
-    e = np.stack([err.at(gx[f, p]), err.at(gy[f, p])], -1)
-    if cam.quantum > 0 and err.sigma > 0:
-        # the fitted residuals of a quantising camera include its rounding (variance q^2 / 12),
-        # which the rounding below adds again: keep only the rest of the scatter
-        keep = np.sqrt(max(0.0, err.sigma**2 - cam.quantum**2 / 12)) / err.sigma
-        e = err.bias + (e - err.bias) * keep
+    e = np.stack([_floor_error(m.error("xy"), gx[f, p], cam), _floor_error(m.error("xy"), gy[f, p], cam)], -1)
+    cut = clip[f, p] < 0.999
+    if "xy_clip_r" in m.errors and cut.any():
+        # a blob whose head the border cuts is placed from its inner end: its error lies mostly
+        # along the camera's radial direction and is wider (fitted apart, in that frame)
+        er, et = radial_frame(cam, pos[cut])
+        r = _floor_error(m.error("xy_clip_r"), gx[f, p][cut], cam)
+        tang = _floor_error(m.error("xy_clip_t"), gy[f, p][cut], cam)
+        e[cut] = r[:, None] * er + tang[:, None] * et
     pos = pos + e
     k = rng.poisson(m.clutter, F) if m.clutter > 0 else np.zeros(F, int)
     fc = np.repeat(np.arange(F), k)

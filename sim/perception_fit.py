@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import blob_candidates, floor_state, silhouette_pairs, span_pairs, window_candidates
+from .analytic_detectors import blob_candidates, floor_state, radial_frame, silhouette_pairs, span_pairs, window_candidates
 from .perception_model import DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
 
 INF = float("inf")
@@ -370,8 +370,14 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
             own[f, p] = own[f, q] = False
         for p, rr in match.items():
             if own[f, p]:
-                s.errors["xy"].extend((D[rr] - xy[f, p]).tolist())
-                s.err_seq.append((cam.name, p, f, float(D[rr, 0] - xy[f, p, 0])))
+                e = D[rr] - xy[f, p]
+                if clip[f, p] >= 0.999:
+                    s.errors["xy"].extend(e.tolist())
+                else:  # head cut by the image border: error along and across the camera's radial direction
+                    er, et = radial_frame(cam, xy[f, p])
+                    s.errors["xy_clip_r"].append(float(e @ er))
+                    s.errors["xy_clip_t"].append(float(e @ et))
+                s.err_seq.append((cam.name, p, f, float(e[0])))
         s.clutter += len(D) - len(match)
         both = hit[f, iu] & hit[f, ju] & reportable[f, iu] & reportable[f, ju]
         for k in np.nonzero(both)[0]:
@@ -517,6 +523,8 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
         if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:
             errors["u_clip"] = errors["u"]
+        if len(s.errors.get("xy_clip_r", ())) < 30:  # too few head-cut blobs: they take the whole ones' error
+            errors.pop("xy_clip_r", None), errors.pop("xy_clip_t", None)
         n_clutter_ids = max(len(s.clutter_ids), 1)
         out[k] = DetectorModel(
             detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s), merge=merge, merge_rho=fit_merge_rho(s, merge), errors=errors,

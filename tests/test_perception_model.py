@@ -428,3 +428,21 @@ def test_the_fit_recovers_overhead_misses_of_people_whose_head_the_border_cuts(t
     assert cut.sum() > 200 and (~cut).sum() > 2000
     fitted = Table.fit(edges, list(X.T), hit, strength=1e-9)
     assert abs(fitted(1.0, 0.0, 0.9) - 0.5) < 0.1 and fitted(1.0, 0.0, 1.0) > 0.99
+
+
+def test_head_cut_overhead_blobs_err_along_the_radial_direction_and_the_fit_finds_it(tmp_path):
+    """Simulated with a model whose head-cut blobs err 5 cm outwards +- 10 cm along the camera's
+    radial direction and +- 5 mm across it, the measurement finds those errors back in that frame."""
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.rho, o.merge, o.clutter = constant(1.0), 0.0, constant(0.0), 0.0
+        o.errors["xy_clip_r"] = Quantiles.gaussian(0.10, bias=0.05)
+        o.errors["xy_clip_t"] = Quantiles.gaussian(0.005)
+    scene = load_scene("overhead_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=8"])
+    s = pf.measure(simulate(scene, seed=0, duration=60.0), scene)["overhead"]
+    r, t = Quantiles.fit(s.errors["xy_clip_r"]), Quantiles.fit(s.errors["xy_clip_t"])
+    assert len(s.errors["xy_clip_r"]) > 100
+    assert abs(r.bias - 0.05) < 0.03 and 0.07 < r.sigma < 0.13
+    assert abs(t.bias) < 0.003 and t.sigma < 0.01
