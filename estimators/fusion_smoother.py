@@ -42,7 +42,8 @@ from scipy.optimize import linear_sum_assignment
 from trackroom.recording import Calibration, Observations
 
 from .base import EstimatorError, check_tracks, param, register
-from .fusion_model import ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust
+from .fusion_model import (ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust, ScaledPrior,
+                           speed_per_step_length)
 from .gait import GaitModel, load_default
 from .phone_motion import MotionSettings, PhoneMotion, phone_motion
 from trackroom.scenes.spec import GaussMarkovParams
@@ -52,6 +53,7 @@ from .qp_smoother import QPSmoother, feasible_origin, track_frame
 from .qp_solver import SolveResult, solve_map
 
 
+WEAK = 1e-4  # weight left on the linear prior's transition rows when they are scale-free (``fused_prior``)
 EVIDENCE_ITER = 6  # Gauss-Newton steps of the no-phone and phone-only solves (``_evidence_settings``)
 
 
@@ -85,8 +87,9 @@ class FusionSmoother(QPSmoother):
         step_length_sigma: float = param(0.1, "prior std of the step length, m")
         step_length_min: float = param(0.3, "least step length (a constraint), m")
         cadence_ref: float = param(1.8, "reference cadence of step_length, Hz")
-        step_length_slope: float = param(0.62, "step length growth with cadence, m/Hz (population constant; fitted on "
-                                               "development recordings, docs/fusion_smoother.md)")
+        cadence_zero: float = param(1.0, "cadence at which the walking speed extrapolates to zero, Hz: speed = step_length "
+                                         "cadence_ref (f - cadence_zero) / (cadence_ref - cadence_zero) (population "
+                                         "constant; fitted on development recordings, docs/fusion_smoother.md)")
         offset_sigma_deg: float = param(180.0, "prior std of the phone's yaw offset in the pocket, deg")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
@@ -101,10 +104,18 @@ class FusionSmoother(QPSmoother):
         bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
         border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
         border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
+        speed_lag_s: float = param(0.5, "speed noise where the carrier speeds up or slows down: the cadence lags a "
+                                        "change of speed by about this (sigma widened by the phone's horizontal "
+                                        "acceleration times this), s")
         turn_lag_s: float = param(0.3, "heading noise in turns: the body turns this long before or after the path "
                                        "(sigma widened by the gyro's yaw rate times this), s")
         gyro: bool = param(False, "add the gyro's heading change between frames")
         gyro_sigma_deg: float = param(3.0, "gyro heading-change noise per camera frame, deg")
+        scale_free: bool = param(True, "the prior's transition rows in units of the step length (fusion_model.ScaledPrior): "
+                                       "only the step length's prior, not the prior on absolute accelerations, holds "
+                                       "a scale the bearings cannot tell (one camera)")
+        starts: int = param(3, "Gauss-Newton starts: the dead reckoning's best heading offsets (local minima of its "
+                                 "fit over the offsets); the solution of least cost is kept")
         offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
         match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
         match_max: float = param(4.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats (right phones: "
@@ -123,15 +134,17 @@ class FusionSmoother(QPSmoother):
                 raise EstimatorError(f"fusion_smoother: {key} must be positive, got {getattr(c, key)}")
         if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
-        if c.speed_rel < 0 or c.offset_grid < 1:
-            raise EstimatorError("fusion_smoother: need speed_rel >= 0 and offset_grid >= 1")
+        if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1:
+            raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1 and starts >= 1")
+        if not 0 <= c.cadence_zero < c.cadence_ref:
+            raise EstimatorError(f"fusion_smoother: need 0 <= cadence_zero < cadence_ref, got {c.cadence_zero}")
 
     def factor_settings(self) -> PhoneFactorSettings:
         c = self.config
         return PhoneFactorSettings(
-            f0=c.cadence_ref, beta=c.step_length_slope, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
+            f0=c.cadence_ref, f1=c.cadence_zero, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
             sigma_psi=np.radians(c.heading_sigma_deg), sigma_stop=c.stop_sigma, sigma_gyro=np.radians(c.gyro_sigma_deg),
-            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, loss=c.phone_loss,
+            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, speed_lag=c.speed_lag_s, scale_free=c.scale_free, loss=c.phone_loss,
         )
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
@@ -236,7 +249,7 @@ class FusionSmoother(QPSmoother):
         rate = np.abs(np.concatenate([m.dyaw, [0.0]]) + np.concatenate([[0.0], m.dyaw])) / (2 * dt)  # yaw rate at t_k
         return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
                             psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
-                            omega=rate[kw])
+                            omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw])
 
     def augmented_prior(self, prior: Prior) -> Prior:
         c = self.config
@@ -247,13 +260,13 @@ class FusionSmoother(QPSmoother):
         else the phone's dead reckoning from the origin)."""
         T = prior.T
         fac = self.factors(m, T)
-        pa = self.phone_prior(prior, fac, calibration)
+        pa, blocks = self.fused_prior(prior, fac, calibration)
         if X0 is None:
             X0 = np.zeros(pa.n)
             X0[NS * T + IL] = self.config.step_length
             v = self._phone_velocity(fac, m, T, self.config.step_length, 0.0)
             X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-        return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._evidence_settings())
+        return solve_map(pa, Residuals(fac.robust(), *blocks), X0, None, None, None, self._evidence_settings())
 
     def _evidence_settings(self):
         """The explanations alone only price the mismatch: a few Gauss-Newton steps from the fused
@@ -292,11 +305,26 @@ class FusionSmoother(QPSmoother):
             prior = self.prior(T, prior.dt, calibration, alt=(GaussMarkovParams(c.q_pos, c.q_vel_phone), mask))
         return self.augmented_prior(prior)
 
+    def fused_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> tuple[Prior, list]:
+        """(the linear prior for ``solve_map``, extra residual blocks). With ``scale_free`` the
+        transition rows move into a ``ScaledPrior`` block (rows divided by l / l_ref) and the linear
+        prior keeps them only at 1e-4 of their weight (the lifted solver needs its G square and
+        invertible; that remnant costs 1e-8 of the prior)."""
+        pa = self.phone_prior(prior, fac, calibration)
+        if not self.config.scale_free or prior.T < 2:
+            return pa, []
+        T = prior.T
+        block = ScaledPrior(pa, self.config.step_length)
+        w = np.ones(pa.n)
+        w[NS:NS * T] = WEAK
+        weak = dataclasses.replace(pa, G=(sp.diags(w) @ pa.G).tocsc(), g=w * pa.g)
+        return weak, [block]
+
     def solve_fused(self, problem, m: PhoneMotion, calibration: Calibration) -> SolveResult:
         prior, obs, C, lower, extra = problem
         T = prior.T
         fac = self.factors(m, T)
-        pa = self.phone_prior(prior, fac, calibration)
+        pa, blocks = self.fused_prior(prior, fac, calibration)
         # and the step length positive (l >= step_length_min): a walk run backwards with a
         # negative step length explains the bearings of a straight walk as well
         l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + N_PAR))
@@ -308,14 +336,22 @@ class FusionSmoother(QPSmoother):
                 out = _f(X[:_nx])
                 Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
                 return (Ce,) + tuple(out[1:])
-        X0 = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration)
         obs_r = self.robust_bearings(obs, self.cameras_)
-        if extra_a is not None:
-            # walls and obstacles choose their face from the side the iterate is on: a dead
-            # reckoning that runs through a wall would lock the wrong face in, so the path is
-            # first found without them (the fixed rows stay), then the walls are added
-            X0 = solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, None, self._settings()).X
-        return solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, extra_a, self._settings())
+        resid = Residuals(obs_r, fac.robust(), *blocks)
+        best = None
+        # several starts (the dead reckoning's best heading offsets), the lowest final cost wins:
+        # with the bounded bearing loss a start on the wrong side of the camera converges to a
+        # path that gives its bearings up as outliers
+        for X0 in self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration, self.config.starts):
+            if extra_a is not None:
+                # walls and obstacles choose their face from the side the iterate is on: a dead
+                # reckoning that runs through a wall would lock the wrong face in, so the path is
+                # first found without them (the fixed rows stay), then the walls are added
+                X0 = solve_map(pa, resid, X0, Ca, lower, None, self._settings()).X
+            res = solve_map(pa, resid, X0, Ca, lower, extra_a, self._settings())
+            if best is None or res.cost[-1] < best.cost[-1]:
+                best = res
+        return best
 
     def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:
         """(T, 2) velocity the phone implies for step length l and offset delta."""
@@ -325,20 +361,19 @@ class FusionSmoother(QPSmoother):
         return s[:, None] * np.stack([np.cos(th), np.sin(th)], axis=1)
 
     def _speed_terms(self, fac: PhoneFactors, T: int) -> tuple[np.ndarray, np.ndarray]:
-        """speed_k = l a_k + b_k: cadence steps f (l + beta (f - f0)), walking without cadence the
-        nominal speed, stopped 0."""
+        """speed_k = l a_k + b_k: cadence steps l g(f) (``fusion_model.speed_per_step_length``),
+        walking without cadence the nominal speed, stopped 0."""
         s = fac.s
         a, b = np.zeros(T), np.zeros(T)
         f = fac.f
         has = np.isfinite(f)
         kc = fac.kw[has]
-        a[kc] = f[has]
-        b[kc] = s.beta * f[has] * (f[has] - s.f0)
+        a[kc] = speed_per_step_length(f[has], s)
         b[fac.kw[~has]] = s.nominal_speed
         return a, b
 
     def dead_reckoning_init(self, obs: Bearings, fac: PhoneFactors, m: PhoneMotion, T: int, dt: float,
-                            calibration: Calibration) -> np.ndarray:
+                            calibration: Calibration, starts: int = 1) -> list[np.ndarray]:
         """Dead reckoning aligned to the bearings (module docstring), with [l, delta] appended.
         It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
         restores feasibility, while moving points onto their rays would put jumps in the path
@@ -349,7 +384,7 @@ class FusionSmoother(QPSmoother):
         h = obs.c - obs.u * obs.d
         scale = np.linalg.norm(nrm, axis=1)
         nrm, h = nrm / scale[:, None], h / scale
-        best = None
+        fits = []
         sig_d = 1.0  # m: dead-reckoning drift between views, for the weight of the step-length prior
         deltas = np.linspace(-np.pi, np.pi, c.offset_grid, endpoint=False)
         for delta in deltas:
@@ -375,17 +410,24 @@ class FusionSmoother(QPSmoother):
                 sol[2] = np.clip(sol[2], max(0.5 * c.step_length, c.step_length_min), 1.5 * c.step_length)
                 e = M @ sol - r
                 cost = float(np.sum(np.log1p(e[:-1] ** 2)) + e[-1] ** 2)
-            if best is None or cost < best[0]:
-                best = (cost, delta, sol, A, B, e)
-        _, delta, sol, A, B, e = best
-        l = float(sol[2])
-        xy = sol[:2] + l * A + B
-        v = (l * a + b)[:, None] * e
-        X = np.zeros(NS * T + N_PAR)
-        X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
-        X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-        X[NS * T + IL], X[NS * T + ID] = l, delta
-        return X
+            fits.append((cost, delta, sol, A, B))
+        # the best offsets that are local minima of the fit's cost over the circle of offsets
+        costs = np.array([f[0] for f in fits])
+        n = len(costs)
+        local = [i for i in range(n) if n < 3 or (costs[i] <= costs[i - 1] and costs[i] <= costs[(i + 1) % n])]
+        out = []
+        for i in sorted(local, key=lambda i: costs[i])[:max(1, starts)]:
+            _, delta, sol, A, B = fits[i]
+            l = float(sol[2])
+            e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
+            xy = sol[:2] + l * A + B
+            v = (l * a + b)[:, None] * e
+            X = np.zeros(NS * T + N_PAR)
+            X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
+            X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
+            X[NS * T + IL], X[NS * T + ID] = l, delta
+            out.append(X)
+        return out
 
     # --- matching ------------------------------------------------------------------------------
     def assign(self, grid, alone, phone_only, fused, problems):

@@ -91,7 +91,7 @@ def test_one_camera_straight_walk_with_a_perfect_phone(monkeypatch):
     assert 8 <= len(obs["bearings"]) < T
     v = np.tile([-0.6, -0.6], (T, 1))
     truth = pd.DataFrame({"x": xy[:, 0], "y": xy[:, 1], "vx": v[:, 0], "vy": v[:, 1]})
-    est = get("fusion_smoother")(step_length=0.65, step_length_slope=0.0, step_length_sigma=1e-3)
+    est = get("fusion_smoother")(step_length=0.65, cadence_zero=0.0, step_length_sigma=1e-3)
     monkeypatch.setattr(est, "phone_motions", lambda *a: {"phone0": perfect_phone(truth, T, dt, 0.65)})
     tracks = est.estimate(obs, cal1)
     assert tracks.phone_id.unique().tolist() == ["phone0"]
@@ -103,9 +103,11 @@ def test_one_camera_straight_walk_with_a_perfect_phone(monkeypatch):
 
 def test_heading_offset_estimated():
     """A phone turned 40 degrees in the pocket, on a noiseless walk to and fro across the hall
-    past two cameras (40 s): the offset is found 40 degrees more than with the phone straight to
-    0.2 degrees; the absolute value is 2.2 degrees off (the issue asks 2), all of it the estimated
-    path's own heading error, which the phone-straight run shows as well."""
+    past two cameras (40 s): the offset is found to 2 degrees (the issue's target; measured 1.1),
+    and 40 degrees more than with the phone straight to 0.2 degrees. The phone's heading itself
+    is exact here; what error is left is the estimated path's own heading, bent at the walk's
+    start and its turns, where the cadence's speed lags the walker's (2.2 degrees before the
+    speed rows were widened by the phone's horizontal acceleration)."""
     walk = {**STRAIGHT, "waypoints": [[1.0, 1.0], [9.0, 9.0]], "loop": True, "speed": [1.1, 1.1]}
     rec = simulate(hall_scene([walk], NOISELESS), 0, 40.0)
     found = []
@@ -120,7 +122,8 @@ def test_heading_offset_estimated():
         assert d["phone_id"] == "phone0"
         found.append(d["heading_offset_deg"])
     assert abs(found[0] - found[1] - 40.0) < 0.2, found
-    assert abs(found[0] - 40.0) < 2.5, found
+    assert abs(found[0] - 40.0) < 2.0, found
+    assert abs(found[1]) < 2.0, found
 
 
 def test_phoneless_person_falls_back_to_qp_smoother():
