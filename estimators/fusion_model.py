@@ -37,11 +37,10 @@ e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
 
 Robust loss (missed steps, a phone taken out of the pocket): every row r goes through Huber's
 rho with threshold c (in sigmas); the bearings, whose detector reports clipped people at the
-image border and the odd false detection, through Cauchy's. A robust rho is written as a
-least-squares residual so that each Gauss-Newton step stays one QP (Triggs et al., "Bundle
-adjustment - a modern synthesis", sec. 4.3):
-    r~ = sign(r) sqrt(2 rho(r)),   J~ = (rho'(r) / r~) J,
-so 0.5 ||r~||^2 = sum rho(r) is the cost the line search sees.
+image border and the odd false detection, through a bounded one (``Robust``). Each Gauss-Newton
+step stays one QP by iteratively reweighted least squares: rows sqrt(w) r, sqrt(w) J with
+w = rho'(r) / r at the iterate, a majoriser of the loss; the line search sees sum rho(r)
+(``Robust.loss``; 0.5 r~^2 with r~ = sign(r) sqrt(2 rho(r)), ``robust_residual``).
 """
 from __future__ import annotations
 
@@ -123,13 +122,22 @@ def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.nd
 
 class Robust:
     """A residual block (``raw_residual(X)`` and ``raw_jacobian(X, n)``, or a ``qp_model.Bearings``)
-    seen through a robust loss: 0.5 ||r~||^2 = sum rho(r / scale). ``scale`` (optional, per row)
-    widens the noise of some rows (e.g. bearings at the image border)."""
+    seen through a robust loss: ``loss(X)`` = sum rho(r / scale). ``scale`` (optional, per row)
+    widens the noise of some rows (e.g. bearings at the image border).
+
+    Gauss-Newton sees it by iteratively reweighted least squares: at the iterate X0 the rows are
+    sqrt(w) r and sqrt(w) J with w = rho'(r0) / r0 (``irls_weight``), so each step minimises the
+    quadratic 0.5 sum w r^2, which majorises sum rho(r) up to a constant for Huber, Cauchy and
+    Geman-McClure (rho'(r) / r does not grow with |r|): a full step descends. The square-root
+    form r~ = sign(r) sqrt(2 rho(r)) (``robust_residual``) was used first: beyond the threshold
+    its Gauss-Newton curvature is about half the loss's (Huber: c / 2|r| against c / |r|), so
+    its steps overshoot by about two, and at T = 3840 every step was halved by the line search
+    until the 50-iteration cap."""
 
     def __init__(self, block, c: float, loss: str = "huber", scale: np.ndarray | None = None):
         if loss not in LOSSES:
             raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
-        self.block, self.c, self.loss = block, float(c), loss
+        self.block, self.c, self.loss_name = block, float(c), loss
         self.inv = None if scale is None else 1.0 / np.asarray(scale, float)
 
     def __len__(self) -> int:
@@ -139,13 +147,34 @@ class Robust:
         r = self.block.raw_residual(X) if hasattr(self.block, "raw_residual") else self.block.residual(X)
         return r if self.inv is None else r * self.inv
 
+    def loss(self, X: np.ndarray) -> float:
+        """sum rho(r) (the cost these rows add)."""
+        rt = robust_residual(self._r(X), self.c, self.loss_name)[0]
+        return 0.5 * float(rt @ rt)
+
     def residual(self, X: np.ndarray) -> np.ndarray:
-        return robust_residual(self._r(X), self.c, self.loss)[0]
+        r = self._r(X)
+        return np.sqrt(irls_weight(r, self.c, self.loss_name)) * r
 
     def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
-        _, w = robust_residual(self._r(X), self.c, self.loss)
+        sw = np.sqrt(irls_weight(self._r(X), self.c, self.loss_name))
         J = self.block.raw_jacobian(X, n) if hasattr(self.block, "raw_jacobian") else self.block.jacobian(X, n)
-        return (sp.diags(w if self.inv is None else w * self.inv) @ J).tocsc()
+        return (sp.diags(sw if self.inv is None else sw * self.inv) @ J).tocsc()
+
+
+def irls_weight(r: np.ndarray, c: float, loss: str) -> np.ndarray:
+    """w = rho'(r) / r (1 at r = 0): huber min(1, c / |r|); cauchy 1 / (1 + (r / c)^2);
+    geman_mcclure c^4 / (c^2 + r^2)^2; l2 1."""
+    r = np.abs(np.asarray(r, float))
+    if loss == "huber":
+        return np.minimum(1.0, c / np.maximum(r, 1e-300))
+    if loss == "cauchy":
+        return 1.0 / (1.0 + (r / c) ** 2)
+    if loss == "geman_mcclure":
+        return c**4 / (c * c + r * r) ** 2
+    if loss == "l2":
+        return np.ones_like(r)
+    raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
 
 
 @dataclass
@@ -290,41 +319,50 @@ class PhoneFactors:
 
 
 class ScaledPrior:
-    """The prior's transition rows in units of the step length (scale-free):
+    """A ``qp_model.Prior`` (with the parameters appended) whose transition rows are in units of
+    the step length (scale-free):
 
-        r = (l_ref / l) (G_t X - g_t),
+        r_t = (l_ref / l) (G_t X - g_t),   the first state's and the parameters' rows as they are,
 
-    G_t, g_t the transition rows (all but the first state's NS rows) of a ``qp_model.Prior`` on the
-    trajectory, l the step length (column ``NS T + IL``) and l_ref its prior mean. A path scaled
-    about a camera together with l (x -> a x, v -> a v, l -> a l) keeps these rows, as it keeps the
-    bearings of that camera and the phone rows: with one camera the data cannot tell the scale,
-    and a prior on absolute accelerations (cost ~ a^2) would decide it instead of the step length's
-    own prior, always towards a smaller path (docs/fusion_smoother.md). Jacobian: (l_ref / l) G_t on
-    X and -r / l on l."""
+    l the step length (column ``NS T + IL``) and l_ref its prior mean. A path scaled about a camera
+    together with l (x -> a x, v -> a v, l -> a l) keeps these rows, as it keeps that camera's
+    bearings and the phone rows: with one camera the data cannot tell the scale, and a prior on
+    absolute accelerations (cost ~ a^2) would decide it instead of the step length's own prior,
+    always towards a smaller path (docs/fusion_smoother.md). Not linear: ``jacobian(X)`` is
+    G with the transition rows scaled by l_ref / l and -r_t / l in the l column, which
+    ``qp_solver.solve_map`` re-evaluates at every iterate (still square and invertible: with l
+    ordered first it is block triangular), so the stiff prior stays in the lifted QP's equality
+    rows."""
 
     def __init__(self, prior, l_ref: float):
-        T = prior.T
-        self.T, self.l_ref = T, float(l_ref)
-        self.G = prior.G[NS:NS * T, :NS * T].tocsr()
-        self.g = prior.g[NS:NS * T]
+        self.base = prior
+        self.G, self.g, self.dt, self.T, self.par_scale = prior.G, prior.g, prior.dt, prior.T, prior.par_scale
+        self.l_ref = float(l_ref)
+        self.col = NS * prior.T + IL
+        self.trans = np.zeros(prior.n, bool)
+        self.trans[NS:NS * prior.T] = True
 
-    def __len__(self) -> int:
-        return self.G.shape[0]
+    @property
+    def n(self) -> int:
+        return self.G.shape[1]
 
-    def _l(self, X):
-        return max(float(X[NS * self.T + IL]), 1e-3)
+    def _q(self, X) -> tuple[float, float]:
+        l = max(float(X[self.col]), 1e-3)
+        return l, self.l_ref / l
 
     def residual(self, X: np.ndarray) -> np.ndarray:
-        return (self.l_ref / self._l(X)) * (self.G @ X[:NS * self.T] - self.g)
+        _, q = self._q(X)
+        r = self.G @ X - self.g
+        r[self.trans] *= q
+        return r
 
-    def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
-        l = self._l(X)
+    def jacobian(self, X: np.ndarray) -> sp.csc_matrix:
+        l, q = self._q(X)
+        w = np.where(self.trans, q, 1.0)
         r = self.residual(X)
-        Jx = (self.l_ref / l) * self.G
-        Jl = sp.csr_matrix((-r / l, (np.arange(len(r)), np.zeros(len(r), int))), shape=(len(r), 1))
-        parts = [Jx, sp.csr_matrix((len(r), NS * self.T + IL - Jx.shape[1])) if NS * self.T + IL > Jx.shape[1] else None,
-                 Jl, sp.csr_matrix((len(r), n - NS * self.T - IL - 1))]
-        return sp.hstack([p for p in parts if p is not None], format="csc")
+        rows = np.flatnonzero(self.trans)
+        Jl = sp.csc_matrix((-r[rows] / l, (rows, np.full(len(rows), self.col))), shape=self.G.shape)
+        return (sp.diags(w) @ self.G + Jl).tocsc()
 
 
 class Residuals:
@@ -339,6 +377,19 @@ class Residuals:
     def residual(self, X: np.ndarray) -> np.ndarray:
         parts = [b.residual(X) for b in self.blocks if len(b)]
         return np.concatenate(parts) if parts else np.zeros(0)
+
+    def loss(self, X: np.ndarray) -> float:
+        """The cost of the rows: each robust block's ``loss``, 0.5 ||r||^2 for the others."""
+        out = 0.0
+        for b in self.blocks:
+            if not len(b):
+                continue
+            if hasattr(b, "loss"):
+                out += b.loss(X)
+            else:
+                r = b.residual(X)
+                out += 0.5 * float(r @ r)
+        return out
 
     def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
         parts = [b.jacobian(X, n) for b in self.blocks if len(b)]

@@ -53,7 +53,7 @@ from .qp_smoother import QPSmoother, feasible_origin, track_frame
 from .qp_solver import SolveResult, solve_map
 
 
-WEAK = 1e-4  # weight left on the linear prior's transition rows when they are scale-free (``fused_prior``)
+EVIDENCE_OSQP = 400  # ADMM iterations of their osqp solves: only an active set for the exact KKT rounds
 EVIDENCE_ITER = 6  # Gauss-Newton steps of the no-phone and phone-only solves (``_evidence_settings``)
 
 
@@ -116,6 +116,7 @@ class FusionSmoother(QPSmoother):
                                        "a scale the bearings cannot tell (one camera)")
         starts: int = param(3, "Gauss-Newton starts: the dead reckoning's best heading offsets (local minima of its "
                                  "fit over the offsets); the solution of least cost is kept")
+        start_iter: int = param(8, "Gauss-Newton steps each start gets before the lowest cost is kept")
         offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
         match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
         match_max: float = param(4.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats (right phones: "
@@ -134,7 +135,7 @@ class FusionSmoother(QPSmoother):
                 raise EstimatorError(f"fusion_smoother: {key} must be positive, got {getattr(c, key)}")
         if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
-        if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1:
+        if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
             raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1 and starts >= 1")
         if not 0 <= c.cadence_zero < c.cadence_ref:
             raise EstimatorError(f"fusion_smoother: need 0 <= cadence_zero < cadence_ref, got {c.cadence_zero}")
@@ -215,10 +216,13 @@ class FusionSmoother(QPSmoother):
     def _settings(self, keep_iterates: bool = False):
         """The QP smoother's settings, stopping at 1 mm steps or a relative cost decrease below
         1e-6 (the last iterations of a robust fit with the global step length and offset creep
-        by millimetres)."""
+        by millimetres), and steps that pass the KKT test taken without osqp's certification
+        (``SolverSettings.trust_kkt``: at T = 3840 the no-phone evidence solve spent 23 s in 9000
+        ADMM iterations)."""
         s = super()._settings(keep_iterates)
         s.tol_step = 1e-3
         s.tol_cost = 1e-6
+        s.trust_kkt = True
         return s
 
     # --- phones --------------------------------------------------------------------------------
@@ -260,13 +264,13 @@ class FusionSmoother(QPSmoother):
         else the phone's dead reckoning from the origin)."""
         T = prior.T
         fac = self.factors(m, T)
-        pa, blocks = self.fused_prior(prior, fac, calibration)
+        pa = self.fused_prior(prior, fac, calibration)
         if X0 is None:
             X0 = np.zeros(pa.n)
             X0[NS * T + IL] = self.config.step_length
             v = self._phone_velocity(fac, m, T, self.config.step_length, 0.0)
             X0[IVX:NS * T:NS], X0[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-        return solve_map(pa, Residuals(fac.robust(), *blocks), X0, None, None, None, self._evidence_settings())
+        return solve_map(pa, Residuals(fac.robust()), X0, None, None, None, self._evidence_settings())
 
     def _evidence_settings(self):
         """The explanations alone only price the mismatch: a few Gauss-Newton steps from the fused
@@ -274,6 +278,7 @@ class FusionSmoother(QPSmoother):
         converges slowly to a minimum a few nats lower)."""
         s = self._settings()
         s.max_iter = min(s.max_iter, EVIDENCE_ITER)
+        s.osqp_max_iter = EVIDENCE_OSQP
         return s
 
     def robust_bearings(self, obs: Bearings, cameras) -> Robust:
@@ -305,26 +310,19 @@ class FusionSmoother(QPSmoother):
             prior = self.prior(T, prior.dt, calibration, alt=(GaussMarkovParams(c.q_pos, c.q_vel_phone), mask))
         return self.augmented_prior(prior)
 
-    def fused_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> tuple[Prior, list]:
-        """(the linear prior for ``solve_map``, extra residual blocks). With ``scale_free`` the
-        transition rows move into a ``ScaledPrior`` block (rows divided by l / l_ref) and the linear
-        prior keeps them only at 1e-4 of their weight (the lifted solver needs its G square and
-        invertible; that remnant costs 1e-8 of the prior)."""
+    def fused_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> Prior | ScaledPrior:
+        """The prior of a solve with a phone: ``phone_prior``, with ``scale_free`` its transition
+        rows in units of the step length (``fusion_model.ScaledPrior``)."""
         pa = self.phone_prior(prior, fac, calibration)
         if not self.config.scale_free or prior.T < 2:
-            return pa, []
-        T = prior.T
-        block = ScaledPrior(pa, self.config.step_length)
-        w = np.ones(pa.n)
-        w[NS:NS * T] = WEAK
-        weak = dataclasses.replace(pa, G=(sp.diags(w) @ pa.G).tocsc(), g=w * pa.g)
-        return weak, [block]
+            return pa
+        return ScaledPrior(pa, self.config.step_length)
 
     def solve_fused(self, problem, m: PhoneMotion, calibration: Calibration) -> SolveResult:
         prior, obs, C, lower, extra = problem
         T = prior.T
         fac = self.factors(m, T)
-        pa, blocks = self.fused_prior(prior, fac, calibration)
+        pa = self.fused_prior(prior, fac, calibration)
         # and the step length positive (l >= step_length_min): a walk run backwards with a
         # negative step length explains the bearings of a straight walk as well
         l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + N_PAR))
@@ -337,20 +335,26 @@ class FusionSmoother(QPSmoother):
                 Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
                 return (Ce,) + tuple(out[1:])
         obs_r = self.robust_bearings(obs, self.cameras_)
-        resid = Residuals(obs_r, fac.robust(), *blocks)
+        resid = Residuals(obs_r, fac.robust())
+        # several starts (the dead reckoning's best heading offsets), screened by their cost after
+        # ``start_iter`` Gauss-Newton steps; the lowest goes on to convergence. With the bounded
+        # bearing loss a start on the wrong side of the camera converges to a path that gives its
+        # bearings up as outliers, and that shows within a few steps
+        starts = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration, self.config.starts)
+        screen = self._settings()
+        screen.max_iter = self.config.start_iter
         best = None
-        # several starts (the dead reckoning's best heading offsets), the lowest final cost wins:
-        # with the bounded bearing loss a start on the wrong side of the camera converges to a
-        # path that gives its bearings up as outliers
-        for X0 in self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration, self.config.starts):
+        for X0 in starts:
             if extra_a is not None:
                 # walls and obstacles choose their face from the side the iterate is on: a dead
                 # reckoning that runs through a wall would lock the wrong face in, so the path is
                 # first found without them (the fixed rows stay), then the walls are added
                 X0 = solve_map(pa, resid, X0, Ca, lower, None, self._settings()).X
-            res = solve_map(pa, resid, X0, Ca, lower, extra_a, self._settings())
+            res = solve_map(pa, resid, X0, Ca, lower, extra_a, screen if len(starts) > 1 else self._settings())
             if best is None or res.cost[-1] < best.cost[-1]:
                 best = res
+        if len(starts) > 1 and not best.converged:
+            best = solve_map(pa, resid, best.X, Ca, lower, extra_a, self._settings())
         return best
 
     def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:
@@ -390,8 +394,10 @@ class FusionSmoother(QPSmoother):
         for delta in deltas:
             e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
             va, vb = a[:, None] * e, b[:, None] * e
-            A = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (va[1:] + va[:-1]), axis=0)])
-            B = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (vb[1:] + vb[:-1]), axis=0)])
+            # integrated as the prior does (x_{k+1} = x_k + dt v_k, v_k the mean over the step): a
+            # start that breaks the stiff position rows costs Gauss-Newton iterations to mend
+            A = np.concatenate([[[0.0, 0.0]], np.cumsum(dt * va[:-1], axis=0)])
+            B = np.concatenate([[[0.0, 0.0]], np.cumsum(dt * vb[:-1], axis=0)])
             if len(obs) == 0:
                 sol, cost = np.array([0.0, 0.0, c.step_length]), 0.0
             else:
