@@ -23,11 +23,17 @@ the label's bearing count, so a person without a phone (or whose best phone cont
 cameras) keeps the plain prior: exactly the ``qp_smoother`` answer with the same parameters.
 The claimed phone is the output's ``phone_id``.
 
-The initial iterate of a fused solve is dead reckoning aligned to the bearings: for each heading
-offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integrated from the phone is
-linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
+The initial iterates of a fused solve are dead reckoning aligned to the bearings: for each
+heading offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integrated from the phone
+is linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
 (``qp_model.Bearings``: (a - u b) . x + (c - u d) = 0), so (p_0, l) is a small least-squares fit;
-the offset with the least residual starts the Gauss-Newton iterations.
+the offset with the least residual and the best one in each other of ``starts`` sectors of the
+circle each get
+``start_iter`` Gauss-Newton steps, and the lowest cost goes on to convergence.
+
+Scale: with ``scale_free`` the prior's transition rows (``fusion_model.ScaledPrior``) and every
+phone row are in units of the step length, so a path scaled about a camera together with l costs
+the same, and with one camera only l's prior sets the scale (docs/fusion_smoother.md).
 """
 from __future__ import annotations
 
@@ -114,8 +120,8 @@ class FusionSmoother(QPSmoother):
         scale_free: bool = param(True, "the prior's transition rows in units of the step length (fusion_model.ScaledPrior): "
                                        "only the step length's prior, not the prior on absolute accelerations, holds "
                                        "a scale the bearings cannot tell (one camera)")
-        starts: int = param(3, "Gauss-Newton starts: the dead reckoning's best heading offsets (local minima of its "
-                                 "fit over the offsets); the solution of least cost is kept")
+        starts: int = param(4, "Gauss-Newton starts: the dead reckoning's best heading offset and the best in each "
+                                 "other sector of the circle (starts sectors); the solution of least cost is kept")
         start_iter: int = param(8, "Gauss-Newton steps each start gets before the lowest cost is kept")
         offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
         match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
@@ -378,8 +384,9 @@ class FusionSmoother(QPSmoother):
 
     def dead_reckoning_init(self, obs: Bearings, fac: PhoneFactors, m: PhoneMotion, T: int, dt: float,
                             calibration: Calibration, starts: int = 1) -> list[np.ndarray]:
-        """Dead reckoning aligned to the bearings (module docstring), with [l, delta] appended.
-        It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
+        """Up to ``starts`` initial iterates: dead reckoning aligned to the bearings (module
+        docstring) at the best heading offset and the best one in each other sector of the
+        circle, each with [l, delta] appended. It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
         restores feasibility, while moving points onto their rays would put jumps in the path
         that the prior then spends iterations (and wrong turns) undoing."""
         c = self.config
@@ -417,12 +424,23 @@ class FusionSmoother(QPSmoother):
                 e = M @ sol - r
                 cost = float(np.sum(np.log1p(e[:-1] ** 2)) + e[-1] ** 2)
             fits.append((cost, delta, sol, A, B))
-        # the best offsets that are local minima of the fit's cost over the circle of offsets
+        # the best offset, and the best one in each of the other sectors of the circle (starts
+        # sectors, the first centred on the best): with one camera the fit's cost over the
+        # offsets can be flat or lowest at the wrong side (development seed 116, Gauss-Markov: its
+        # only two local minima at +-90 degrees, the walker's offset 0)
         costs = np.array([f[0] for f in fits])
         n = len(costs)
-        local = [i for i in range(n) if n < 3 or (costs[i] <= costs[i - 1] and costs[i] <= costs[(i + 1) % n])]
+        i0 = int(np.argmin(costs))
+        k = max(1, min(starts, n))
+        picks = []
+        for j in range(k):
+            centre = i0 + j * n / k
+            idx = np.arange(int(np.ceil(centre - n / (2 * k))), int(np.ceil(centre + n / (2 * k)))) % n
+            i = int(idx[np.argmin(costs[idx])])
+            if i not in picks:
+                picks.append(i)
         out = []
-        for i in sorted(local, key=lambda i: costs[i])[:max(1, starts)]:
+        for i in picks:
             _, delta, sol, A, B = fits[i]
             l = float(sol[2])
             e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
