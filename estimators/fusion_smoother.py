@@ -28,8 +28,7 @@ heading offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integra
 is linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
 (``qp_model.Bearings``: (a - u b) . x + (c - u d) = 0), so (p_0, l) is a small least-squares fit;
 the offset with the least residual and the best one in each other of ``starts`` sectors of the
-circle each get
-``start_iter`` Gauss-Newton steps, and the lowest cost goes on to convergence.
+circle each get ``start_iter`` Gauss-Newton steps, and the lowest cost goes on to convergence.
 
 Scale: with ``scale_free`` the prior's transition rows (``fusion_model.ScaledPrior``) and every
 phone row are in units of the step length, so a path scaled about a camera together with l costs
@@ -142,7 +141,7 @@ class FusionSmoother(QPSmoother):
         if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
         if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
-            raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1 and starts >= 1")
+            raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1, starts >= 1 and start_iter >= 1")
         if not 0 <= c.cadence_zero < c.cadence_ref:
             raise EstimatorError(f"fusion_smoother: need 0 <= cadence_zero < cadence_ref, got {c.cadence_zero}")
 
@@ -151,7 +150,8 @@ class FusionSmoother(QPSmoother):
         return PhoneFactorSettings(
             f0=c.cadence_ref, f1=c.cadence_zero, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
             sigma_psi=np.radians(c.heading_sigma_deg), sigma_stop=c.stop_sigma, sigma_gyro=np.radians(c.gyro_sigma_deg),
-            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, speed_lag=c.speed_lag_s, scale_free=c.scale_free, loss=c.phone_loss,
+            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, speed_lag=c.speed_lag_s,
+            scale_free=c.scale_free, loss=c.phone_loss,
         )
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
@@ -342,10 +342,11 @@ class FusionSmoother(QPSmoother):
                 return (Ce,) + tuple(out[1:])
         obs_r = self.robust_bearings(obs, self.cameras_)
         resid = Residuals(obs_r, fac.robust())
-        # several starts (the dead reckoning's best heading offsets), screened by their cost after
-        # ``start_iter`` Gauss-Newton steps; the lowest goes on to convergence. With the bounded
-        # bearing loss a start on the wrong side of the camera converges to a path that gives its
-        # bearings up as outliers, and that shows within a few steps
+        # several starts (the dead reckoning's best heading offset in each sector of the circle),
+        # screened by their cost after ``start_iter`` Gauss-Newton steps; the lowest goes on to
+        # convergence. With the bounded bearing loss a start on the wrong side of the camera
+        # converges to a path that gives its bearings up as outliers, and that shows within a few
+        # steps
         starts = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration, self.config.starts)
         screen = self._settings()
         screen.max_iter = self.config.start_iter
@@ -386,8 +387,8 @@ class FusionSmoother(QPSmoother):
                             calibration: Calibration, starts: int = 1) -> list[np.ndarray]:
         """Up to ``starts`` initial iterates: dead reckoning aligned to the bearings (module
         docstring) at the best heading offset and the best one in each other sector of the
-        circle, each with [l, delta] appended. It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
-        restores feasibility, while moving points onto their rays would put jumps in the path
+        circle, each with [l, delta] appended. It is left as it is, smooth, even where it breaks a
+        field-of-view row: the first QP step restores feasibility, while moving points onto their rays would put jumps in the path
         that the prior then spends iterations (and wrong turns) undoing."""
         c = self.config
         a, b = self._speed_terms(fac, T)
