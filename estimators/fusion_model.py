@@ -8,11 +8,16 @@ extra rows of the prior factor (``Prior.with_parameters``).
 For grid step k with phone heading psi_k (``phone_motion``), unit walking direction
 e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
 
-- **speed from cadence** (walking, a cadence f_k): step length L(f) = l + beta (f - f_0) (linear in
-  cadence, beta a population constant), speed s_k = f_k L(f_k);
-      r_a = (e_k . v_k - s_k) / sigma_a,k,     sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2
+- **speed from cadence** (walking, a cadence f_k): the speed is linear in cadence above a cadence
+  f_1 at which it extrapolates to zero, and proportional to the step length l at f_0:
+      s_k = l g(f_k),   g(f) = f_0 (f - f_1) / (f_0 - f_1)   (floored at ``G_MIN``)
+  (f_1 a population constant; the step length at cadence f is s / f). Proportional to l, so a
+  path scaled about a camera together with l keeps these rows exactly;
+      r_a = (e_k . v_k - s_k) / sigma_a,k,     sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2 + (tau_a a_k)^2
   (people slow down in turns faster than a cadence over half a second follows: tau and omega_k
-  as below)
+  as below), and by tau_a a_k (a_k the phone's horizontal acceleration, ``phone_motion``): the
+  cadence lags a change of speed by about its averaging window tau_a, and the first and last
+  steps of a walk are short
 - **heading** (walking): the velocity's component across the phone heading, a von Mises heading
   error of concentration kappa in its small-angle (Gaussian) form, sigma_psi = 1 / sqrt(kappa),
   widened in turns, where the body (and the phone with it) turns a little before or after the
@@ -21,6 +26,10 @@ e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
   with s~_k the speed the priors predict (f_k L(f_k) at the prior l, or ``nominal_speed`` where
   no cadence was found), so that the weights stay fixed.
 - **stopped** (the gait model says stopped): r_s = v_k / sigma_stop (two rows).
+- **scale-free** (``scale_free``, the default): the heading rows without a cadence and the stopped
+  rows have their sigma multiplied by l / l_prior as well, so that every phone row is unchanged when
+  the path is scaled about a camera together with l (``ScaledPrior`` does the same for the prior):
+  with one camera only the step length's prior then holds the scale.
 - **gyro** (optional, walking at k and k+1): the heading change equals the integrated yaw rate
   dpsi_k, whatever delta and the magnetic field:
       r_g = (n~_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~_k sigma_gyro)
@@ -28,11 +37,10 @@ e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
 
 Robust loss (missed steps, a phone taken out of the pocket): every row r goes through Huber's
 rho with threshold c (in sigmas); the bearings, whose detector reports clipped people at the
-image border and the odd false detection, through Cauchy's. A robust rho is written as a
-least-squares residual so that each Gauss-Newton step stays one QP (Triggs et al., "Bundle
-adjustment - a modern synthesis", sec. 4.3):
-    r~ = sign(r) sqrt(2 rho(r)),   J~ = (rho'(r) / r~) J,
-so 0.5 ||r~||^2 = sum rho(r) is the cost the line search sees.
+image border and the odd false detection, through a bounded one (``Robust``). Each Gauss-Newton
+step stays one QP by iteratively reweighted least squares: rows sqrt(w) r, sqrt(w) J with
+w = rho'(r) / r at the iterate, a majoriser of the loss; the line search sees sum rho(r)
+(``Robust.loss``; 0.5 r~^2 with r~ = sign(r) sqrt(2 rho(r)), ``robust_residual``).
 """
 from __future__ import annotations
 
@@ -44,6 +52,7 @@ import scipy.sparse as sp
 from .qp_model import IVX, IVY, NS
 
 N_PAR = 2  # [l, delta]
+G_MIN = 0.15  # least speed per unit step length, 1/s (0.1 m/s at l = 0.7 m): cadences near f_1
 IL, ID = 0, 1
 
 
@@ -52,7 +61,7 @@ class PhoneFactorSettings:
     """Noise levels and the step-length law (module docstring); angles in radians."""
 
     f0: float = 1.8  # reference cadence of the step length l, Hz
-    beta: float = 0.62  # step length slope in cadence, m / Hz
+    f1: float = 1.0  # cadence at which the speed extrapolates to zero, Hz
     sigma_speed: float = 0.05  # m/s
     rel_speed: float = 0.08  # relative speed error from cadence
     sigma_psi: float = 0.15  # rad
@@ -61,11 +70,18 @@ class PhoneFactorSettings:
     nominal_speed: float = 0.8  # m/s, heading weight where no cadence was found
     huber: float = 2.0  # robust threshold, sigmas
     turn_lag: float = 0.3  # s, tau
+    speed_lag: float = 0.5  # s, tau_a: the cadence's lag behind speed changes
     loss: str = "huber"
     gyro: bool = False
+    scale_free: bool = True  # every row in units of the step length (sigma ~ l / l_prior); see ``_raw``
 
 
 LOSSES = ("huber", "cauchy", "geman_mcclure", "l2")
+
+
+def speed_per_step_length(f: np.ndarray, s: PhoneFactorSettings) -> np.ndarray:
+    """g(f) = f_0 (f - f_1) / (f_0 - f_1), floored at ``G_MIN`` (1/s): speed = l g(f)."""
+    return np.maximum(s.f0 * (np.asarray(f, float) - s.f1) / (s.f0 - s.f1), G_MIN)
 
 
 def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.ndarray, np.ndarray]:
@@ -106,13 +122,22 @@ def robust_residual(r: np.ndarray, c: float, loss: str = "huber") -> tuple[np.nd
 
 class Robust:
     """A residual block (``raw_residual(X)`` and ``raw_jacobian(X, n)``, or a ``qp_model.Bearings``)
-    seen through a robust loss: 0.5 ||r~||^2 = sum rho(r / scale). ``scale`` (optional, per row)
-    widens the noise of some rows (e.g. bearings at the image border)."""
+    seen through a robust loss: ``loss(X)`` = sum rho(r / scale). ``scale`` (optional, per row)
+    widens the noise of some rows (e.g. bearings at the image border).
+
+    Gauss-Newton sees it by iteratively reweighted least squares: at the iterate X0 the rows are
+    sqrt(w) r and sqrt(w) J with w = rho'(r0) / r0 (``irls_weight``), so each step minimises the
+    quadratic 0.5 sum w r^2, which majorises sum rho(r) up to a constant for Huber, Cauchy and
+    Geman-McClure (rho'(r) / r does not grow with |r|): a full step descends. The square-root
+    form r~ = sign(r) sqrt(2 rho(r)) (``robust_residual``) was used first: beyond the threshold
+    its Gauss-Newton curvature is about half the loss's (Huber: c / 2|r| against c / |r|), so
+    its steps overshoot by about two, and at T = 3840 every step was halved by the line search
+    until the 50-iteration cap."""
 
     def __init__(self, block, c: float, loss: str = "huber", scale: np.ndarray | None = None):
         if loss not in LOSSES:
             raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
-        self.block, self.c, self.loss = block, float(c), loss
+        self.block, self.c, self.loss_name = block, float(c), loss
         self.inv = None if scale is None else 1.0 / np.asarray(scale, float)
 
     def __len__(self) -> int:
@@ -122,13 +147,34 @@ class Robust:
         r = self.block.raw_residual(X) if hasattr(self.block, "raw_residual") else self.block.residual(X)
         return r if self.inv is None else r * self.inv
 
+    def loss(self, X: np.ndarray) -> float:
+        """sum rho(r) (the cost these rows add)."""
+        rt = robust_residual(self._r(X), self.c, self.loss_name)[0]
+        return 0.5 * float(rt @ rt)
+
     def residual(self, X: np.ndarray) -> np.ndarray:
-        return robust_residual(self._r(X), self.c, self.loss)[0]
+        r = self._r(X)
+        return np.sqrt(irls_weight(r, self.c, self.loss_name)) * r
 
     def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
-        _, w = robust_residual(self._r(X), self.c, self.loss)
+        sw = np.sqrt(irls_weight(self._r(X), self.c, self.loss_name))
         J = self.block.raw_jacobian(X, n) if hasattr(self.block, "raw_jacobian") else self.block.jacobian(X, n)
-        return (sp.diags(w if self.inv is None else w * self.inv) @ J).tocsc()
+        return (sp.diags(sw if self.inv is None else sw * self.inv) @ J).tocsc()
+
+
+def irls_weight(r: np.ndarray, c: float, loss: str) -> np.ndarray:
+    """w = rho'(r) / r (1 at r = 0): huber min(1, c / |r|); cauchy 1 / (1 + (r / c)^2);
+    geman_mcclure c^4 / (c^2 + r^2)^2; l2 1."""
+    r = np.abs(np.asarray(r, float))
+    if loss == "huber":
+        return np.minimum(1.0, c / np.maximum(r, 1e-300))
+    if loss == "cauchy":
+        return 1.0 / (1.0 + (r / c) ** 2)
+    if loss == "geman_mcclure":
+        return c**4 / (c * c + r * r) ** 2
+    if loss == "l2":
+        return np.ones_like(r)
+    raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
 
 
 @dataclass
@@ -149,16 +195,19 @@ class PhoneFactors:
     l_prior: float
     s: PhoneFactorSettings
     omega: np.ndarray | None = None  # yaw rate at the walking steps, rad/s (None: no widening)
+    accel: np.ndarray | None = None  # horizontal acceleration at the walking steps, m/s^2 (None: no widening)
 
     def __post_init__(self):
         f = self.f
         has = np.isfinite(f)
         self.has_f = has
         nominal = np.full(len(f), self.s.nominal_speed)
-        nominal[has] = np.maximum(f[has] * (self.l_prior + self.s.beta * (f[has] - self.s.f0)), 0.1)
+        self.g = speed_per_step_length(f[has], self.s)
+        nominal[has] = self.l_prior * self.g
         self.s_nom = nominal
         turn = np.zeros(len(f)) if self.omega is None else self.s.turn_lag * self.omega
-        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2)
+        lag = np.zeros(len(f)) if self.accel is None else self.s.speed_lag * self.accel
+        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2 + lag**2)
         sig_psi = self.s.sigma_psi
         if self.omega is not None:
             sig_psi = np.sqrt(sig_psi**2 + (self.s.turn_lag * self.omega) ** 2)
@@ -191,15 +240,16 @@ class PhoneFactors:
         nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
         v = np.stack([X[ka * NS + IVX], X[ka * NS + IVY]], axis=1)
         ev, nv = np.einsum("ij,ij->i", e, v), np.einsum("ij,ij->i", nrm, v)
-        speed = np.maximum(fa * (l + s.beta * (fa - s.f0)), 0.1)
+        ga = self.g
+        speed = l * ga
         ratio = speed / self.s_nom[self.ia]  # s_k(l) / s~_k
         sa = self.sig_a[self.ia] * ratio
         res.append((ev - speed) / sa)
-        # r = (e.v - s) / (c s), c = sig_a / s~:  dr/ds = -(e.v) / (c s^2), ds/dl = f
+        # r = (e.v - s) / (c s), c = sig_a / s~:  dr/ds = -(e.v) / (c s^2), ds/dl = g
         rows = row0 + np.arange(len(ka))
         R += [rows, rows, rows, rows]
         C += [ka * NS + IVX, ka * NS + IVY, np.full(len(ka), cl), np.full(len(ka), cd)]
-        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * fa / sa, -nv / sa]
+        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * ga / sa, -nv / sa]
         row0 += len(ka)
         # cross-track heading (rows with a cadence relative to s_k(l); the others to s~_k)
         kw = self.kw
@@ -211,7 +261,15 @@ class PhoneFactors:
         sc = self.sig_c.copy()
         dl = np.zeros(len(kw))
         sc[self.ia] *= ratio
-        dl[self.ia] = -(nv[self.ia] / speed) * fa / sc[self.ia]
+        dl[self.ia] = -(nv[self.ia] / speed) * ga / sc[self.ia]
+        q = l / self.l_prior if s.scale_free else 1.0  # the scale of the path relative to the prior's
+        if s.scale_free:
+            # rows without a cadence (and the stopped rows below) in units of the step length too:
+            # sigma ~ l, so a path scaled with l keeps them; dr/dl = -r / l
+            nc = np.ones(len(kw), bool)
+            nc[self.ia] = False
+            sc[nc] *= q
+            dl[nc] = -(nv[nc] / sc[nc]) / l
         res.append(nv / sc)
         rows = row0 + np.arange(len(kw))
         R += [rows, rows, rows, rows]
@@ -220,12 +278,14 @@ class PhoneFactors:
         row0 += len(kw)
         # stopped
         ks = self.ks
+        ss = s.sigma_stop * q
         for iv in (IVX, IVY):
-            res.append(X[ks * NS + iv] / s.sigma_stop)
+            r = X[ks * NS + iv] / ss
+            res.append(r)
             rows = row0 + np.arange(len(ks))
-            R.append(rows)
-            C.append(ks * NS + iv)
-            V.append(np.full(len(ks), 1.0 / s.sigma_stop))
+            R += [rows, rows] if s.scale_free else [rows]
+            C += [ks * NS + iv, np.full(len(ks), cl)] if s.scale_free else [ks * NS + iv]
+            V += [np.full(len(ks), 1.0 / ss), -r / l] if s.scale_free else [np.full(len(ks), 1.0 / ss)]
             row0 += len(ks)
         # gyro: heading change between consecutive walking steps
         if s.gyro and len(self.kg):
@@ -258,6 +318,53 @@ class PhoneFactors:
         return Robust(self, self.s.huber, self.s.loss)
 
 
+class ScaledPrior:
+    """A ``qp_model.Prior`` (with the parameters appended) whose transition rows are in units of
+    the step length (scale-free):
+
+        r_t = (l_ref / l) (G_t X - g_t),   the first state's and the parameters' rows as they are,
+
+    l the step length (column ``NS T + IL``) and l_ref its prior mean. A path scaled about a camera
+    together with l (x -> a x, v -> a v, l -> a l) keeps these rows, as it keeps that camera's
+    bearings and the phone rows: with one camera the data cannot tell the scale, and a prior on
+    absolute accelerations (cost ~ a^2) would decide it instead of the step length's own prior,
+    always towards a smaller path (docs/fusion_smoother.md). Not linear: ``jacobian(X)`` is
+    G with the transition rows scaled by l_ref / l and -r_t / l in the l column, which
+    ``qp_solver.solve_map`` re-evaluates at every iterate (still square and invertible: with l
+    ordered first it is block triangular), so the stiff prior stays in the lifted QP's equality
+    rows."""
+
+    def __init__(self, prior, l_ref: float):
+        self.base = prior
+        self.G, self.g, self.dt, self.T, self.par_scale = prior.G, prior.g, prior.dt, prior.T, prior.par_scale
+        self.l_ref = float(l_ref)
+        self.col = NS * prior.T + IL
+        self.trans = np.zeros(prior.n, bool)
+        self.trans[NS:NS * prior.T] = True
+
+    @property
+    def n(self) -> int:
+        return self.G.shape[1]
+
+    def _q(self, X) -> tuple[float, float]:
+        l = max(float(X[self.col]), 1e-3)
+        return l, self.l_ref / l
+
+    def residual(self, X: np.ndarray) -> np.ndarray:
+        _, q = self._q(X)
+        r = self.G @ X - self.g
+        r[self.trans] *= q
+        return r
+
+    def jacobian(self, X: np.ndarray) -> sp.csc_matrix:
+        l, q = self._q(X)
+        w = np.where(self.trans, q, 1.0)
+        r = self.residual(X)
+        rows = np.flatnonzero(self.trans)
+        Jl = sp.csc_matrix((-r[rows] / l, (rows, np.full(len(rows), self.col))), shape=self.G.shape)
+        return (sp.diags(w) @ self.G + Jl).tocsc()
+
+
 class Residuals:
     """A stack of residual blocks seen by ``qp_solver.solve_map`` as one observation model."""
 
@@ -270,6 +377,19 @@ class Residuals:
     def residual(self, X: np.ndarray) -> np.ndarray:
         parts = [b.residual(X) for b in self.blocks if len(b)]
         return np.concatenate(parts) if parts else np.zeros(0)
+
+    def loss(self, X: np.ndarray) -> float:
+        """The cost of the rows: each robust block's ``loss``, 0.5 ||r||^2 for the others."""
+        out = 0.0
+        for b in self.blocks:
+            if not len(b):
+                continue
+            if hasattr(b, "loss"):
+                out += b.loss(X)
+            else:
+                r = b.residual(X)
+                out += 0.5 * float(r @ r)
+        return out
 
     def jacobian(self, X: np.ndarray, n: int) -> sp.csc_matrix:
         parts = [b.jacobian(X, n) for b in self.blocks if len(b)]

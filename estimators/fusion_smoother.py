@@ -23,11 +23,16 @@ the label's bearing count, so a person without a phone (or whose best phone cont
 cameras) keeps the plain prior: exactly the ``qp_smoother`` answer with the same parameters.
 The claimed phone is the output's ``phone_id``.
 
-The initial iterate of a fused solve is dead reckoning aligned to the bearings: for each heading
-offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integrated from the phone is
-linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
+The initial iterates of a fused solve are dead reckoning aligned to the bearings: for each
+heading offset on a grid, the path p_k = p_0 + l A_k(delta) + B_k(delta) integrated from the phone
+is linear in (p_0, l), and every bearing says that its point lies on a line n . x + h = 0
 (``qp_model.Bearings``: (a - u b) . x + (c - u d) = 0), so (p_0, l) is a small least-squares fit;
-the offset with the least residual starts the Gauss-Newton iterations.
+the offset with the least residual and the best one in each other of ``starts`` sectors of the
+circle each get ``start_iter`` Gauss-Newton steps, and the lowest cost goes on to convergence.
+
+Scale: with ``scale_free`` the prior's transition rows (``fusion_model.ScaledPrior``) and every
+phone row are in units of the step length, so a path scaled about a camera together with l costs
+the same, and with one camera only l's prior sets the scale (docs/fusion_smoother.md).
 """
 from __future__ import annotations
 
@@ -42,7 +47,8 @@ from scipy.optimize import linear_sum_assignment
 from trackroom.recording import Calibration, Observations
 
 from .base import EstimatorError, check_tracks, param, register
-from .fusion_model import ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust
+from .fusion_model import (ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust, ScaledPrior,
+                           speed_per_step_length)
 from .gait import GaitModel, load_default
 from .phone_motion import MotionSettings, PhoneMotion, phone_motion
 from trackroom.scenes.spec import GaussMarkovParams
@@ -52,6 +58,7 @@ from .qp_smoother import QPSmoother, feasible_origin, track_frame
 from .qp_solver import SolveResult, solve_map
 
 
+EVIDENCE_OSQP = 400  # ADMM iterations of their osqp solves: only an active set for the exact KKT rounds
 EVIDENCE_ITER = 6  # Gauss-Newton steps of the no-phone and phone-only solves (``_evidence_settings``)
 
 
@@ -85,8 +92,9 @@ class FusionSmoother(QPSmoother):
         step_length_sigma: float = param(0.1, "prior std of the step length, m")
         step_length_min: float = param(0.3, "least step length (a constraint), m")
         cadence_ref: float = param(1.8, "reference cadence of step_length, Hz")
-        step_length_slope: float = param(0.62, "step length growth with cadence, m/Hz (population constant; fitted on "
-                                               "development recordings, docs/fusion_smoother.md)")
+        cadence_zero: float = param(1.0, "cadence at which the walking speed extrapolates to zero, Hz: speed = step_length "
+                                         "cadence_ref (f - cadence_zero) / (cadence_ref - cadence_zero) (population "
+                                         "constant; fitted on development recordings, docs/fusion_smoother.md)")
         offset_sigma_deg: float = param(180.0, "prior std of the phone's yaw offset in the pocket, deg")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
@@ -101,10 +109,19 @@ class FusionSmoother(QPSmoother):
         bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
         border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
         border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
+        speed_lag_s: float = param(0.5, "speed noise where the carrier speeds up or slows down: the cadence lags a "
+                                        "change of speed by about this (sigma widened by the phone's horizontal "
+                                        "acceleration times this), s")
         turn_lag_s: float = param(0.3, "heading noise in turns: the body turns this long before or after the path "
                                        "(sigma widened by the gyro's yaw rate times this), s")
         gyro: bool = param(False, "add the gyro's heading change between frames")
         gyro_sigma_deg: float = param(3.0, "gyro heading-change noise per camera frame, deg")
+        scale_free: bool = param(True, "the prior's transition rows in units of the step length (fusion_model.ScaledPrior): "
+                                       "only the step length's prior, not the prior on absolute accelerations, holds "
+                                       "a scale the bearings cannot tell (one camera)")
+        starts: int = param(4, "Gauss-Newton starts: the dead reckoning's best heading offset and the best in each "
+                                 "other sector of the circle (starts sectors); the solution of least cost is kept")
+        start_iter: int = param(8, "Gauss-Newton steps each start gets before the lowest cost is kept")
         offset_grid: int = param(36, "heading offsets tried for the dead-reckoning initial iterate")
         match: bool = param(True, "match phones to labels; false: no phone is used (the qp_smoother answer)")
         match_max: float = param(4.0, "largest mismatch D(h, i) per bearing of h for a phone claim, nats (right phones: "
@@ -123,15 +140,18 @@ class FusionSmoother(QPSmoother):
                 raise EstimatorError(f"fusion_smoother: {key} must be positive, got {getattr(c, key)}")
         if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
-        if c.speed_rel < 0 or c.offset_grid < 1:
-            raise EstimatorError("fusion_smoother: need speed_rel >= 0 and offset_grid >= 1")
+        if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
+            raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1, starts >= 1 and start_iter >= 1")
+        if not 0 <= c.cadence_zero < c.cadence_ref:
+            raise EstimatorError(f"fusion_smoother: need 0 <= cadence_zero < cadence_ref, got {c.cadence_zero}")
 
     def factor_settings(self) -> PhoneFactorSettings:
         c = self.config
         return PhoneFactorSettings(
-            f0=c.cadence_ref, beta=c.step_length_slope, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
+            f0=c.cadence_ref, f1=c.cadence_zero, sigma_speed=c.speed_sigma, rel_speed=c.speed_rel,
             sigma_psi=np.radians(c.heading_sigma_deg), sigma_stop=c.stop_sigma, sigma_gyro=np.radians(c.gyro_sigma_deg),
-            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, loss=c.phone_loss,
+            nominal_speed=c.nominal_speed, huber=c.huber, gyro=c.gyro, turn_lag=c.turn_lag_s, speed_lag=c.speed_lag_s,
+            scale_free=c.scale_free, loss=c.phone_loss,
         )
 
     def estimate(self, observations: Observations, calibration: Calibration) -> pd.DataFrame:
@@ -202,10 +222,13 @@ class FusionSmoother(QPSmoother):
     def _settings(self, keep_iterates: bool = False):
         """The QP smoother's settings, stopping at 1 mm steps or a relative cost decrease below
         1e-6 (the last iterations of a robust fit with the global step length and offset creep
-        by millimetres)."""
+        by millimetres), and steps that pass the KKT test taken without osqp's certification
+        (``SolverSettings.trust_kkt``: at T = 3840 the no-phone evidence solve spent 23 s in 9000
+        ADMM iterations)."""
         s = super()._settings(keep_iterates)
         s.tol_step = 1e-3
         s.tol_cost = 1e-6
+        s.trust_kkt = True
         return s
 
     # --- phones --------------------------------------------------------------------------------
@@ -236,7 +259,7 @@ class FusionSmoother(QPSmoother):
         rate = np.abs(np.concatenate([m.dyaw, [0.0]]) + np.concatenate([[0.0], m.dyaw])) / (2 * dt)  # yaw rate at t_k
         return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
                             psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
-                            omega=rate[kw])
+                            omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw])
 
     def augmented_prior(self, prior: Prior) -> Prior:
         c = self.config
@@ -247,7 +270,7 @@ class FusionSmoother(QPSmoother):
         else the phone's dead reckoning from the origin)."""
         T = prior.T
         fac = self.factors(m, T)
-        pa = self.phone_prior(prior, fac, calibration)
+        pa = self.fused_prior(prior, fac, calibration)
         if X0 is None:
             X0 = np.zeros(pa.n)
             X0[NS * T + IL] = self.config.step_length
@@ -261,6 +284,7 @@ class FusionSmoother(QPSmoother):
         converges slowly to a minimum a few nats lower)."""
         s = self._settings()
         s.max_iter = min(s.max_iter, EVIDENCE_ITER)
+        s.osqp_max_iter = EVIDENCE_OSQP
         return s
 
     def robust_bearings(self, obs: Bearings, cameras) -> Robust:
@@ -292,11 +316,19 @@ class FusionSmoother(QPSmoother):
             prior = self.prior(T, prior.dt, calibration, alt=(GaussMarkovParams(c.q_pos, c.q_vel_phone), mask))
         return self.augmented_prior(prior)
 
+    def fused_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> Prior | ScaledPrior:
+        """The prior of a solve with a phone: ``phone_prior``, with ``scale_free`` its transition
+        rows in units of the step length (``fusion_model.ScaledPrior``)."""
+        pa = self.phone_prior(prior, fac, calibration)
+        if not self.config.scale_free or prior.T < 2:
+            return pa
+        return ScaledPrior(pa, self.config.step_length)
+
     def solve_fused(self, problem, m: PhoneMotion, calibration: Calibration) -> SolveResult:
         prior, obs, C, lower, extra = problem
         T = prior.T
         fac = self.factors(m, T)
-        pa = self.phone_prior(prior, fac, calibration)
+        pa = self.fused_prior(prior, fac, calibration)
         # and the step length positive (l >= step_length_min): a walk run backwards with a
         # negative step length explains the bearings of a straight walk as well
         l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + N_PAR))
@@ -308,14 +340,29 @@ class FusionSmoother(QPSmoother):
                 out = _f(X[:_nx])
                 Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
                 return (Ce,) + tuple(out[1:])
-        X0 = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration)
         obs_r = self.robust_bearings(obs, self.cameras_)
-        if extra_a is not None:
-            # walls and obstacles choose their face from the side the iterate is on: a dead
-            # reckoning that runs through a wall would lock the wrong face in, so the path is
-            # first found without them (the fixed rows stay), then the walls are added
-            X0 = solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, None, self._settings()).X
-        return solve_map(pa, Residuals(obs_r, fac.robust()), X0, Ca, lower, extra_a, self._settings())
+        resid = Residuals(obs_r, fac.robust())
+        # several starts (the dead reckoning's best heading offset in each sector of the circle),
+        # screened by their cost after ``start_iter`` Gauss-Newton steps; the lowest goes on to
+        # convergence. With the bounded bearing loss a start on the wrong side of the camera
+        # converges to a path that gives its bearings up as outliers, and that shows within a few
+        # steps
+        starts = self.dead_reckoning_init(obs, fac, m, T, prior.dt, calibration, self.config.starts)
+        screen = self._settings()
+        screen.max_iter = self.config.start_iter
+        best = None
+        for X0 in starts:
+            if extra_a is not None:
+                # walls and obstacles choose their face from the side the iterate is on: a dead
+                # reckoning that runs through a wall would lock the wrong face in, so the path is
+                # first found without them (the fixed rows stay), then the walls are added
+                X0 = solve_map(pa, resid, X0, Ca, lower, None, self._settings()).X
+            res = solve_map(pa, resid, X0, Ca, lower, extra_a, screen if len(starts) > 1 else self._settings())
+            if best is None or res.cost[-1] < best.cost[-1]:
+                best = res
+        if len(starts) > 1 and not best.converged:
+            best = solve_map(pa, resid, best.X, Ca, lower, extra_a, self._settings())
+        return best
 
     def _phone_velocity(self, fac: PhoneFactors, m: PhoneMotion, T: int, l: float, delta: float) -> np.ndarray:
         """(T, 2) velocity the phone implies for step length l and offset delta."""
@@ -325,23 +372,23 @@ class FusionSmoother(QPSmoother):
         return s[:, None] * np.stack([np.cos(th), np.sin(th)], axis=1)
 
     def _speed_terms(self, fac: PhoneFactors, T: int) -> tuple[np.ndarray, np.ndarray]:
-        """speed_k = l a_k + b_k: cadence steps f (l + beta (f - f0)), walking without cadence the
-        nominal speed, stopped 0."""
+        """speed_k = l a_k + b_k: cadence steps l g(f) (``fusion_model.speed_per_step_length``),
+        walking without cadence the nominal speed, stopped 0."""
         s = fac.s
         a, b = np.zeros(T), np.zeros(T)
         f = fac.f
         has = np.isfinite(f)
         kc = fac.kw[has]
-        a[kc] = f[has]
-        b[kc] = s.beta * f[has] * (f[has] - s.f0)
+        a[kc] = speed_per_step_length(f[has], s)
         b[fac.kw[~has]] = s.nominal_speed
         return a, b
 
     def dead_reckoning_init(self, obs: Bearings, fac: PhoneFactors, m: PhoneMotion, T: int, dt: float,
-                            calibration: Calibration) -> np.ndarray:
-        """Dead reckoning aligned to the bearings (module docstring), with [l, delta] appended.
-        It is left as it is, smooth, even where it breaks a field-of-view row: the first QP step
-        restores feasibility, while moving points onto their rays would put jumps in the path
+                            calibration: Calibration, starts: int = 1) -> list[np.ndarray]:
+        """Up to ``starts`` initial iterates: dead reckoning aligned to the bearings (module
+        docstring) at the best heading offset and the best one in each other sector of the
+        circle, each with [l, delta] appended. It is left as it is, smooth, even where it breaks a
+        field-of-view row: the first QP step restores feasibility, while moving points onto their rays would put jumps in the path
         that the prior then spends iterations (and wrong turns) undoing."""
         c = self.config
         a, b = self._speed_terms(fac, T)
@@ -349,14 +396,16 @@ class FusionSmoother(QPSmoother):
         h = obs.c - obs.u * obs.d
         scale = np.linalg.norm(nrm, axis=1)
         nrm, h = nrm / scale[:, None], h / scale
-        best = None
+        fits = []
         sig_d = 1.0  # m: dead-reckoning drift between views, for the weight of the step-length prior
         deltas = np.linspace(-np.pi, np.pi, c.offset_grid, endpoint=False)
         for delta in deltas:
             e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
             va, vb = a[:, None] * e, b[:, None] * e
-            A = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (va[1:] + va[:-1]), axis=0)])
-            B = np.concatenate([[[0.0, 0.0]], np.cumsum(0.5 * dt * (vb[1:] + vb[:-1]), axis=0)])
+            # integrated as the prior does (x_{k+1} = x_k + dt v_k, v_k the mean over the step): a
+            # start that breaks the stiff position rows costs Gauss-Newton iterations to mend
+            A = np.concatenate([[[0.0, 0.0]], np.cumsum(dt * va[:-1], axis=0)])
+            B = np.concatenate([[[0.0, 0.0]], np.cumsum(dt * vb[:-1], axis=0)])
             if len(obs) == 0:
                 sol, cost = np.array([0.0, 0.0, c.step_length]), 0.0
             else:
@@ -375,17 +424,35 @@ class FusionSmoother(QPSmoother):
                 sol[2] = np.clip(sol[2], max(0.5 * c.step_length, c.step_length_min), 1.5 * c.step_length)
                 e = M @ sol - r
                 cost = float(np.sum(np.log1p(e[:-1] ** 2)) + e[-1] ** 2)
-            if best is None or cost < best[0]:
-                best = (cost, delta, sol, A, B, e)
-        _, delta, sol, A, B, e = best
-        l = float(sol[2])
-        xy = sol[:2] + l * A + B
-        v = (l * a + b)[:, None] * e
-        X = np.zeros(NS * T + N_PAR)
-        X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
-        X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-        X[NS * T + IL], X[NS * T + ID] = l, delta
-        return X
+            fits.append((cost, delta, sol, A, B))
+        # the best offset, and the best one in each of the other sectors of the circle (starts
+        # sectors, the first centred on the best): with one camera the fit's cost over the
+        # offsets can be flat or lowest at the wrong side (development seed 116, Gauss-Markov: its
+        # only two local minima at +-90 degrees, the walker's offset 0)
+        costs = np.array([f[0] for f in fits])
+        n = len(costs)
+        i0 = int(np.argmin(costs))
+        k = max(1, min(starts, n))
+        picks = []
+        for j in range(k):
+            centre = i0 + j * n / k
+            idx = np.arange(int(np.ceil(centre - n / (2 * k))), int(np.ceil(centre + n / (2 * k)))) % n
+            i = int(idx[np.argmin(costs[idx])])
+            if i not in picks:
+                picks.append(i)
+        out = []
+        for i in picks:
+            _, delta, sol, A, B = fits[i]
+            l = float(sol[2])
+            e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
+            xy = sol[:2] + l * A + B
+            v = (l * a + b)[:, None] * e
+            X = np.zeros(NS * T + N_PAR)
+            X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
+            X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
+            X[NS * T + IL], X[NS * T + ID] = l, delta
+            out.append(X)
+        return out
 
     # --- matching ------------------------------------------------------------------------------
     def assign(self, grid, alone, phone_only, fused, problems):

@@ -23,6 +23,10 @@ m (phone frame), for every grid time t_k:
   starts and stops, where intervals between peaks lag by a step. Where the bob's envelope is
   below ``step_min_accel`` (slow shuffling, standing) there is no cadence. A step the detector
   gets wrong gives one bad cadence (the smoother's robust loss absorbs it).
+- **Horizontal acceleration**: |mean of f - (f . u) u| over ``cadence_window_s`` (m/s^2): how
+  fast the carrier speeds up or slows down (and turns). A cadence averaged over half a second
+  lags such changes, and the first and last steps of a walk are short, so the smoother widens
+  the speed rows' noise by it (``fusion_model.PhoneFactors``).
 - **Yaw rate**: the gyro about u, w . u (rad/s), integrated between grid times (the change of
   heading from one frame to the next, free of the magnetometer's disturbances and offset).
 """
@@ -54,7 +58,7 @@ class MotionSettings:
 class PhoneMotion:
     """One phone's motion cues on the grid t (K,): walking (bool), heading psi (rad, world, phone
     yaw), cadence (Hz, NaN where none), dyaw (rad, gyro yaw change from t_k to t_{k+1}; K - 1),
-    and the detected step times (s)."""
+    the detected step times (s) and the horizontal acceleration (m/s^2, K; None: not known)."""
 
     phone_id: str
     t: np.ndarray
@@ -63,6 +67,7 @@ class PhoneMotion:
     cadence: np.ndarray
     dyaw: np.ndarray
     steps: np.ndarray
+    accel_h: np.ndarray | None = None
 
 
 def _centred_mean(x: np.ndarray, n: int) -> np.ndarray:
@@ -129,4 +134,7 @@ def phone_motion(imu: pd.DataFrame, phone_id: str, t_grid: np.ndarray, gait: Gai
     w_up = np.einsum("ij,ij->i", gyro, u)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (w_up[1:] + w_up[:-1]) * np.diff(t))])
     yaw_int = np.interp(t_grid, t, cum)
-    return PhoneMotion(phone_id, np.asarray(t_grid, float), walking, heading, cadence, np.diff(yaw_int), steps)
+    # horizontal specific force (gravity removed along u), its magnitude averaged like the cadence
+    fh = acc - np.einsum("ij,ij->i", acc, u)[:, None] * u
+    acc_h = np.linalg.norm(_centred_mean(fh, n_c), axis=1)[j]  # the mean first: a step's sway averages out
+    return PhoneMotion(phone_id, np.asarray(t_grid, float), walking, heading, cadence, np.diff(yaw_int), steps, acc_h)

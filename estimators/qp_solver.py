@@ -48,7 +48,10 @@ class SolverSettings:
     active set before osqp (a poor guess is left to osqp, which then certifies or corrects it);
     active_set_rounds: rounds from osqp's active set. eps_find: osqp's tolerance when it only has to
     find the active set (the step is then the exact KKT solution, certified at eps_abs/eps_rel).
-    pos_scale, vel_scale: variable scaling S (m, m/s).
+    pos_scale, vel_scale: variable scaling S (m, m/s). trust_kkt: a step whose active set passes
+    the KKT test (``refine_active_set``: feasible, multipliers of the right sign, so the QP's unique
+    solution) is taken without osqp's certification (which, when osqp's own iterate is poor, can
+    take thousands of ADMM iterations to agree); off by default (qp_smoother's steps as before).
     """
 
     max_iter: int = 50
@@ -65,6 +68,7 @@ class SolverSettings:
     eps_find: float = 1e-3
     active_set_rounds: int = 100
     keep_iterates: bool = False
+    trust_kkt: bool = False
 
 
 @dataclass
@@ -108,8 +112,11 @@ class SolveResult:
 
 
 def cost(prior: Prior, obs: Bearings, X: np.ndarray) -> float:
-    """eps(X) = 0.5 ||r(X)||^2 (eq. 8)."""
+    """eps(X) = 0.5 ||r(X)||^2 (eq. 8); an observation model with ``loss(X)`` (robust rows whose
+    ``residual`` is only the iterate's weighted model, ``fusion_model.Robust``) gives its own term."""
     rp = prior.residual(X)
+    if hasattr(obs, "loss"):
+        return 0.5 * float(rp @ rp) + float(obs.loss(X))
     ro = obs.residual(X) if len(obs) else np.zeros(0)
     return 0.5 * (float(rp @ rp) + float(ro @ ro))
 
@@ -332,13 +339,15 @@ class StepQP:
         self.solver = None
         self.pattern = None
         self.setups = 0
-        self._A_key, self._A = None, None  # A only changes with the inequality rows
+        self._A_key, self._A = None, None  # A only changes with the inequality rows (and a nonlinear prior)
 
     def solve(self, P_obs, JTr, GS, rp, Cs, b, warm, eps: float | None = None):
         """osqp on the step QP; eps (optional) replaces the tolerances for this solve only."""
         n, m_in = GS.shape[1], Cs.shape[0]
         Cs = Cs.tocsc()
-        key = (Cs.shape, Cs.indptr.tobytes(), Cs.indices.tobytes(), Cs.data.tobytes())
+        # GS too: a prior linearised at every iterate (``solve_map``) changes it
+        key = (Cs.shape, Cs.indptr.tobytes(), Cs.indices.tobytes(), Cs.data.tobytes(), GS.indptr.tobytes(),
+               GS.indices.tobytes(), GS.data.tobytes())
         same_A = key == self._A_key
         if not same_A:
             self._A_key, self._A = key, _osqp_A(GS, Cs)
@@ -402,6 +411,8 @@ def qp_step(P_obs, JTr, GS, rp, Cs, b, active_guess, s: SolverSettings, qp: Step
             iters += int(rough.info.iter)
             if rough.x is not None and np.all(np.isfinite(rough.x)):
                 guess = refine_active_set(kkt, _active_of(rough, Cs, b, n), max_rounds=s.active_set_rounds)
+        if guess is not None and s.trust_kkt:
+            return guess[0], SOLVED, iters, True, guess[2]
         if guess is not None:
             dY0, y_in, _ = guess
             z0 = GS @ dY0 + rp
@@ -454,6 +465,8 @@ def solve_map(
     C, lower: fixed linear constraints C X >= lower (the field-of-view rows; may be empty).
     extra_constraints: optional function X -> (C_x, l_x[, keys]) of rows re-decided at every iterate
     (walls and obstacles, whose relevant side depends on where the iterate is).
+    prior: a ``qp_model.Prior`` (linear: G X - g), or anything with ``residual(X)``, ``jacobian(X)``
+    (square, invertible), ``G``, ``n``, ``T``, ``par_scale``, linearised at every iterate.
     """
     s = settings or SolverSettings()
     t_start = time.perf_counter()
@@ -467,6 +480,7 @@ def solve_map(
     scale = np.concatenate([np.tile([s.pos_scale, s.vel_scale, s.pos_scale, s.vel_scale], prior.T), prior.par_scale])
     S = sp.diags(scale)
     GS = (prior.G @ S).tocsc()
+    nonlinear_prior = hasattr(prior, "jacobian")
     res = SolveResult(X=X, converged=False, reason="", iterations=0)
     eps_now = cost(prior, obs, X)
     res.cost.append(eps_now)
@@ -491,6 +505,8 @@ def solve_map(
                 guess = np.concatenate([active[:m0], np.array([kk in was for kk in keys.tolist()], bool)])
             keys_prev = keys
         rp = prior.residual(X)
+        if nonlinear_prior:  # a prior with a jacobian (fusion_model.ScaledPrior): linearised at X
+            GS = (prior.jacobian(X) @ S).tocsc()
         dY, status, iters, refined, active = qp_step(
             (JoS.T @ JoS).tocsc(), JoS.T @ ro, GS, rp, (Cx @ S).tocsc(), lx - Cx @ X, guess, s, qp,
         )

@@ -189,9 +189,10 @@ class PhoneRows:
     """The phone's factors as the fusion smoother models them (``estimators/fusion_model.py``), per
     grid step k: ``walking`` (T,) bool; ``cadence`` f_k (T,) Hz, NaN where none; noise of the speed
     row ``sigma_a`` and of the heading row ``sigma_c`` (T,) m/s; ``sigma_stop`` m/s; the step-length
-    law's ``f0``, ``beta`` and the priors of the step length l and heading offset delta
-    (``sigma_l`` m, ``sigma_delta`` rad); ``loose``: (T - 1,) transitions whose velocity noise is
-    ``q_vel_phone`` (where the phone measures the velocity)."""
+    law's derivative ``dspeed_dl`` = ds_k / dl (T,) 1/s (None: the cadence, speed = f l) and the
+    priors of the step length l and heading offset delta (``sigma_l`` m, ``sigma_delta`` rad);
+    ``loose``: (T - 1,) transitions whose velocity noise is ``q_vel_phone`` (where the phone
+    measures the velocity)."""
 
     walking: np.ndarray
     cadence: np.ndarray
@@ -202,6 +203,7 @@ class PhoneRows:
     sigma_delta: float
     loose: np.ndarray
     q_vel_phone: float
+    dspeed_dl: np.ndarray | None = None
 
 
 def _gm_Q(q_pos: float, q_vel: float, dt: float, discretisation: str) -> np.ndarray:
@@ -228,7 +230,7 @@ def trajectory_crb_phone(
     prior). State [x, vx, y, vy, l, delta] with l, delta constant; at the true state (true
     velocity v_k, direction e_k = v_k / |v_k|, normal n_k, true offset 0) the phone rows are
 
-        speed    h = [0, e_x, 0, e_y, -f_k, -(n_k . v_k)] / sigma_a,k     (walking, cadence f_k)
+        speed    h = [0, e_x, 0, e_y, -ds_k/dl, -(n_k . v_k)] / sigma_a,k     (walking, cadence f_k)
         heading  h = [0, n_x, 0, n_y, 0, e_k . v_k] / sigma_c,k             (walking)
         stopped  h = [0, 1, 0, 0, 0, 0] / sigma_stop and [0, 0, 0, 1, 0, 0] / sigma_stop
 
@@ -262,7 +264,8 @@ def trajectory_crb_phone(
         kw = np.flatnonzero(walk)
         has = kw[np.isfinite(phone.cadence[kw])]
         Ha = np.zeros((len(has), n))
-        Ha[:, 1], Ha[:, 3], Ha[:, 4] = e[has, 0], e[has, 1], -phone.cadence[has]
+        dsdl = phone.cadence if phone.dspeed_dl is None else np.asarray(phone.dspeed_dl, float)
+        Ha[:, 1], Ha[:, 3], Ha[:, 4] = e[has, 0], e[has, 1], -dsdl[has]
         Ha[:, 5] = -np.einsum("ij,ij->i", nrm[has], vxy[has])
         Ha /= phone.sigma_a[has][:, None]
         Hc = np.zeros((len(kw), n))

@@ -85,12 +85,14 @@ def crb_pair(rec, xy: np.ndarray, vxy: np.ndarray, b: pd.DataFrame, dt: float, p
     walking[fac.kw] = True
     cadence = np.full(T, np.nan)
     cadence[fac.kw] = fac.f
+    dsdl = np.zeros(T)
+    dsdl[fac.kw[fac.ia]] = fac.g
     sa, sc = np.ones(T), np.ones(T)
     sa[fac.kw], sc[fac.kw] = fac.sig_a, fac.sig_c
     measured = np.isfinite(cadence)
     rows = PhoneRows(walking=walking, cadence=cadence, sigma_a=sa, sigma_c=sc, sigma_stop=c.stop_sigma,
                      sigma_l=c.step_length_sigma, sigma_delta=np.radians(c.offset_sigma_deg),
-                     loose=measured[1:] & measured[:-1], q_vel_phone=c.q_vel_phone)
+                     loose=measured[1:] & measured[:-1], q_vel_phone=c.q_vel_phone, dspeed_dl=dsdl)
     return without, trajectory_crb_phone(*args, rows, **kw).sqrt_crb
 
 

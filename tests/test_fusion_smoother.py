@@ -91,7 +91,7 @@ def test_one_camera_straight_walk_with_a_perfect_phone(monkeypatch):
     assert 8 <= len(obs["bearings"]) < T
     v = np.tile([-0.6, -0.6], (T, 1))
     truth = pd.DataFrame({"x": xy[:, 0], "y": xy[:, 1], "vx": v[:, 0], "vy": v[:, 1]})
-    est = get("fusion_smoother")(step_length=0.65, step_length_slope=0.0, step_length_sigma=1e-3)
+    est = get("fusion_smoother")(step_length=0.65, cadence_zero=0.0, step_length_sigma=1e-3)
     monkeypatch.setattr(est, "phone_motions", lambda *a: {"phone0": perfect_phone(truth, T, dt, 0.65)})
     tracks = est.estimate(obs, cal1)
     assert tracks.phone_id.unique().tolist() == ["phone0"]
@@ -103,9 +103,11 @@ def test_one_camera_straight_walk_with_a_perfect_phone(monkeypatch):
 
 def test_heading_offset_estimated():
     """A phone turned 40 degrees in the pocket, on a noiseless walk to and fro across the hall
-    past two cameras (40 s): the offset is found 40 degrees more than with the phone straight to
-    0.2 degrees; the absolute value is 2.2 degrees off (the issue asks 2), all of it the estimated
-    path's own heading error, which the phone-straight run shows as well."""
+    past two cameras (40 s): the offset is found to 2 degrees (the issue's target; measured 1.1),
+    and 40 degrees more than with the phone straight to 0.2 degrees. The phone's heading itself
+    is exact here; what error is left is the estimated path's own heading, bent at the walk's
+    start and its turns, where the cadence's speed lags the walker's (2.2 degrees before the
+    speed rows were widened by the phone's horizontal acceleration)."""
     walk = {**STRAIGHT, "waypoints": [[1.0, 1.0], [9.0, 9.0]], "loop": True, "speed": [1.1, 1.1]}
     rec = simulate(hall_scene([walk], NOISELESS), 0, 40.0)
     found = []
@@ -120,7 +122,8 @@ def test_heading_offset_estimated():
         assert d["phone_id"] == "phone0"
         found.append(d["heading_offset_deg"])
     assert abs(found[0] - found[1] - 40.0) < 0.2, found
-    assert abs(found[0] - 40.0) < 2.5, found
+    assert abs(found[0] - 40.0) < 2.0, found
+    assert abs(found[1]) < 2.0, found
 
 
 def test_phoneless_person_falls_back_to_qp_smoother():
@@ -152,3 +155,66 @@ def test_robust_residual_is_the_loss():
     np.testing.assert_allclose(w[nz] * rt[nz], r[nz] / (1 + (r[nz] / c) ** 2))
     with pytest.raises(ValueError, match="loss must be one of"):
         robust_residual(r, c, "tukey")
+
+
+def test_scale_free_rows_keep_a_path_scaled_with_the_step_length():
+    """One camera cannot tell a path from the same path scaled about the camera (x -> c + a (x - c),
+    v -> a v) with the step length (l -> a l): with ``scale_free`` neither can the prior's
+    transition rows nor any phone row, so only the step length's own prior holds the scale; with
+    the plain prior the scaled-down path is cheaper (what shrank the one-camera paths)."""
+    from trackroom.estimators.fusion_model import IL, PhoneFactors, PhoneFactorSettings, ScaledPrior
+    from trackroom.estimators.qp_model import NS, Prior
+    from trackroom.scenes.spec import GaussMarkovParams
+
+    rng = np.random.default_rng(3)
+    T, dt = 40, 0.25
+    prior = Prior.build(T, dt, GaussMarkovParams(1e-4, 0.5), discretisation="paper").with_parameters(
+        [0.7, 0.0], [0.1, np.pi], [0.1, 0.1])
+    walking = np.ones(T, bool)
+    walking[[5, 6, 30]] = False
+    kw, ks = np.flatnonzero(walking), np.flatnonzero(~walking)
+    f = rng.uniform(1.3, 2.0, len(kw))
+    f[[2, 9]] = np.nan  # walking without a cadence
+    fac = PhoneFactors(T=T, kw=kw, psi=rng.uniform(-np.pi, np.pi, len(kw)), f=f, ks=ks, kg=np.zeros(0, int),
+                       dpsi=np.zeros(0), psi_g=np.zeros(0), l_prior=0.7, s=PhoneFactorSettings(),
+                       omega=rng.uniform(0, 1, len(kw)), accel=rng.uniform(0, 0.5, len(kw)))
+    X = rng.normal(size=prior.n)
+    X[NS * T + IL] = 0.74
+    c, a = np.array([5.0, 0.06]), 0.6
+
+    def scaled(X):
+        Y = X.copy()
+        Y[0:NS * T:NS] = c[0] + a * (X[0:NS * T:NS] - c[0])
+        Y[2:NS * T:NS] = c[1] + a * (X[2:NS * T:NS] - c[1])
+        Y[1:NS * T:NS], Y[3:NS * T:NS] = a * X[1:NS * T:NS], a * X[3:NS * T:NS]
+        Y[NS * T + IL] = a * X[NS * T + IL]
+        return Y
+
+    sp_ = ScaledPrior(prior, 0.7)
+    np.testing.assert_allclose(sp_.residual(scaled(X))[NS:NS * T], sp_.residual(X)[NS:NS * T], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(fac.raw_residual(scaled(X)), fac.raw_residual(X), rtol=1e-9, atol=1e-9)
+    plain = prior.residual(scaled(X))[NS:NS * T]
+    assert plain @ plain < 0.5 * (prior.residual(X)[NS:NS * T] @ prior.residual(X)[NS:NS * T])
+    # the prior's Jacobian, which solve_map re-evaluates at every iterate, is the derivative of its residual
+    e = np.zeros(prior.n)
+    e[NS * T + IL] = 1e-6
+    num = (sp_.residual(X + e) - sp_.residual(X - e)) / 2e-6
+    np.testing.assert_allclose(sp_.jacobian(X)[:, NS * T + IL].toarray().ravel(), num, rtol=1e-5, atol=1e-6)
+
+
+def test_irls_rows_majorise_the_robust_loss():
+    """The robust rows Gauss-Newton sees (sqrt(w) r, w = rho'(r) / r at the iterate) give a
+    quadratic 0.5 sum w r^2 that touches sum rho(r) at the iterate with the same slope and lies
+    above it elsewhere (up to that constant), so a full step descends."""
+    from trackroom.estimators.fusion_model import irls_weight, robust_residual
+
+    r0 = np.array([-30.0, -4.0, -1.0, 0.3, 2.5, 12.0])
+    c = 2.0
+    for loss in ("huber", "cauchy", "geman_mcclure"):
+        rho = lambda r: 0.5 * robust_residual(r, c, loss)[0] ** 2  # noqa: E731
+        w = irls_weight(r0, c, loss)
+        for d in np.linspace(-20, 20, 81):
+            r = r0 + d
+            assert np.all(rho(r) - rho(r0) <= 0.5 * w * (r**2 - r0**2) + 1e-9), (loss, d)
+        h = 1e-6
+        np.testing.assert_allclose((rho(r0 + h) - rho(r0 - h)) / (2 * h), w * r0, rtol=1e-5, atol=1e-8)
