@@ -46,6 +46,7 @@ from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
 from .tp_initiate import propose
+from .tp_joint import JointTrack, JointTracker
 from .tp_tracker import LOST, TRACKING, UNRELIABLE, CameraState, Target, TargetUpdater, width_ratio
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
@@ -75,6 +76,18 @@ class TargetPlanes(Estimator):
                                                   "v_top, v_bottom], camera name and px")
         multi_person: bool = param(False, "track every mover at once (beyond the paper): no initial_xy or "
                                           "initial_window needed")
+        design: str = param("joint", "joint: every mover a track, each camera's windows explained jointly "
+                                     "(tp_joint); rules: the single-target tracker with section 4's rules")
+        accel_sigma: float = param(1.0, "joint: white-acceleration noise of the walkers, m/s^2/sqrt(Hz) (walkers "
+                                        "stop, start and turn at waypoints: about 1 m/s of change within 1 s)")
+        stop_tau: float = param(1.0, "joint: a track no window explains slows as exp(-t / tau), s (it has most "
+                                     "likely stopped: standing people make no flow window)")
+        edge_sigma_frac: float = param(0.1, "joint: spread of a window's edge about the projected cylinder's, fraction "
+                                            "of the person's image width (rendered windows, development seed 100)")
+        birth_sigma_v: float = param(0.5, "joint: velocity uncertainty of a new track, m/s (eq. 7 from two windows' "
+                                          "flows)")
+        hold_s: float = param(6.0, "joint: a confirmed track no window explains is kept this long, s (the scenes' "
+                                   "walkers stop for up to 5 s at a waypoint)")
         split_merged: bool = param(True, "a window holding the target and a tracked neighbour merged gives the "
                                          "target its side's part (TargetUpdater.split_window)")
         split_min_sep: float = param(0.25, "split_merged applies when the two predicted centres are this far apart "
@@ -192,8 +205,12 @@ class TargetPlanes(Estimator):
                 "to track every mover (on the command line: --param multi_person=true)"
             )
         Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
+        if cfg.design not in ("joint", "rules"):
+            raise EstimatorError(f"{self.name}: design must be 'joint' or 'rules', got {cfg.design!r}")
         frames = split_boxes(boxes, cams, cfg.flow_window)
         times = frame_times(calibration, cams, observations.duration, boxes)
+        if cfg.design == "joint":
+            return self._run_joint(cfg, cams, Ps, frames, times, calibration)
         # flow noise (px/s) of each camera's averaged window flow: the calibrated region-mean flow
         # noise (``flow_sigma_px_s``) or, for recordings without it, window-edge noise x fps
         sigma_px = float(cfg.box_sigma_px)
@@ -258,6 +275,47 @@ class TargetPlanes(Estimator):
         tracks = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
         status = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
         return TargetPlanesResult(tracks, status)
+
+    def _run_joint(self, cfg, cams, Ps, frames, times, calibration) -> TargetPlanesResult:
+        """The joint design (``tp_joint``): every mover a track; the target (single-target mode)
+        is track 0, started from the hand-given position with ``init_radius`` and an unknown
+        velocity (sigma ``max_speed`` / 2)."""
+        # per-frame flow noise: a mean over flow_window frames of one camera track is not
+        # flow_window independent measurements a frame (consecutive means share frames)
+        flow_sigma = {c: float(cfg.flow_sigma_px_s) if cfg.flow_sigma_px_s is not None else float(cfg.box_sigma_px) * calibration.cameras[c].fps for c in cams}
+        jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px))
+        inside_room = calibration.floorplan.inside
+        tracks: list[JointTrack] = []
+        keep = None
+        if not cfg.multi_person:
+            t0 = self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}, inside_room)
+            sv = 0.5 * cfg.max_speed
+            tr = JointTrack(0, np.r_[t0.xy, 0.0, 0.0], np.diag([cfg.init_radius**2] * 2 + [sv**2] * 2), confirmed=True, seen=True)
+            tracks.append(tr)
+            keep = 0
+        next_id = len(tracks)
+        rows, status_rows = [], []
+        t_prev = float(times[0]) if len(times) else 0.0
+        for t in times:
+            t = float(t)
+            dt, t_prev = t - t_prev, t
+            frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
+            free = jt.step(tracks, frame, dt)
+            for xy, support in propose(cfg, jt.margin_px, Ps, frame, free, inside_room):
+                if any(float(np.linalg.norm(xy - tr.xy)) < 2 * cfg.radius for tr in tracks):
+                    continue  # a tracked person (its far side, a fragment): not someone new
+                tracks.append(jt.birth(next_id, xy, support, frame))
+                next_id += 1
+            tracks = jt.prune(tracks, keep, inside_room)
+            for tr in tracks:
+                if not tr.confirmed or (keep is not None and tr.tid != keep):
+                    continue
+                rows.append((t, tr.tid, tr.s[0], tr.s[1], tr.s[2], tr.s[3], tr.n_used, tr.mode))
+                for c in cams:
+                    st, reason, win = tr.status.get(c, (LOST, "", None))
+                    status_rows.append((t, tr.tid, c, st, reason, win))
+        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
+        return TargetPlanesResult(tracks_df, pd.DataFrame(status_rows, columns=STATUS_COLUMNS))
 
     # ------------------------------------------------------------------------------------------
     def _initial_target(self, cams, Ps, frame0, inside_room) -> Target:
