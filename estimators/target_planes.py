@@ -302,7 +302,7 @@ class TargetPlanes(Estimator):
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
             free = jt.step(tracks, frame, dt)
             for xy, support in propose(cfg, jt.margin_px, Ps, frame, free, inside_room):
-                if any(float(np.linalg.norm(xy - tr.xy)) < 2 * cfg.radius for tr in tracks):
+                if any(jt.covers(tr, xy) for tr in tracks):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
                 next_id += 1

@@ -38,7 +38,8 @@ Per frame:
      position.
 4. **Births** (``tp_initiate.propose``): windows explained as clutter, and the far side of a
    too-wide single window, start a track only where two cameras' target planes cross inside
-   both windows' target areas, at least 2 ``radius`` from every track. A track is reported after
+   both windows' target areas, at least 2 ``radius`` from every track and outside its 99 %
+   position gate. A track is reported after
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any; of two tracks nearer than ``radius`` the
    younger is dropped (one person seen twice).
@@ -59,10 +60,13 @@ from scipy.stats import chi2
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
+OCCLUSION = False
 MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
 C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
 FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
 PLANE_OUTLIER = float(chi2.ppf(0.999, 1))  # nor a plane's or depth bound's
+BIRTH_GATE = float(chi2.ppf(0.99, 2))  # no birth inside a track's 99 % position gate
+DUPLICATE = float(chi2.ppf(0.99, 4))  # two tracks' states this alike (and nearer than 2 radius) are one person
 FLOW_CAP = float(chi2.ppf(0.99, 2))  # the flow's share of an explanation's cost is at most its 99 % gate (heavy tails)
 MAX_RANGE = 30.0  # tp_geometry.target_area's default depth limit, m
 TRACKING, LOST, UNRELIABLE, MERGED = "tracking", "lost", "unreliable", "merged"
@@ -181,29 +185,49 @@ class JointTracker:
         ul, ur = boxes.win[j, 0], boxes.win[j, 1]
         if len(projs) == 1:
             p = projs[0]
-            du, var_u = boxes.u[j] - p.u, self.u_sigma**2 + p.var_u + (cfg.edge_sigma_frac * p.width) ** 2
-            w_pred, w_narrow = p.width, p.width
+            du, var_u = boxes.u[j] - p.u, self.centroid_var(p, boxes.width[j]) + p.var_u
+            w_pred = w_narrow = p.width
             f_pred, var_f = p.flow, p.var_f
         else:
             L = min(p.win[0] for p in projs)
             R = max(p.win[1] for p in projs)
             du = 0.5 * (ul + ur) - 0.5 * (L + R)
             var_u = 0.5 * self.box_sigma**2 + float(np.mean([p.var_u for p in projs])) + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
-            w_pred, w_narrow = R - L, min(p.width for p in projs)
+            w_pred = R - L
             fs = np.array([p.flow for p in projs])
             f_pred = fs.mean(0)
             var_f = np.mean([p.var_f for p in projs], 0) + np.diag(fs.var(0))
         dw = (ur - ul) - w_pred
-        sw = np.hypot(2.0 * self.box_sigma, cfg.edge_sigma_frac * w_pred) if dw > 0 else 0.5 * w_narrow
+        sw = np.hypot(2.0 * self.box_sigma, cfg.edge_sigma_frac * w_pred)
+        if len(projs) > 1:
+            sw = np.sqrt(sw**2 + 2.0 * float(np.mean([p.var_u for p in projs])))  # the union's outer members move
+        elif dw < 0:
+            sw = 0.5 * w_narrow  # one person partly hidden (an obstacle, the image border) or a fragment
         df = boxes.flow[j] - f_pred
         Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
         return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
 
-    def miss_cost(self, p: Projection) -> float:
-        """A track without a window: free for a track predicted standing (no flow region), else
-        as dear as a clutter window."""
-        return C_CLUTTER if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
+    def centroid_var(self, p: Projection, width: float) -> float:
+        """Variance (px^2) of a window's centroid about the track's projected axis: the
+        calibrated centroid noise, the silhouette's spread about the cylinder
+        (``edge_sigma_frac`` of its width) and, for a window narrower than the person (partly
+        hidden, or a fragment of the region), the axis anywhere within the missing width
+        (uniform: (w_c - w)^2 / 12; section 3.2's partial extraction)."""
+        short = max(p.width - float(width), 0.0)
+        return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
+
+    def miss_cost(self, p: Projection, others: list[Projection] = ()) -> float:
+        """A track without a window: free for a track predicted standing (no flow region) or
+        hidden behind a nearer track (half its predicted window covered by one whose feet are
+        lower in the image), else as dear as a clutter window."""
+        if float(np.linalg.norm(p.flow)) < self.cfg.mover_flow_px:
+            return 0.0
+        for q in others:
+            cover = min(p.win[1], q.win[1]) - max(p.win[0], q.win[0])
+            if OCCLUSION and q is not p and q.win[3] > p.win[3] and cover >= 0.5 * p.width:
+                return 0.0
+        return C_CLUTTER
 
     def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
         """The best joint explanation of camera c's windows: window index -> indices (into
@@ -235,6 +259,8 @@ class JointTracker:
             comps[find(("t", i))][1].update(js)
         result: dict[int, tuple[int, ...]] = {}
         cache: dict = {}
+        plist = list(projs.values())
+        miss = {i: self.miss_cost(p, plist) for i, p in projs.items()}
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
@@ -255,7 +281,7 @@ class JointTracker:
                     total = 0.0
                     for i, j in zip(ts, combo):
                         if j is None:
-                            total += self.miss_cost(projs[i])
+                            total += miss[i]
                         else:
                             groups.setdefault(j, []).append(i)
                     total += C_CLUTTER * (len(ws) - len(groups))
@@ -273,7 +299,7 @@ class JointTracker:
                     for b, j in enumerate(ws):
                         if j in gate[i]:
                             C[a, b] = cost((i,), j) - C_CLUTTER
-                    C[a, len(ws) + a] = self.miss_cost(projs[i])
+                    C[a, len(ws) + a] = miss[i]
                 r, k = linear_sum_assignment(C)
                 for a, b in zip(r, k):
                     if b < len(ws) and C[a, b] < 1e6:
@@ -350,7 +376,7 @@ class JointTracker:
                     seen[i] = True
                     ratio = (boxes.width[j] - p.width) / p.width
                     if ratio <= cfg.width_ratio_threshold:
-                        self.update_plane(tr, c, p, float(boxes.u[j]), self.u_sigma)
+                        self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
                         used[i] += 1
@@ -414,6 +440,13 @@ class JointTracker:
         tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
         return tr
 
+    def covers(self, tr: JointTrack, xy: np.ndarray) -> bool:
+        """A crossing at xy is track ``tr`` itself: nearer than 2 ``radius`` (two bodies cannot
+        be), or inside the 99 % gate of its position uncertainty (a track still being found,
+        e.g. the hand-given target)."""
+        d = np.asarray(xy, float) - tr.xy
+        return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
+
     def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
         """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
         for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
@@ -432,7 +465,8 @@ class JointTracker:
         for a, b in itertools.combinations(out, 2):
             if a.tid in drop or b.tid in drop:
                 continue
-            if float(np.linalg.norm(a.xy - b.xy)) < 2 * cfg.radius:
+            ds = a.s - b.s
+            if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
                 young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
                 if young.tid != keep:
                     drop.add(young.tid)
