@@ -290,7 +290,7 @@ class TargetPlanes(Estimator):
         if not cfg.multi_person:
             t0 = self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}, inside_room)
             sv = 0.5 * cfg.max_speed
-            tr = JointTrack(0, np.r_[t0.xy, 0.0, 0.0], np.diag([cfg.init_radius**2] * 2 + [sv**2] * 2), confirmed=True, seen=True)
+            tr = JointTrack(0, np.r_[t0.xy, 0.0, 0.0], np.diag([cfg.init_radius**2] * 2 + [sv**2] * 2), confirmed=True, seen=True, located=False)
             tracks.append(tr)
             keep = 0
         next_id = len(tracks)
@@ -301,8 +301,10 @@ class TargetPlanes(Estimator):
             dt, t_prev = t - t_prev, t
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
             free = jt.step(tracks, frame, dt)
-            for xy, support in propose(cfg, jt.margin_px, Ps, frame, free, inside_room):
-                if any(jt.covers(tr, xy) for tr in tracks):
+            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room)
+            taken = jt.locate(tracks[0], proposals, frame) if keep is not None and not tracks[0].located else set()
+            for k, (xy, support) in enumerate(proposals):
+                if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
                 next_id += 1

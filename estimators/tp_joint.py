@@ -60,7 +60,6 @@ from scipy.stats import chi2
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
-OCCLUSION = False
 MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
 C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
 FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
@@ -83,6 +82,7 @@ class JointTrack:
     confirmed: bool = False
     unseen_s: float = 0.0  # seconds since a window last explained it
     seen: bool = False  # a window explained it in the last frame
+    located: bool = True  # False for the hand-chosen target until two cameras' planes find it near the click
     n_used: int = 0  # cameras whose window was this track alone, last frame
     mode: str = ""
     status: dict = field(default_factory=dict)  # camera -> (status, reason, window id)
@@ -111,11 +111,13 @@ class Projection:
         return max(self.win[1] - self.win[0], 1.0)
 
 
-def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False) -> bool:
+def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
+              cap: float | None = None) -> bool:
     """Kalman update of ``tr`` with z = H s + noise(R). When the innovation's squared
     Mahalanobis distance d^2 exceeds ``gate`` the update is skipped (False), or with ``soft``
-    made with R scaled by d^2 / gate (a Huber-like bounded pull: an overconfident state is
-    still corrected, an outlier cannot throw it far)."""
+    made after scaling the position's covariance by d^2 / gate, its standard deviation at most
+    to ``cap`` (m) (the state, not the measurement, is taken to be off: an overconfident state
+    that went astray is pulled back instead of rejecting every later window)."""
     H = np.atleast_2d(H)
     R = np.atleast_2d(R)
     r = np.atleast_1d(z) - H @ tr.s
@@ -125,7 +127,12 @@ def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate:
         if d2 > gate:
             if not soft:
                 return False
-            R = R * (d2 / gate)
+            # the state, not the window, is taken to be off: the position's covariance grows
+            # (rows and columns scaled, correlations kept), up to sigma_max
+            k = np.ones(4)
+            sd = float(np.sqrt(max(tr.S[0, 0], tr.S[1, 1])))
+            k[:2] = min(np.sqrt(d2 / gate), max(cap / sd, 1.0)) if cap else np.sqrt(d2 / gate)
+            tr.S = tr.S * np.outer(k, k)
             Sy = H @ tr.S @ H.T + R
     K = np.linalg.solve(Sy, H @ tr.S).T
     tr.s = tr.s + K @ r
@@ -217,17 +224,10 @@ class JointTracker:
         short = max(p.width - float(width), 0.0)
         return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
 
-    def miss_cost(self, p: Projection, others: list[Projection] = ()) -> float:
-        """A track without a window: free for a track predicted standing (no flow region) or
-        hidden behind a nearer track (half its predicted window covered by one whose feet are
-        lower in the image), else as dear as a clutter window."""
-        if float(np.linalg.norm(p.flow)) < self.cfg.mover_flow_px:
-            return 0.0
-        for q in others:
-            cover = min(p.win[1], q.win[1]) - max(p.win[0], q.win[0])
-            if OCCLUSION and q is not p and q.win[3] > p.win[3] and cover >= 0.5 * p.width:
-                return 0.0
-        return C_CLUTTER
+    def miss_cost(self, p: Projection) -> float:
+        """A track without a window: free for a track predicted standing (no flow region), else
+        as dear as a clutter window."""
+        return C_CLUTTER if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
 
     def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
         """The best joint explanation of camera c's windows: window index -> indices (into
@@ -259,8 +259,7 @@ class JointTracker:
             comps[find(("t", i))][1].update(js)
         result: dict[int, tuple[int, ...]] = {}
         cache: dict = {}
-        plist = list(projs.values())
-        miss = {i: self.miss_cost(p, plist) for i, p in projs.items()}
+        miss = {i: self.miss_cost(p) for i, p in projs.items()}
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
@@ -323,7 +322,7 @@ class JointTracker:
             return
         if offset_sign:
             b += self.cfg.radius * offset_sign * np.sign(float(Ju @ a))
-        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True)
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
 
     def update_depth(self, tr: JointTrack, c: str, boxes: CameraBoxes, j: int) -> None:
         """Section 3.2's depth range as an interval: pulls the track in only from outside it."""
@@ -333,7 +332,7 @@ class JointTracker:
         if area.s_min <= s <= area.s_max or area.s_min > 0.5 * MAX_RANGE or area.s_max - area.s_min > 0.5 * MAX_RANGE:
             return  # inside, or no bound (a window whose top or bottom row meets no floor or head plane)
         bound = area.s_min if s < area.s_min else area.s_max
-        kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER, soft=True)
+        kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0) -> None:
         """Eq. 7: the window's flow = J V (W = 0)."""
@@ -353,7 +352,11 @@ class JointTracker:
         cfg = self.cfg
         for tr in tracks:
             self.predict(tr, dt)
-        plans = {c: self.explain_camera(c, tracks, frame[c]) for c in self.Ps}
+        active = [tr for tr in tracks if tr.located]
+        plans = {c: self.explain_camera(c, active, frame[c]) for c in self.Ps}
+        idx = [i for i, tr in enumerate(tracks) if tr.located]
+        # explain_camera indexes ``active``; map back to ``tracks``
+        plans = {c: ({j: tuple(idx[i] for i in mem) for j, mem in ex.items()}, {idx[i]: p for i, p in pr.items()}) for c, (ex, pr) in plans.items()}
         free: dict[str, list[int]] = {}
         used = [0] * len(tracks)
         seen = [False] * len(tracks)
@@ -439,6 +442,23 @@ class JointTracker:
         S = np.diag([cfg.radius**2, cfg.radius**2, cfg.birth_sigma_v**2, cfg.birth_sigma_v**2])
         tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
         return tr
+
+    def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes]) -> set[int]:
+        """The hand-chosen target before it is located: the two-camera crossing
+        (``tp_initiate.propose``) nearest the click, within ``init_radius`` of it plus a body width (2 ``radius``: a
+        crossing of partly hidden windows is off by up to that), becomes its state, as a birth would (a click is a few tenths of a metre off; a single
+        window near it may be someone else or a fragment). Returns the proposals used."""
+        best, dbest = None, np.inf
+        for k, (xy, _) in enumerate(proposals):
+            m = float(np.linalg.norm(np.asarray(xy, float) - tr.xy))
+            if m <= self.cfg.init_radius + 2.0 * self.cfg.radius and m < dbest:
+                best, dbest = k, m
+        if best is None:
+            return set()
+        xy, support = proposals[best]
+        new = self.birth(tr.tid, xy, support, frame)
+        tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
+        return {best}
 
     def covers(self, tr: JointTrack, xy: np.ndarray) -> bool:
         """A crossing at xy is track ``tr`` itself: nearer than 2 ``radius`` (two bodies cannot
