@@ -443,15 +443,15 @@ class JointTracker:
         tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
         return tr
 
-    def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes]) -> set[int]:
+    def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes], accept) -> set[int]:
         """The hand-chosen target before it is located: the two-camera crossing
-        (``tp_initiate.propose``) nearest the click, within ``init_radius`` of it plus a body width (2 ``radius``: a
-        crossing of partly hidden windows is off by up to that), becomes its state, as a birth would (a click is a few tenths of a metre off; a single
-        window near it may be someone else or a fragment). Returns the proposals used."""
+        (``tp_initiate.propose``) nearest the click that ``accept`` (xy -> bool) takes becomes its
+        state, as a birth would (a click is a few tenths of a metre off; a single window near it
+        may be someone else or a fragment). Returns the proposals used."""
         best, dbest = None, np.inf
         for k, (xy, _) in enumerate(proposals):
             m = float(np.linalg.norm(np.asarray(xy, float) - tr.xy))
-            if m <= self.cfg.init_radius + 2.0 * self.cfg.radius and m < dbest:
+            if accept(xy) and m < dbest:
                 best, dbest = k, m
         if best is None:
             return set()

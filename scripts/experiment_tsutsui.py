@@ -231,7 +231,7 @@ def main(argv=None) -> int:
     ap.add_argument("--recording", help="evaluate saved recording folders (comma-separated) instead of simulating")
     ap.add_argument("--window-errors", action="store_true", help="with --recording: the flow windows' errors against the truth")
     ap.add_argument("--json", action="store_true", help="print one JSON object per run")
-    ap.add_argument("--param", action="append", default=[], help="estimator Config KEY=VALUE (repeatable), e.g. design=rules")
+    ap.add_argument("--param", action="append", default=[], help="estimator Config KEY=VALUE (repeatable), e.g. hold_s=4")
     ap.add_argument("--set", dest="overrides", action="append", default=[], help="scene override KEY=VALUE for simulated runs (repeatable)")
     ap.add_argument("--table", action="store_true", help="print one line per run with the issue's figures")
     a = ap.parse_args(argv)

@@ -14,7 +14,7 @@ from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import CameraBoxes
 from trackroom.estimators.tp_joint import MERGED, TRACKING, JointTrack, JointTracker
 from trackroom.recording import Observations
-from tests.test_target_planes import calib, line_path, right_angle_pair
+from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
 
 H, R = 1.8, 0.2  # the estimator's person model (Config height, radius)
 
@@ -128,3 +128,74 @@ def test_a_window_nobody_predicts_starts_a_track_only_when_a_second_camera_confi
     assert np.hypot(tr.x.to_numpy() - paths["C"][k, 0], tr.y.to_numpy() - paths["C"][k, 1]).max() < 0.05
     # and a single-target run reports the target only, though it tracks the newcomer too
     assert (TargetPlanes(initial_xy=[2.0, 2.0]).run(Observations({"boxes": boxes}, 2.0), calib([south, west])).tracks.track_id == 0).all()
+
+
+# --- scenes of synthetic windows (tests.test_target_planes.synth_boxes) ----------------------
+def _tagged(cams, paths, times, **kw):
+    """synth_boxes per person with distinct window ids, and a column telling the target's rows."""
+    parts = []
+    for k, name in enumerate(paths):
+        b = synth_boxes(cams, {name: paths[name]}, times, **kw)
+        b["is_target"] = name == "target"
+        b["track"] = b["track"] * 10 + k
+        parts.append(b)
+    return pd.concat(parts, ignore_index=True).sort_values(["t", "camera"], kind="stable").reset_index(drop=True)
+
+
+def test_total_loss_is_recovered_without_taking_the_look_alike():
+    """Every window of the target vanishes for 0.6 s while a look-alike walks 0.9 m beside it
+    with the same velocity: the target is predicted through the gap and found again by its own
+    windows, never by the look-alike's."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [7.0, 2.0], times)  # 0.75 m/s
+    other = line_path([1.6, 2.9], [7.6, 2.9], times)
+    boxes = _tagged(cams, {"target": tgt, "other": other}, times, sigma=0.3, seed=3)
+    boxes = boxes[~((boxes.t >= 3.0) & (boxes.t < 3.6) & boxes.is_target)].drop(columns="is_target")
+    tr = TargetPlanes(initial_xy=[1.0, 2.0]).run(Observations({"boxes": boxes}, 8.0), calib(cams)).tracks
+    assert len(tr) == len(times)
+    err = np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1])
+    assert (err < np.hypot(tr.x - other[:, 0], tr.y - other[:, 1])).all()  # never swapped
+    lost = (tr.t >= 3.0) & (tr.t < 3.6)
+    assert (tr.n_cameras[lost] == 0).all()  # really a total loss
+    after = tr.t >= 4.0
+    assert (tr.n_cameras[after] >= 2).all() and err[after].max() < 0.1
+
+
+def test_a_look_alike_side_by_side_in_merged_windows_is_tracked_through_them():
+    """A look-alike 0.7 m beside the target with the same velocity; where their windows overlap
+    a camera reports one merged window. Both stay tracked (the merged windows explained as both),
+    the target within 5 cm RMS."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [7.0, 2.5], times)
+    other = line_path([1.0, 2.7], [7.0, 3.2], times)
+    boxes = synth_boxes(cams, {"target": tgt, "other": other}, times, merge=True, sigma=0.3, seed=1)
+    res = TargetPlanes(initial_xy=list(tgt[0])).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+    k = np.round(res.tracks.t.to_numpy() * 10).astype(int)
+    err = np.hypot(res.tracks.x - tgt[k, 0], res.tracks.y - tgt[k, 1])
+    assert np.sqrt(np.mean(err**2)) < 0.05
+    assert (res.status.status == MERGED).sum() > 10
+    multi = TargetPlanes(multi_person=True).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+    own = owners(multi.tracks, {"target": tgt, "other": other}, times)
+    assert sorted(n for n, _ in own.values()) == ["other", "target"]
+
+
+def test_config_noise_overrides_the_calibration(monkeypatch):
+    cams = four_cameras()
+    times = np.round(np.arange(0, 2.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [2.5, 2.0], times)
+    obs = Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 2.0)
+    seen = {}
+    orig = JointTracker.__init__
+
+    def spy(self, cfg, Ps, widths, flow_sigma, box_sigma, u_sigma):
+        seen.update(window=box_sigma, centroid=u_sigma, flow=dict(flow_sigma))
+        orig(self, cfg, Ps, widths, flow_sigma, box_sigma, u_sigma)
+
+    monkeypatch.setattr(JointTracker, "__init__", spy)
+    cal = calib(cams)
+    cal.noise = {"box_sigma_px": 1.0, "bearing_sigma_px": 1.0, "flow_sigma_px_s": 5.0}
+    TargetPlanes(initial_xy=list(tgt[0]), box_sigma_px=1.5, box_u_sigma_px=3.5).run(obs, cal)
+    assert seen["window"] == 1.5 and seen["centroid"] == 3.5
+    assert all(v == 5.0 for v in seen["flow"].values())  # per frame: the calibration's region-flow noise
