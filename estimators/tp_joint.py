@@ -34,8 +34,9 @@ Per frame:
      birth candidate.
    - a merged window: its outer edges for the outermost members (edge planes moved ``radius``
      inwards, doubled sigma: an edge may belong to a partly hidden member), its flow for every
-     member with the spread of their predicted flows added to the noise. Inner members get no
-     position.
+     member with the spread of their predicted flows added to the noise, but only when they move
+     alike (spread within the flow noise): the flow of people crossing is a mixture that would
+     draw their velocities together. Inner members get no position.
 4. **Births** (``tp_initiate.propose``): windows explained as clutter, and the far side of a
    too-wide single window, start a track only where two cameras' target planes cross inside
    both windows' target areas, at least 2 ``radius`` from every track and outside its 99 %
@@ -334,12 +335,12 @@ class JointTracker:
         bound = area.s_min if s < area.s_min else area.s_max
         kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
-    def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0) -> None:
-        """Eq. 7: the window's flow = J V (W = 0)."""
+    def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
+        """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
         var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
-        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=FLOW_OUTLIER)
+        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
@@ -397,7 +398,7 @@ class JointTracker:
                     continue
                 ps = [projs[i] for i in mem]
                 fs = np.array([p.flow for p in ps])
-                spread = float(fs.var(0).sum())
+                spread = float(fs.var(0).sum())  # px^2/s^2: |f_a - f_b|^2 / 4 for two
                 lo = min(range(len(mem)), key=lambda k: ps[k].win[0])
                 hi = max(range(len(mem)), key=lambda k: ps[k].win[1])
                 for k, i in enumerate(mem):
@@ -407,7 +408,11 @@ class JointTracker:
                         self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0)
                     if k == hi:
                         self.update_plane(tr, c, p, float(boxes.win[j, 1]), 2.0 * self.edge_sigma(p), -1.0)
-                    self.update_flow(tr, c, p, boxes.flow[j], extra_var=spread + self.flow_sigma[c] ** 2)
+                    if spread <= self.flow_sigma[c] ** 2:
+                        # members moving alike: the region's flow is theirs; moving differently
+                        # (crossing), it is a mixture and would draw both velocities together,
+                        # erasing what tells them apart at the separation
+                        self.update_flow(tr, c, p, boxes.flow[j], extra_var=spread + self.flow_sigma[c] ** 2)
                     others = ",".join(str(tracks[o].tid) for o in mem if o != i)
                     tr.status[c] = (MERGED, others, None)
             for track, win, flow in extra:
