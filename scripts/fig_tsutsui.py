@@ -23,7 +23,7 @@ from experiment_tsutsui import TARGET, run  # noqa: E402
 
 from trackroom.topdown import draw_floorplan  # noqa: E402
 
-STATUS_COLOURS = {"tracking": "#2ca02c", "unreliable": "#ff7f0e", "lost": "#d62728"}
+STATUS_COLOURS = {"tracking": "#2ca02c", "merged": "#1f77b4", "unreliable": "#ff7f0e", "lost": "#d62728"}
 
 
 def main(argv=None) -> int:

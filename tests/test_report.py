@@ -117,7 +117,7 @@ def test_compare_keeps_tracks_and_the_camera_status(comparison):
     assert len(status) == 1
     st = pd.read_parquet(status[0])
     assert list(st.columns) == ["t", "track_id", "camera", "status", "reason"]
-    assert set(st["status"]) <= {"tracking", "unreliable", "lost"} and "tracking" in set(st["status"])
+    assert set(st["status"]) <= {"tracking", "merged", "unreliable", "lost"} and "tracking" in set(st["status"])
     assert not list(comparison.glob("runs/*/seed0/ekf*.status.parquet"))  # the EKF keeps none
     assert len(list(comparison.glob("runs/*/seed*/*.tracks.csv"))) == 6  # every ok run
 

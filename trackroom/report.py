@@ -36,7 +36,7 @@ REQUIRED = ("results.csv", "spec.toml", "provenance.json")
 # numeric results.csv columns that describe a run rather than score it
 SETTING_COLUMNS = ("seed", "duration", "sim_s", "gate", "frames")
 MAX_TIMELINE_TRACKS = 4  # status timelines show this many tracks (the longest), every camera each
-STATUS_COLOURS = {"tracking": "tab:green", "unreliable": "tab:orange", "lost": "0.75"}
+STATUS_COLOURS = {"tracking": "tab:green", "merged": "tab:blue", "unreliable": "tab:orange", "lost": "0.75"}
 
 
 class ReportError(ValueError):
@@ -247,7 +247,7 @@ def topdown_figure(rec, runs: list[tuple[str, pd.DataFrame]], gate: float, title
 
 def status_timeline(status: pd.DataFrame, title: str) -> Figure:
     """Per track (the longest ``MAX_TIMELINE_TRACKS``) and camera, a bar over time coloured by the
-    camera's status (tracking / unreliable / lost)."""
+    camera's status (tracking / merged / unreliable / lost)."""
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 

@@ -1,0 +1,498 @@
+"""Joint design of ``target_planes`` (issue 12): every mover is a track, each camera's windows explained jointly.
+
+Each track (``JointTrack``) is a person model of the paper (a vertical cylinder of ``height`` and
+``radius``) with state s = [x, y, vx, vy] (floor position, m; velocity, m/s) and covariance S.
+Per frame:
+
+1. **Predict**: s <- F s, S <- F S F^T + Q, white acceleration of spectral density
+   ``accel_sigma``^2. A track that no window explained in the last frame has most likely stopped
+   (a flow tracker sees no one standing): its velocity decays by exp(-dt / ``stop_tau``). The
+   position's standard deviation is capped at ``sigma_max``.
+2. **Explain each camera's windows jointly** (``explain_camera``): every window is one track, a
+   group of two or three tracks merged into one flow region (extent: the union of their projected
+   cylinders; flow: the mean of their predicted image velocities, its spread added to the noise),
+   or clutter; every track has at most one window (none: occluded, out of view or standing).
+   Cost of a hypothesis: sum over explained windows of 0.5 d^2 (Mahalanobis, features: centre u,
+   width - one-sided: a window cut by an obstacle is narrower -, flow u, flow v), plus
+   ``c_clutter`` per clutter window and ``c_miss`` per moving track without a window (0 for a
+   track predicted to stand still: it makes no window). Both are 0.5 chi^2_4(0.99): a window is
+   explained by a track when that is likelier than a missed track plus a clutter window at the
+   99 % gate. Solved exactly by enumeration over each connected component of the gating graph
+   (a track gates a window whose extent, widened by 3 sigma, holds its predicted axis), with
+   ``scipy.optimize.linear_sum_assignment`` on single-person explanations where a component
+   has more than ``MAX_HYPOTHESES`` hypotheses.
+3. **Update** (Kalman; every measurement is linear in s):
+   - a window that is one track: its centroid's target plane a [x, y]^T = b (eqs. 3-5, the row
+     normalised so the residual is in metres; sigma = sigma_u / |du/dxy|); its single-camera
+     target area's depth range (section 3.2), applied only when the prediction lies outside it,
+     with sigma = ``radius``; its flow J V = f (eq. 7, J at the predicted body centre), skipped
+     as an outlier beyond chi^2_2(0.999) (the rendered flows' tails are heavy). With several
+     cameras the plane updates are eq. 6's least-squares intersection, weighted.
+   - a window wider than that one person (eq. 8 ratio above ``width_ratio_threshold``:
+     someone untracked walks in it): only its edge on the track's side (the plane of that edge
+     column moved ``radius`` inwards) and its flow, both with doubled sigma; its far side is a
+     birth candidate.
+   - a merged window: its outer edges for the outermost members (edge planes moved ``radius``
+     inwards, doubled sigma: an edge may belong to a partly hidden member), its flow for every
+     member with the spread of their predicted flows added to the noise, but only when they move
+     alike (spread within the flow noise): the flow of people crossing is a mixture that would
+     draw their velocities together. Inner members get no position.
+4. **Births** (``tp_initiate.propose``): windows explained as clutter, and the far side of a
+   too-wide single window, start a track only where two cameras' target planes cross inside
+   both windows' target areas, at least 2 ``radius`` from every track and outside its 99 %
+   position gate. A track is reported after
+   ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
+   a confirmed one after ``hold_s`` without any; of two tracks nearer than ``radius`` the
+   younger is dropped (one person seen twice).
+
+The per-camera status of each reported track: ``tracking`` (a window that is the track alone;
+its id in ``window``), ``unreliable`` (reason ``width``: alone in a window wider than one person),
+``merged`` (reason: the other tracks in the window), ``lost`` (reason ``out of view`` or empty).
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
+
+from . import tp_geometry as geo
+from .tp_frames import CameraBoxes
+
+MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
+C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
+FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
+PLANE_OUTLIER = float(chi2.ppf(0.999, 1))  # nor a plane's or depth bound's
+BIRTH_GATE = float(chi2.ppf(0.99, 2))  # no birth inside a track's 99 % position gate
+DUPLICATE = float(chi2.ppf(0.99, 4))  # two tracks' states this alike (and nearer than 2 radius) are one person
+FLOW_CAP = float(chi2.ppf(0.99, 2))  # the flow's share of an explanation's cost is at most its 99 % gate (heavy tails)
+MAX_RANGE = 30.0  # tp_geometry.target_area's default depth limit, m
+TRACKING, LOST, UNRELIABLE, MERGED = "tracking", "lost", "unreliable", "merged"
+
+
+@dataclass
+class JointTrack:
+    """One person: state s = [x, y, vx, vy] (m, m/s), covariance S (4, 4)."""
+
+    tid: int
+    s: np.ndarray
+    S: np.ndarray
+    hits: int = 0
+    confirmed: bool = False
+    unseen_s: float = 0.0  # seconds since a window last explained it
+    seen: bool = False  # a window explained it in the last frame
+    located: bool = True  # False for the hand-chosen target until two cameras' planes find it near the click
+    n_used: int = 0  # cameras whose window was this track alone, last frame
+    mode: str = ""
+    status: dict = field(default_factory=dict)  # camera -> (status, reason, window id)
+
+    @property
+    def xy(self) -> np.ndarray:
+        return self.s[:2]
+
+
+@dataclass
+class Projection:
+    """What one camera expects of one track: predicted window [u_l, u_r, v_t, v_b] (px), centroid
+    column ``u`` and its variance ``var_u`` (px^2), image velocity ``flow`` (px/s) and its
+    covariance ``var_f``, the Jacobian ``J`` (2, 3) of eq. 7 at the body centre."""
+
+    win: np.ndarray
+    u: float
+    var_u: float
+    flow: np.ndarray
+    var_f: np.ndarray
+    J: np.ndarray
+    row: float
+
+    @property
+    def width(self) -> float:
+        return max(self.win[1] - self.win[0], 1.0)
+
+
+def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
+              cap: float | None = None) -> bool:
+    """Kalman update of ``tr`` with z = H s + noise(R). When the innovation's squared
+    Mahalanobis distance d^2 exceeds ``gate`` the update is skipped (False), or with ``soft``
+    made after scaling the position's covariance by d^2 / gate, its standard deviation at most
+    to ``cap`` (m) (the state, not the measurement, is taken to be off: an overconfident state
+    that went astray is pulled back instead of rejecting every later window)."""
+    H = np.atleast_2d(H)
+    R = np.atleast_2d(R)
+    r = np.atleast_1d(z) - H @ tr.s
+    Sy = H @ tr.S @ H.T + R
+    if gate is not None:
+        d2 = float(r @ np.linalg.solve(Sy, r))
+        if d2 > gate:
+            if not soft:
+                return False
+            # the state, not the window, is taken to be off: the position's covariance grows
+            # (rows and columns scaled, correlations kept), up to sigma_max
+            k = np.ones(4)
+            sd = float(np.sqrt(max(tr.S[0, 0], tr.S[1, 1])))
+            k[:2] = min(np.sqrt(d2 / gate), max(cap / sd, 1.0)) if cap else np.sqrt(d2 / gate)
+            tr.S = tr.S * np.outer(k, k)
+            Sy = H @ tr.S @ H.T + R
+    K = np.linalg.solve(Sy, H @ tr.S).T
+    tr.s = tr.s + K @ r
+    IKH = np.eye(4) - K @ H
+    tr.S = IKH @ tr.S @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
+    return True
+
+
+class JointTracker:
+    """The per-frame logic of the joint design (see the module docstring); ``cfg`` is the
+    estimator's resolved Config, ``flow_sigma`` per camera (px/s), ``box_sigma`` and
+    ``u_sigma`` (px) the calibrated window edge and centroid noise."""
+
+    def __init__(self, cfg, Ps: dict[str, np.ndarray], widths: dict[str, float], flow_sigma: dict[str, float],
+                 box_sigma: float, u_sigma: float):
+        self.cfg, self.Ps, self.widths = cfg, Ps, widths
+        self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
+        self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
+        self.hc = cfg.flow_height_fraction * cfg.height
+
+    # --- prediction ---------------------------------------------------------------------------
+    def predict(self, tr: JointTrack, dt: float) -> None:
+        cfg = self.cfg
+        decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        F[2, 2] = F[3, 3] = decay
+        q = cfg.accel_sigma**2
+        Q1 = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+        Q = np.kron(Q1, np.eye(2))
+        tr.s = F @ tr.s
+        tr.S = F @ tr.S @ F.T + Q
+        for sl, cap in ((slice(0, 2), cfg.sigma_max), (slice(2, 4), 0.5 * cfg.max_speed)):
+            # cap the spreads: a stopped walker stays near where it vanished; no one walks faster
+            # than max_speed (scaling rows and columns keeps S positive definite)
+            sd = np.sqrt(max(tr.S[sl.start, sl.start], tr.S[sl.start + 1, sl.start + 1]))
+            if sd > cap:
+                k = np.ones(4)
+                k[sl] = cap / sd
+                tr.S = tr.S * np.outer(k, k)
+
+    def project(self, c: str, tr: JointTrack) -> Projection | None:
+        P = self.Ps[c]
+        win = geo.cylinder_window(P, tr.xy, self.cfg.height, self.cfg.radius)
+        if not np.isfinite(win).all() or win[1] < 0 or win[0] > self.widths[c]:
+            return None
+        X = np.array([tr.s[0], tr.s[1], self.hc])
+        (u, v), _ = geo.project(P, X)
+        J = geo.flow_jacobian(P, X)
+        Ju, J2 = J[0, :2], J[:, :2]
+        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
+
+    # --- joint explanation of one camera's windows -----------------------------------------------
+    def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
+        """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged)."""
+        cfg = self.cfg
+        ul, ur = boxes.win[j, 0], boxes.win[j, 1]
+        if len(projs) == 1:
+            p = projs[0]
+            du, var_u = boxes.u[j] - p.u, self.centroid_var(p, boxes.width[j]) + p.var_u
+            w_pred = w_narrow = p.width
+            f_pred, var_f = p.flow, p.var_f
+        else:
+            L = min(p.win[0] for p in projs)
+            R = max(p.win[1] for p in projs)
+            du = 0.5 * (ul + ur) - 0.5 * (L + R)
+            var_u = 0.5 * self.box_sigma**2 + float(np.mean([p.var_u for p in projs])) + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
+            w_pred = R - L
+            fs = np.array([p.flow for p in projs])
+            f_pred = fs.mean(0)
+            var_f = np.mean([p.var_f for p in projs], 0) + np.diag(fs.var(0))
+        dw = (ur - ul) - w_pred
+        sw = np.hypot(2.0 * self.box_sigma, cfg.edge_sigma_frac * w_pred)
+        if len(projs) > 1:
+            sw = np.sqrt(sw**2 + 2.0 * float(np.mean([p.var_u for p in projs])))  # the union's outer members move
+        elif dw < 0:
+            sw = 0.5 * w_narrow  # one person partly hidden (an obstacle, the image border) or a fragment
+        df = boxes.flow[j] - f_pred
+        Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
+        d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
+        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
+
+    def centroid_var(self, p: Projection, width: float) -> float:
+        """Variance (px^2) of a window's centroid about the track's projected axis: the
+        calibrated centroid noise, the silhouette's spread about the cylinder
+        (``edge_sigma_frac`` of its width) and, for a window narrower than the person (partly
+        hidden, or a fragment of the region), the axis anywhere within the missing width
+        (uniform: (w_c - w)^2 / 12; section 3.2's partial extraction)."""
+        short = max(p.width - float(width), 0.0)
+        return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
+
+    def miss_cost(self, p: Projection) -> float:
+        """A track without a window: free for a track predicted standing (no flow region), else
+        as dear as a clutter window."""
+        return C_CLUTTER if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
+
+    def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
+        """The best joint explanation of camera c's windows: window index -> indices (into
+        ``tracks``) of the tracks it holds (one, or a merged group); and each visible track's
+        projection. Windows absent from the result are clutter."""
+        projs = {i: p for i, tr in enumerate(tracks) if (p := self.project(c, tr)) is not None}
+        n = len(boxes)
+        if not projs or not n:
+            return {}, projs
+        gate = {}
+        for i, p in projs.items():
+            m = 3.0 * np.sqrt(p.var_u + self.u_sigma**2)
+            gate[i] = [j for j in range(n) if boxes.win[j, 0] - m <= p.u <= boxes.win[j, 1] + m]
+        # connected components of the gating graph (tracks and windows)
+        comp_of: dict = {}
+
+        def find(a):
+            while comp_of.setdefault(a, a) != a:
+                a = comp_of[a]
+            return a
+
+        for i, js in gate.items():
+            for j in js:
+                comp_of[find(("t", i))] = find(("w", j))
+        comps: dict = {}
+        for i in projs:
+            comps.setdefault(find(("t", i)), [[], set()])[0].append(i)
+        for i, js in gate.items():
+            comps[find(("t", i))][1].update(js)
+        result: dict[int, tuple[int, ...]] = {}
+        cache: dict = {}
+        miss = {i: self.miss_cost(p) for i, p in projs.items()}
+
+        def cost(members: tuple[int, ...], j: int) -> float:
+            key = (members, j)
+            if key not in cache:
+                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) if len(members) <= 3 else np.inf
+            return cache[key]
+
+        for ts, ws in comps.values():
+            ws = sorted(ws)
+            if not ws:
+                continue
+            options = [[None] + gate[i] for i in ts]
+            size = int(np.prod([len(o) for o in options], dtype=float))
+            if size <= MAX_HYPOTHESES:
+                best, best_cost = None, np.inf
+                for combo in itertools.product(*options):
+                    groups: dict[int, list[int]] = {}
+                    total = 0.0
+                    for i, j in zip(ts, combo):
+                        if j is None:
+                            total += miss[i]
+                        else:
+                            groups.setdefault(j, []).append(i)
+                    total += C_CLUTTER * (len(ws) - len(groups))
+                    for j, mem in groups.items():
+                        total += cost(tuple(mem), j)
+                        if total >= best_cost:
+                            break
+                    if total < best_cost:
+                        best, best_cost = groups, total
+                for j, mem in (best or {}).items():
+                    result[j] = tuple(mem)
+            else:  # too many: single-person explanations only
+                C = np.full((len(ts), len(ws) + len(ts)), 1e6)
+                for a, i in enumerate(ts):
+                    for b, j in enumerate(ws):
+                        if j in gate[i]:
+                            C[a, b] = cost((i,), j) - C_CLUTTER
+                    C[a, len(ws) + a] = miss[i]
+                r, k = linear_sum_assignment(C)
+                for a, b in zip(r, k):
+                    if b < len(ws) and C[a, b] < 1e6:
+                        result[ws[b]] = (ts[a],)
+        return result, projs
+
+    # --- updates --------------------------------------------------------------------------------
+    def _plane(self, c: str, u: float, row: float) -> tuple[np.ndarray, float]:
+        a, b = geo.target_plane(self.Ps[c], u, row)
+        a, b = geo.normalise_planes(np.asarray(a, float).reshape(1, 2), np.asarray(b, float).reshape(1))
+        return a[0], float(b[0])
+
+    def update_plane(self, tr: JointTrack, c: str, p: Projection, u: float, sigma_px: float, offset_sign: float = 0.0) -> None:
+        """The target plane of column u (eq. 4 at the predicted centroid row); with
+        ``offset_sign`` = +1 / -1 the column is a window's left / right edge and the axis lies
+        ``radius`` inwards (towards larger / smaller u)."""
+        a, b = self._plane(c, u, p.row)
+        Ju = p.J[0, :2]
+        g = float(np.linalg.norm(Ju))
+        if g < 1e-9:
+            return
+        if offset_sign:
+            b += self.cfg.radius * offset_sign * np.sign(float(Ju @ a))
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
+
+    def update_depth(self, tr: JointTrack, c: str, boxes: CameraBoxes, j: int) -> None:
+        """Section 3.2's depth range as an interval: pulls the track in only from outside it."""
+        cfg = self.cfg
+        area = geo.target_area(self.Ps[c], boxes.box(j), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=self.margin_px)
+        s = float((tr.xy - area.origin) @ area.direction)
+        if area.s_min <= s <= area.s_max or area.s_min > 0.5 * MAX_RANGE or area.s_max - area.s_min > 0.5 * MAX_RANGE:
+            return  # inside, or no bound (a window whose top or bottom row meets no floor or head plane)
+        bound = area.s_min if s < area.s_min else area.s_max
+        kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
+
+    def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
+        """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
+        H = np.zeros((2, 4))
+        H[:, 2:] = p.J[:, :2]
+        var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
+        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
+
+    def edge_sigma(self, p: Projection) -> float:
+        return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
+
+    # --- one frame ------------------------------------------------------------------------------
+    def step(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], dt: float) -> dict[str, list[int]]:
+        """Predict, explain every camera's windows, update. Returns the birth candidates: per
+        camera, indices into ``frame[c]`` (extended in place with the far sides of too-wide
+        windows) of windows no track explains."""
+        cfg = self.cfg
+        for tr in tracks:
+            self.predict(tr, dt)
+        active = [tr for tr in tracks if tr.located]
+        plans = {c: self.explain_camera(c, active, frame[c]) for c in self.Ps}
+        idx = [i for i, tr in enumerate(tracks) if tr.located]
+        # explain_camera indexes ``active``; map back to ``tracks``
+        plans = {c: ({j: tuple(idx[i] for i in mem) for j, mem in ex.items()}, {idx[i]: p for i, p in pr.items()}) for c, (ex, pr) in plans.items()}
+        free: dict[str, list[int]] = {}
+        used = [0] * len(tracks)
+        seen = [False] * len(tracks)
+        for tr in tracks:
+            tr.status = {}
+        for c, (expl, projs) in plans.items():
+            boxes = frame[c]
+            free[c] = [j for j in range(len(boxes)) if j not in expl]
+            for i in range(len(tracks)):
+                if i not in projs:
+                    tracks[i].status[c] = (LOST, "out of view", None)
+                else:
+                    tracks[i].status[c] = (LOST, "", None)
+            extra = []
+            for j, mem in expl.items():
+                tid_j = boxes.track[j]
+                if len(mem) == 1:
+                    i = mem[0]
+                    tr, p = tracks[i], projs[i]
+                    seen[i] = True
+                    ratio = (boxes.width[j] - p.width) / p.width
+                    if ratio <= cfg.width_ratio_threshold:
+                        self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
+                        self.update_depth(tr, c, boxes, j)
+                        self.update_flow(tr, c, p, boxes.flow[j])
+                        used[i] += 1
+                        tr.status[c] = (TRACKING, "", tid_j)
+                        continue
+                    # wider than one person (eq. 8): someone untracked is in it; the edge on the
+                    # track's side is its own, the far side a birth candidate
+                    left = abs(boxes.win[j, 0] - p.win[0]) <= abs(boxes.win[j, 1] - p.win[1])
+                    edge = boxes.win[j, 0] if left else boxes.win[j, 1]
+                    self.update_plane(tr, c, p, float(edge), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+                    self.update_flow(tr, c, p, boxes.flow[j], extra_var=self.flow_sigma[c] ** 2)
+                    far = np.array([boxes.win[j, 1] - p.width, boxes.win[j, 1]] if left else [boxes.win[j, 0], boxes.win[j, 0] + p.width])
+                    extra.append(((tid_j, "far"), np.r_[far, boxes.win[j, 2:]], boxes.flow[j]))
+                    tr.status[c] = (UNRELIABLE, "width", None)
+                    continue
+                ps = [projs[i] for i in mem]
+                fs = np.array([p.flow for p in ps])
+                spread = float(fs.var(0).sum())  # px^2/s^2: |f_a - f_b|^2 / 4 for two
+                lo = min(range(len(mem)), key=lambda k: ps[k].win[0])
+                hi = max(range(len(mem)), key=lambda k: ps[k].win[1])
+                for k, i in enumerate(mem):
+                    tr, p = tracks[i], ps[k]
+                    seen[i] = True
+                    if k == lo:
+                        self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0)
+                    if k == hi:
+                        self.update_plane(tr, c, p, float(boxes.win[j, 1]), 2.0 * self.edge_sigma(p), -1.0)
+                    if spread <= self.flow_sigma[c] ** 2:
+                        # members moving alike: the region's flow is theirs; moving differently
+                        # (crossing), it is a mixture and would draw both velocities together,
+                        # erasing what tells them apart at the separation
+                        self.update_flow(tr, c, p, boxes.flow[j], extra_var=spread + self.flow_sigma[c] ** 2)
+                    others = ",".join(str(tracks[o].tid) for o in mem if o != i)
+                    tr.status[c] = (MERGED, others, None)
+            for track, win, flow in extra:
+                boxes, k = boxes.with_box(track, win, flow)
+                free[c].append(k)
+            frame[c] = boxes
+        for i, tr in enumerate(tracks):
+            speed = float(np.linalg.norm(tr.s[2:]))
+            if speed > cfg.max_speed:
+                tr.s[2:] *= cfg.max_speed / speed
+            tr.n_used = used[i]
+            tr.seen = seen[i]
+            tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
+            tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
+            if used[i]:  # a hit: a window that is this track alone
+                tr.hits += 1
+            if tr.hits >= cfg.confirm_frames:
+                tr.confirmed = True
+        return free
+
+    def birth(self, tid: int, xy: np.ndarray, support: dict[str, int], frame: dict[str, CameraBoxes]) -> JointTrack:
+        """A new track at a crossing of target planes (``tp_initiate.propose``); its velocity by
+        eq. 7 from the supporting windows' flows."""
+        cfg = self.cfg
+        X = np.array([xy[0], xy[1], self.hc])
+        names = list(support)
+        sig = [np.hypot(self.flow_sigma[c], cfg.flow_model_sigma) for c in names]
+        V = geo.velocity_from_flows([self.Ps[c] for c in names], [X] * len(names), [frame[c].flow[support[c]] for c in names], sig)
+        speed = float(np.linalg.norm(V[:2]))
+        if speed > cfg.max_speed:
+            V = V * (cfg.max_speed / speed)
+        S = np.diag([cfg.radius**2, cfg.radius**2, cfg.birth_sigma_v**2, cfg.birth_sigma_v**2])
+        tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
+        return tr
+
+    def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes], accept) -> set[int]:
+        """The hand-chosen target before it is located: the two-camera crossing
+        (``tp_initiate.propose``) nearest the click that ``accept`` (xy -> bool) takes becomes its
+        state, as a birth would (a click is a few tenths of a metre off; a single window near it
+        may be someone else or a fragment). Returns the proposals used."""
+        best, dbest = None, np.inf
+        for k, (xy, _) in enumerate(proposals):
+            m = float(np.linalg.norm(np.asarray(xy, float) - tr.xy))
+            if accept(xy) and m < dbest:
+                best, dbest = k, m
+        if best is None:
+            return set()
+        xy, support = proposals[best]
+        new = self.birth(tr.tid, xy, support, frame)
+        tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
+        return {best}
+
+    def covers(self, tr: JointTrack, xy: np.ndarray) -> bool:
+        """A crossing at xy is track ``tr`` itself: nearer than 2 ``radius`` (two bodies cannot
+        be), or inside the 99 % gate of its position uncertainty (a track still being found,
+        e.g. the hand-given target)."""
+        d = np.asarray(xy, float) - tr.xy
+        return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
+
+    def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
+        """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
+        for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
+        ``radius`` (two bodies cannot be: one person seen twice); never the track ``keep`` (the
+        hand-chosen target)."""
+        cfg = self.cfg
+        out = []
+        for tr in tracks:
+            if tr.tid != keep:
+                if not (tr.n_used if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
+                    continue
+                if not bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
+                    continue
+            out.append(tr)
+        drop = set()
+        for a, b in itertools.combinations(out, 2):
+            if a.tid in drop or b.tid in drop:
+                continue
+            ds = a.s - b.s
+            if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
+                young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
+                if young.tid != keep:
+                    drop.add(young.tid)
+        return [tr for tr in out if tr.tid not in drop]

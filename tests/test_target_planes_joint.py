@@ -1,0 +1,201 @@
+"""target_planes, joint design (``tp_joint``): hand-made windows of projected cylinders.
+
+Every window here is the paper's person model (a cylinder of height 1.8 m and radius 0.2 m, the
+estimator's own) projected by the test cameras, so a reader can recompute each value with
+``tp_geometry.cylinder_window``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators.tp_frames import CameraBoxes
+from trackroom.estimators.tp_joint import MERGED, TRACKING, JointTrack, JointTracker
+from trackroom.recording import Observations
+from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
+
+H, R = 1.8, 0.2  # the estimator's person model (Config height, radius)
+
+
+def window_row(c, xy, vel):
+    """[u, u_left, u_right, v_top, v_bottom, flow_u, flow_v] of a cylinder at xy walking at vel."""
+    X = np.array([xy[0], xy[1], 0.5 * H])
+    win = geo.cylinder_window(c.P, xy, H, R)
+    flow = geo.flow_jacobian(c.P, X) @ np.array([vel[0], vel[1], 0.0])
+    return np.r_[0.5 * (win[0] + win[1]), win, flow]
+
+
+def boxes_table(cameras, paths, times, merged_in=()):
+    """The boxes table of people walking ``paths`` (name -> (n, 2) positions at ``times``). In the
+    cameras named in ``merged_in``, overlapping windows are reported as one window: their union,
+    with the mean flow, under the id of the first (a flow tracker's merged region)."""
+    rows = []
+    dt = times[1] - times[0]
+    for c in cameras:
+        for k, t in enumerate(times):
+            cur = []
+            for n, p in paths.items():
+                vel = (p[min(k + 1, len(times) - 1)] - p[max(k - 1, 0)]) / (dt * (min(k + 1, len(times) - 1) - max(k - 1, 0)))
+                cur.append([n, window_row(c, p[k], vel)])
+            if c.name in merged_in and len(cur) == 2:
+                (na, a), (nb, b) = cur
+                if a[2] >= b[1] and b[2] >= a[1]:  # the windows overlap: one region
+                    ul, ur = min(a[1], b[1]), max(a[2], b[2])
+                    cur = [[na, np.r_[0.5 * (ul + ur), ul, ur, min(a[3], b[3]), max(a[4], b[4]), 0.5 * (a[5:] + b[5:])]]]
+            for n, r in cur:
+                rows.append((t, c.name, n, *r))
+    cols = ["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"]
+    return pd.DataFrame(rows, columns=cols).sort_values(["t", "camera"], kind="stable").reset_index(drop=True)
+
+
+def owners(tracks, paths, times):
+    """Each output track's walker (nearest on average) and its largest distance from them."""
+    k = np.searchsorted(times, tracks.t.to_numpy() - 1e-9)
+    out = {}
+    for tid, idx in tracks.groupby("track_id").groups.items():
+        i = tracks.index.get_indexer(idx)
+        d = {n: np.hypot(tracks.x.to_numpy()[i] - p[k[i], 0], tracks.y.to_numpy()[i] - p[k[i], 1]) for n, p in paths.items()}
+        best = min(d, key=lambda n: d[n].mean())
+        out[tid] = (best, float(d[best].max()))
+    return out
+
+
+def test_two_people_merging_in_one_view_and_separating_swapped_keep_their_ids():
+    """South sees A (near) walk left to right and B (far) right to left: their windows merge
+    into one in its image and come apart with A and B on swapped sides. West sees them apart all
+    along (in different columns; each moves across its view too, so both are movers there)."""
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 6.0, 0.1), 6)
+    paths = {"A": line_path([1.0, 1.0], [5.0, 2.2], times), "B": line_path([5.0, 5.2], [1.0, 3.2], times)}
+    boxes = boxes_table([south, west], paths, times, merged_in=("south",))
+    # the merge happened: some frames have one south window, and the sides swapped across it
+    n_south = boxes[boxes.camera == "south"].groupby("t").size()
+    assert (n_south == 1).sum() >= 5
+    res = TargetPlanes(multi_person=True).run(Observations({"boxes": boxes}, 6.0), calib([south, west]))
+    own = owners(res.tracks, paths, times)
+    assert sorted(n for n, _ in own.values()) == ["A", "B"]  # one track each, no third
+    assert all(err < 0.15 for _, err in own.values())  # each track stays on its walker
+    assert (res.status.status == MERGED).any()  # the merged window was explained as both
+    # the hand-chosen target keeps its identity through the merge too
+    tgt = TargetPlanes(initial_xy=[1.0, 1.0]).run(Observations({"boxes": boxes}, 6.0), calib([south, west])).tracks
+    err = np.hypot(tgt.x.to_numpy() - paths["A"][:, 0], tgt.y.to_numpy() - paths["A"][:, 1])
+    assert err.max() < 0.15
+
+
+def _tracker(cams):
+    cfg = TargetPlanes(multi_person=True).resolved_config(calib(cams))
+    Ps = {c.name: c.P for c in cams}
+    return cfg, JointTracker(cfg, Ps, {c.name: float(c.width) for c in cams}, {c.name: 5.0 for c in cams}, 1.0, 1.0)
+
+
+def test_a_merged_window_updates_both_tracks():
+    """Two people side by side (0.7 m apart across south's line of sight) are predicted 0.15 m
+    left of where they are; south reports one window, the union of their true cylinders. Both
+    tracks are explained by it (merged) and both move right, towards the truth."""
+    south, _ = right_angle_pair()
+    cfg, jt = _tracker([south])
+    truth = [np.array([2.75, 3.0]), np.array([3.45, 3.0])]
+    tracks = []
+    for i, xy in enumerate(truth):
+        S = np.diag([0.2**2, 0.2**2, 0.3**2, 0.3**2])
+        tracks.append(JointTrack(i, np.r_[xy - [0.15, 0.0], 0.0, 0.0], S, confirmed=True, seen=True))
+    a, b = (window_row(south, xy, (0.0, 0.0)) for xy in truth)
+    ul, ur = min(a[1], b[1]), max(a[2], b[2])
+    win = np.array([[ul, ur, min(a[3], b[3]), max(a[4], b[4])]])
+    frame = {"south": CameraBoxes(np.array([7], object), np.array([0.5 * (ul + ur)]), win, np.zeros((1, 2)))}
+    before = [tr.s[0] for tr in tracks]
+    free = jt.step(tracks, frame, 0.0)
+    assert free == {"south": []}  # nothing left over: no birth candidate
+    for tr, x0, xy in zip(tracks, before, truth):
+        assert tr.status["south"][0] == MERGED
+        assert tr.s[0] > x0 + 0.05  # moved towards the truth by its outer edge
+        assert abs(tr.s[0] - xy[0]) < 0.1
+
+
+def test_a_window_nobody_predicts_starts_a_track_only_when_a_second_camera_confirms_it():
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 2.0, 0.1), 6)
+    paths = {"C": line_path([2.0, 2.0], [3.5, 3.0], times)}
+    boxes = boxes_table([south, west], paths, times)
+    one = boxes[boxes.camera == "south"].reset_index(drop=True)
+    est = TargetPlanes(multi_person=True)
+    assert len(est.run(Observations({"boxes": one}, 2.0), calib([south, west])).tracks) == 0
+    tr = est.run(Observations({"boxes": boxes}, 2.0), calib([south, west])).tracks
+    assert tr.track_id.nunique() == 1
+    k = np.searchsorted(times, tr.t.to_numpy() - 1e-9)
+    assert np.hypot(tr.x.to_numpy() - paths["C"][k, 0], tr.y.to_numpy() - paths["C"][k, 1]).max() < 0.05
+    # and a single-target run reports the target only, though it tracks the newcomer too
+    assert (TargetPlanes(initial_xy=[2.0, 2.0]).run(Observations({"boxes": boxes}, 2.0), calib([south, west])).tracks.track_id == 0).all()
+
+
+# --- scenes of synthetic windows (tests.test_target_planes.synth_boxes) ----------------------
+def _tagged(cams, paths, times, **kw):
+    """synth_boxes per person with distinct window ids, and a column telling the target's rows."""
+    parts = []
+    for k, name in enumerate(paths):
+        b = synth_boxes(cams, {name: paths[name]}, times, **kw)
+        b["is_target"] = name == "target"
+        b["track"] = b["track"] * 10 + k
+        parts.append(b)
+    return pd.concat(parts, ignore_index=True).sort_values(["t", "camera"], kind="stable").reset_index(drop=True)
+
+
+def test_total_loss_is_recovered_without_taking_the_look_alike():
+    """Every window of the target vanishes for 0.6 s while a look-alike walks 0.9 m beside it
+    with the same velocity: the target is predicted through the gap and found again by its own
+    windows, never by the look-alike's."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [7.0, 2.0], times)  # 0.75 m/s
+    other = line_path([1.6, 2.9], [7.6, 2.9], times)
+    boxes = _tagged(cams, {"target": tgt, "other": other}, times, sigma=0.3, seed=3)
+    boxes = boxes[~((boxes.t >= 3.0) & (boxes.t < 3.6) & boxes.is_target)].drop(columns="is_target")
+    tr = TargetPlanes(initial_xy=[1.0, 2.0]).run(Observations({"boxes": boxes}, 8.0), calib(cams)).tracks
+    assert len(tr) == len(times)
+    err = np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1])
+    assert (err < np.hypot(tr.x - other[:, 0], tr.y - other[:, 1])).all()  # never swapped
+    lost = (tr.t >= 3.0) & (tr.t < 3.6)
+    assert (tr.n_cameras[lost] == 0).all()  # really a total loss
+    after = tr.t >= 4.0
+    assert (tr.n_cameras[after] >= 2).all() and err[after].max() < 0.1
+
+
+def test_a_look_alike_side_by_side_in_merged_windows_is_tracked_through_them():
+    """A look-alike 0.7 m beside the target with the same velocity; where their windows overlap
+    a camera reports one merged window. Both stay tracked (the merged windows explained as both),
+    the target within 5 cm RMS."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [7.0, 2.5], times)
+    other = line_path([1.0, 2.7], [7.0, 3.2], times)
+    boxes = synth_boxes(cams, {"target": tgt, "other": other}, times, merge=True, sigma=0.3, seed=1)
+    res = TargetPlanes(initial_xy=list(tgt[0])).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+    k = np.round(res.tracks.t.to_numpy() * 10).astype(int)
+    err = np.hypot(res.tracks.x - tgt[k, 0], res.tracks.y - tgt[k, 1])
+    assert np.sqrt(np.mean(err**2)) < 0.05
+    assert (res.status.status == MERGED).sum() > 10
+    multi = TargetPlanes(multi_person=True).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+    own = owners(multi.tracks, {"target": tgt, "other": other}, times)
+    assert sorted(n for n, _ in own.values()) == ["other", "target"]
+
+
+def test_config_noise_overrides_the_calibration(monkeypatch):
+    cams = four_cameras()
+    times = np.round(np.arange(0, 2.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [2.5, 2.0], times)
+    obs = Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 2.0)
+    seen = {}
+    orig = JointTracker.__init__
+
+    def spy(self, cfg, Ps, widths, flow_sigma, box_sigma, u_sigma):
+        seen.update(window=box_sigma, centroid=u_sigma, flow=dict(flow_sigma))
+        orig(self, cfg, Ps, widths, flow_sigma, box_sigma, u_sigma)
+
+    monkeypatch.setattr(JointTracker, "__init__", spy)
+    cal = calib(cams)
+    cal.noise = {"box_sigma_px": 1.0, "bearing_sigma_px": 1.0, "flow_sigma_px_s": 5.0}
+    TargetPlanes(initial_xy=list(tgt[0]), box_sigma_px=1.5, box_u_sigma_px=3.5).run(obs, cal)
+    assert seen["window"] == 1.5 and seen["centroid"] == 3.5
+    assert all(v == 5.0 for v in seen["flow"].values())  # per frame: the calibration's region-flow noise
