@@ -276,6 +276,13 @@ BAD_VALUES = st.one_of(
 )
 
 
+def _bad_value(draw):
+    """A drawn bad value, copied: ``BAD_VALUES`` samples shared lists and dicts, and a later
+    mutation of the scene (a key added, an item removed) would change the shared object, so the
+    same draws gave other scenes later (hypothesis: FlakyStrategyDefinition)."""
+    return copy.deepcopy(draw(BAD_VALUES))
+
+
 @st.composite
 def mutated_scenes(draw) -> dict:
     """A valid scene with one to three things broken."""
@@ -290,9 +297,9 @@ def mutated_scenes(draw) -> dict:
         elif kind == "unknown":
             tables = [p for p, v in _paths(raw) if isinstance(v, dict)]
             _set_key = draw(st.sampled_from(tables))
-            _get(raw, _set_key)[draw(st.text(min_size=1, max_size=8))] = draw(BAD_VALUES)
+            _get(raw, _set_key)[draw(st.text(min_size=1, max_size=8))] = _bad_value(draw)
         elif kind == "replace":
-            _set(raw, draw(st.sampled_from(paths)), draw(BAD_VALUES))
+            _set(raw, draw(st.sampled_from(paths)), _bad_value(draw))
         elif kind == "number":
             nums = [p for p, v in _paths(raw) if p and isinstance(v, (int, float)) and not isinstance(v, bool)]
             if nums:
