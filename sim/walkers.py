@@ -622,17 +622,20 @@ def _smooth_all(t: np.ndarray, rough: list, specs, smooth_s: list, dt: float):
     pz, vz, az = (x.T for x in _derivs(make_interp_spline(t, z.T, k=5), t))
     # heading: direction of travel while moving, held while standing
     heading = np.zeros((P, n))
+    direction = np.arctan2(v[..., 1], v[..., 0])  # (P, N)
+    steps = np.arange(n)
     for i in range(P):
         moving = speed[i] > 0.2
         if moving.any():
-            idx = np.maximum.accumulate(np.where(moving, np.arange(n), -1))
+            idx = np.maximum.accumulate(np.where(moving, steps, -1))
             idx[idx < 0] = np.flatnonzero(moving)[0]
-            heading[i] = np.unwrap(np.arctan2(v[i, :, 1], v[i, :, 0])[idx])
+            heading[i] = np.unwrap(direction[i, idx])
     heading = gaussian_filter1d(heading, YAW_SMOOTH / dt, axis=1, mode="nearest")
     yaw, yaw_rate, yaw_acc = (x.T for x in _derivs(_lsq_quintic(t, heading.T, KNOT_SPACING), t))
-    pos = np.concatenate([p, pz[..., None]], axis=-1)
-    vel = np.concatenate([v, vz[..., None]], axis=-1)
-    acc = np.concatenate([a, az[..., None]], axis=-1)
+    pos, vel, acc = (np.empty((P, n, 3)) for _ in range(3))  # filled in place: no stacked temporaries
+    for out, horizontal, vertical in ((pos, p, pz), (vel, v, vz), (acc, a, az)):
+        out[..., :2] = horizontal
+        out[..., 2] = vertical
     for i, w in enumerate(specs):
         if w.motion == "standing":  # exactly still
             pos[i, :, :2] = rough[i][0]
