@@ -15,7 +15,7 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import DetectorModel, correlated_uniforms
+from .perception_model import DetectorModel, correlated_normals, correlated_uniforms, ndtr
 
 
 def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: float) -> np.ndarray:
@@ -41,9 +41,10 @@ def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, 
     if P < 2 or not eligible.any():
         return root
     iu, ju = np.triu_indices(P, 1)
-    u = correlated_uniforms(rng, eligible.shape, m.merge_rho)
+    z = correlated_normals(rng, eligible.shape, m.merge_rho)  # drawn whole: the random stream as before
     merge = eligible & det[:, iu] & det[:, ju]
-    merge[merge] = u[merge] < m.merge(feature[merge])  # the table looked up where it decides something
+    # the copula's uniforms (correlated_uniforms: ndtr of z) and the table only where they decide
+    merge[merge] = ndtr(z[merge]) < m.merge(feature[merge])
     # each group's root is its lowest index (merging two groups keeps the lower root), so a
     # minimum passed along the merged pairs until nothing changes gives every frame's groups at once
     f, k = np.nonzero(merge)
