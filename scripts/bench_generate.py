@@ -17,10 +17,11 @@ commands run from a temporary folder, so each interpreter imports its own instal
 
 Measured here (2 cores shared with other jobs; README, "Simulator and analytic sensing"): best
 3.06 s wall = 196x, median 3.17 s = 189x, 3.85 s CPU at load average 3.1-3.7 (issue 14 part 4);
-3.55 s = 169x at load 0.7 before it; its second pass, alternated with main (``--against``) at load
-10.3-12.4: best 9.71 s (62x), median 13.94 s, CPU 4.79-5.93 s, against main's 13.66 s, 15.33 s,
-6.18-7.13 s. The CPU figure counts both of the command's threads (the camera side of the
-simulation runs beside the IMU side), so it can exceed the wall time.
+3.55 s = 169x at load 0.7 before it; its second pass, alternated with main (``--against``) on a
+busier machine: best 3.57 s (168x), median 5.50 s against main's 4.42 s and 6.76 s at load
+2.2-3.4; median 10.47 s against 12.15 s at load 5.6-6.8 (README has every row). The CPU figure
+counts both of the command's threads (the camera side of the simulation runs beside the IMU
+side), so it can exceed the wall time.
 """
 from __future__ import annotations
 
