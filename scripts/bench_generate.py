@@ -19,7 +19,8 @@ Measured here (2 cores shared with other jobs; README, "Simulator and analytic s
 3.06 s wall = 196x, median 3.17 s = 189x, 3.85 s CPU at load average 3.1-3.7 (issue 14 part 4);
 3.55 s = 169x at load 0.7 before it; its second pass, alternated with main (``--against``) on a
 busier machine: best 3.57 s (168x), median 5.50 s against main's 4.42 s and 6.76 s at load
-2.2-3.4; median 10.47 s against 12.15 s at load 5.6-6.8 (README has every row). The CPU figure
+2.2-3.4; median 10.47 s against 12.15 s at load 5.6-6.8; rebased on main 2d083a7, at load
+2.3-2.7: best 3.46 s (173x), median 3.60 s against 4.18 s and 4.46 s (README has every row). The CPU figure
 counts both of the command's threads (the camera side of the simulation runs beside the IMU
 side), so it can exceed the wall time.
 """
