@@ -15,7 +15,7 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import DetectorModel, correlated_uniforms
+from .perception_model import DetectorModel, correlated_normals, correlated_uniforms, ndtr
 
 
 def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: float) -> np.ndarray:
@@ -41,8 +41,10 @@ def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, 
     if P < 2 or not eligible.any():
         return root
     iu, ju = np.triu_indices(P, 1)
-    u = correlated_uniforms(rng, eligible.shape, m.merge_rho)
-    merge = eligible & det[:, iu] & det[:, ju] & (u < m.merge(feature))
+    z = correlated_normals(rng, eligible.shape, m.merge_rho)  # drawn whole: the random stream as before
+    merge = eligible & det[:, iu] & det[:, ju]
+    # the copula's uniforms (correlated_uniforms: ndtr of z) and the table only where they decide
+    merge[merge] = ndtr(z[merge]) < m.merge(feature[merge])
     # each group's root is its lowest index (merging two groups keeps the lower root), so a
     # minimum passed along the merged pairs until nothing changes gives every frame's groups at once
     f, k = np.nonzero(merge)
@@ -141,25 +143,34 @@ def segment_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndar
     return np.where(cross, 0.0, d)
 
 
-def silhouette_pairs(g, reach: float = np.inf) -> np.ndarray:
+def silhouette_pairs(g, reach: float = np.inf, pairs: np.ndarray | None = None) -> np.ndarray:
     """(F, pairs) over ``np.triu_indices(P, 1)``: how far apart two people's silhouettes lie in an
     overhead camera's image, as the distance between their image axes (feet to the top of the
     head) in units of their mean projected body width. A ceiling camera sees a person as a blob
     stretched away from the point below it, so two people one behind the other (seen from the
     camera) merge at a larger floor distance than two side by side; below about 1 the blobs touch.
     Pairs whose axes' bounding boxes lie ``reach`` widths apart or more get inf without the exact
-    distance (which is at least that)."""
-    P = g.axis.shape[1]
+    distance (which is at least that). ``pairs``: an (F, pairs) mask of the entries wanted (the
+    others are inf; each entry is computed on its own, so the wanted ones do not change)."""
+    F, P = g.axis.shape[:2]
     iu, ju = np.triu_indices(P, 1)
-    width = np.maximum(0.5 * (g.width_px[:, iu] + g.width_px[:, ju]), 1e-9)
     lo, hi = g.axis.min(axis=2), g.axis.max(axis=2)  # (F, P, 2) bounding box of each axis
-    box_gap = np.maximum(np.maximum(lo[:, iu] - hi[:, ju], lo[:, ju] - hi[:, iu]), 0.0)  # (F, pairs, 2)
-    near = np.hypot(box_gap[..., 0], box_gap[..., 1]) < reach * width
-    out = np.full(width.shape, np.inf)
-    f, k = np.nonzero(near)
+    if pairs is None:  # every entry: whole-array slices
+        width = np.maximum(0.5 * (g.width_px[:, iu] + g.width_px[:, ju]), 1e-9)
+        box_gap = np.maximum(np.maximum(lo[:, iu] - hi[:, ju], lo[:, ju] - hi[:, iu]), 0.0)  # (F, pairs, 2)
+        f, k = np.nonzero(np.hypot(box_gap[..., 0], box_gap[..., 1]) < reach * width)
+        width = width[f, k]
+    else:  # the wanted entries only, by the same arithmetic
+        f, k = np.nonzero(pairs)
+        i, j = iu[k], ju[k]
+        width = np.maximum(0.5 * (g.width_px[f, i] + g.width_px[f, j]), 1e-9)
+        box_gap = np.maximum(np.maximum(lo[f, i] - hi[f, j], lo[f, j] - hi[f, i]), 0.0)  # (n, 2)
+        near = np.hypot(box_gap[:, 0], box_gap[:, 1]) < reach * width
+        f, k, width = f[near], k[near], width[near]
+    out = np.full((F, len(iu)), np.inf)
     if len(f):
         a, b = g.axis[f, iu[k]], g.axis[f, ju[k]]
-        out[f, k] = segment_distance(a[:, 0], a[:, 1], b[:, 0], b[:, 1]) / width[f, k]
+        out[f, k] = segment_distance(a[:, 0], a[:, 1], b[:, 0], b[:, 1]) / width
     return np.nan_to_num(out, nan=np.inf, posinf=np.inf)
 
 
@@ -449,7 +460,15 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     F, P = det.shape
     edges = m.merge.edges[0]
     reach = edges[-2] if len(edges) > 2 else 0.0
-    gap = silhouette_pairs(g, reach) if P > 1 else np.zeros((F, 0))
+    gap = np.zeros((F, 0))
+    if P > 1:
+        # only pairs of detected people can merge: their gaps alone are measured (the costliest
+        # step of an overhead camera), unless none is in reach, where whether any pair of all is
+        # decides if merge_roots draws its uniforms (the random stream, as before)
+        iu, ju = np.triu_indices(P, 1)
+        gap = silhouette_pairs(g, reach, det[:, iu] & det[:, ju])
+        if not (gap < reach).any():
+            gap = silhouette_pairs(g, reach)
     root = merge_roots(rng, det, gap, gap < reach, m)
     f, p = _groups(root, det)
     pos = xy[f, p]

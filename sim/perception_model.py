@@ -332,12 +332,18 @@ def load_model(spec: str | Path) -> PerceptionModel:
 def correlated_uniforms(rng: np.random.Generator, shape: tuple[int, int], rho: float) -> np.ndarray:
     """(F, P) uniforms, each column a Gaussian AR(1) with lag-one correlation ``rho`` pushed
     through the normal CDF: a miss (u > P(detect)) tends to last as long as rho makes it."""
+    return ndtr(correlated_normals(rng, shape, rho))
+
+
+def correlated_normals(rng: np.random.Generator, shape: tuple[int, int], rho: float) -> np.ndarray:
+    """The standard normal AR(1) columns behind ``correlated_uniforms`` (ndtr of them gives those
+    uniforms, element by element: a caller that needs a few takes ndtr of those alone)."""
     F, P = shape
     z = rng.standard_normal((F, P))
     if rho > 0 and F > 1:
         z[1:] *= math.sqrt(1 - rho * rho)
         z = ar1(z, rho)
-    return ndtr(z)
+    return z
 
 
 def ar1(x: np.ndarray, a: float) -> np.ndarray:
@@ -347,7 +353,7 @@ def ar1(x: np.ndarray, a: float) -> np.ndarray:
     y = np.array(x, float, copy=True)
     s, p = 1, float(a)
     while s < len(y) and p != 0.0:
-        y[s:] = y[s:] + p * y[:-s]
+        y[s:] += p * y[:-s]  # p * y[:-s] is made whole before the sum is written back
         s, p = 2 * s, p * p
     return y
 

@@ -108,6 +108,22 @@ def test_generate_imports_no_plotting_estimators_or_dask(tmp_path):
     assert r.stdout.strip().splitlines()[-1] == "[] False", r.stdout
 
 
+def test_generate_leaves_the_collector_on_with_its_objects_frozen(tmp_path):
+    """generate imports with the cyclic collector off, then freezes what it loaded and, once the
+    recording is written, everything else: the collector is on again (for a caller in the same
+    process) and the interpreter's exit collections have next to nothing to walk. An error before
+    simulating leaves it on too."""
+    code = ("import gc, sys; from trackroom.cli import main; "
+            "assert main(['generate', 'bearing_hall', '--duration', '-1', '--out', 'x']) == 2; "
+            "print(gc.isenabled()); "
+            f"assert main(['generate', 'bearing_hall', '--duration', '1', '--out', {str(tmp_path / 'rec')!r}, '--quiet']) == 0; "
+            "print(gc.isenabled(), gc.get_freeze_count() > 10 * len(gc.get_objects()))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.strip().splitlines()
+    assert lines[0] == "True" and lines[-1] == "True True", r.stdout
+
+
 def test_bad_render_workers_variable_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setenv("TRACKROOM_RENDER_WORKERS", "many")
     r = run_cli("generate", "bearing_hall", "--sensing", "rendered", "--out", str(tmp_path / "x"))

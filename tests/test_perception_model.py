@@ -366,6 +366,14 @@ def test_silhouette_pairs_within_reach_equal_the_exact_distance():
         assert near.any()
         np.testing.assert_array_equal(fast[near], exact[near])
         assert (fast[~near] >= 1.5).all()
+        # only some pairs wanted (the floor detector asks for pairs of detected people): the same
+        # values there, bit for bit, inf elsewhere
+        iu, ju = np.triu_indices(g.axis.shape[1], 1)
+        wanted = g.near[:, iu] & g.near[:, ju]
+        assert wanted.any() and not wanted.all()
+        some = silhouette_pairs(g, 1.5, wanted)
+        np.testing.assert_array_equal(some[wanted], fast[wanted])
+        assert np.isinf(some[~wanted]).all()
 
 
 def _ceiling_camera():

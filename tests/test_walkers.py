@@ -197,3 +197,22 @@ def test_same_seed_same_trajectories():
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.yaw, b.yaw)
     c = plan_trajectories(scene, 30.0, np.random.default_rng(10))
     assert not np.array_equal(a.pos, c.pos) or scene.walkers[0].motion == "waypoints"
+
+
+def test_is_free_of_one_point_equals_the_array_test():
+    """FreeSpace.is_free takes a shortcut in Python floats for a single point (drawn goals and
+    starts): the same answer as the array path, near walls, obstacles, outside the room and on
+    the grid's half-way lines."""
+    from trackroom.sim.walkers import GRID, MARGIN, FreeSpace
+
+    for name in ("occlusion_lab", "office_floor", "bearing_corridor"):
+        free = FreeSpace(load_scene(name).floorplan, [(2.0, 2.0, 0.3)])
+        x0, y0, x1, y1 = free.floorplan.bounds()
+        rng = np.random.default_rng(4)
+        pts = np.column_stack([rng.uniform(x0 - 1, x1 + 1, 3000), rng.uniform(y0 - 1, y1 + 1, 3000)])
+        pts[:200] = np.round(pts[:200] / GRID) * GRID + 0.5 * GRID  # half-way between grid nodes
+        for inflate, tol in ((0.25 + MARGIN, 1e-9), (0.2, 0.0)):
+            together = free.is_free(pts, inflate, tol)  # the array path (many points)
+            one = np.array([free.is_free(p, inflate, tol)[0] for p in pts])
+            assert 0 < together.sum() < len(pts)
+            np.testing.assert_array_equal(one, together)
