@@ -74,15 +74,6 @@ class TargetPlanes(Estimator):
                                         "at waypoints: about 1 m/s of change within 1 s)")
         stop_tau: float = param(1.0, "a track no window explains slows as exp(-t / tau), s (it has most likely "
                                      "stopped: standing people make no flow window; a walker stops within ~1 s)")
-        walk_s: float = param(8.0, "mean time a walker walks before stopping, s (the walking / standing modes' "
-                                   "switching; the scenes' walkers cross the room between waypoints in 5-10 s)")
-        stand_s: float = param(3.0, "mean time a person stands before walking on, s (the scenes' waypoint stops "
-                                    "last up to 5 s)")
-        p_miss: float = param(0.3, "probability that a walker in a camera's view has no window of its own there "
-                                   "(occlusion, a merge, a fragment): how fast a track no window explains "
-                                   "becomes standing")
-        stand_sigma: float = param(0.05, "a standing person's position drift, m/sqrt(s)")
-        start_sigma_v: float = param(0.5, "velocity spread of a standing person starting to walk, m/s")
         hold_s: float = param(6.0, "a confirmed track no window explains is kept this long, s (the scenes' walkers "
                                    "stop for up to 5 s at a waypoint)")
         sigma_max: float = param(1.5, "largest position uncertainty (standard deviation) of a track, m (a walker "
@@ -207,8 +198,7 @@ class TargetPlanes(Estimator):
             for tr in tracks:
                 if not tr.confirmed or (keep is not None and tr.tid != keep):
                     continue
-                x = tr.estimate()
-                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode))
+                rows.append((t, tr.tid, tr.s[0], tr.s[1], tr.s[2], tr.s[3], tr.n_used, tr.mode))
                 for c in cams:
                     st, reason, win = tr.status.get(c, (LOST, "", None))
                     status_rows.append((t, tr.tid, c, st, reason, win))

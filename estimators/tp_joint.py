@@ -87,16 +87,6 @@ class JointTrack:
     n_used: int = 0  # cameras whose window was this track alone, last frame
     mode: str = ""
     status: dict = field(default_factory=dict)  # camera -> (status, reason, window id)
-    mu: float = 0.0  # probability that the person stands (the standing mode), given the windows so far
-    xs: np.ndarray | None = None  # the standing mode's floor position (m) and its covariance Ps (2, 2)
-    Ps: np.ndarray | None = None
-    log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
-
-    def estimate(self) -> np.ndarray:
-        """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
-        if self.xs is None:
-            return self.s
-        return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:]]
 
     @property
     def xy(self) -> np.ndarray:
@@ -165,40 +155,8 @@ class JointTracker:
         self.hc = cfg.flow_height_fraction * cfg.height
 
     # --- prediction ---------------------------------------------------------------------------
-    def mix_modes(self, tr: JointTrack, dt: float) -> None:
-        """Two-mode (walking / standing) interaction, IMM style. Mode switches are Markov with
-        mean durations ``walk_s`` and ``stand_s``: per frame q_ws = dt / walk_s, q_sw = dt / stand_s;
-        mu <- (1 - mu) q_ws + mu (1 - q_sw). Each mode's prior is the moment-matched mixture of the
-        modes it may come from: the walking state takes in the standing one as a start from rest
-        (position xs, Ps; velocity 0 with ``start_sigma_v``), the standing state the walking one's
-        position (someone who stops where they are)."""
-        cfg = self.cfg
-        if tr.xs is None:
-            tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
-            return
-        mu = tr.mu
-        q_ws, q_sw = min(dt / cfg.walk_s, 1.0), min(dt / cfg.stand_s, 1.0)
-        mu_p = (1.0 - mu) * q_ws + mu * (1.0 - q_sw)
-        ms, Cs = np.r_[tr.xs, 0.0, 0.0], np.zeros((4, 4))
-        Cs[:2, :2], Cs[2:, 2:] = tr.Ps, cfg.start_sigma_v**2 * np.eye(2)
-        if mu_p < 1.0:
-            b = mu * q_sw / (1.0 - mu_p)  # share of the walking prior that was standing
-            m = (1.0 - b) * tr.s + b * ms
-            da, db = tr.s - m, ms - m
-            tr.S = (1.0 - b) * (tr.S + np.outer(da, da)) + b * (Cs + np.outer(db, db))
-            tr.s = m
-        if mu_p > 0.0:
-            c = (1.0 - mu) * q_ws / mu_p  # share of the standing prior that was walking
-            m = (1.0 - c) * tr.xs + c * tr.s[:2]
-            da, db = tr.xs - m, tr.s[:2] - m
-            tr.Ps = (1.0 - c) * (tr.Ps + np.outer(da, da)) + c * (tr.S[:2, :2] + np.outer(db, db))
-            tr.xs = m
-        tr.Ps = tr.Ps + cfg.stand_sigma**2 * dt * np.eye(2)  # a standing person sways and shifts a little
-        tr.mu = mu_p
-
     def predict(self, tr: JointTrack, dt: float) -> None:
         cfg = self.cfg
-        self.mix_modes(tr, dt)
         decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
         F = np.eye(4)
         F[0, 2] = F[1, 3] = dt
@@ -267,22 +225,10 @@ class JointTracker:
         short = max(p.width - float(width), 0.0)
         return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
 
-    def miss_walk(self, p: Projection) -> float:
-        """-log P(no window | walking): free for a walking track predicted slow in this image (no
-        flow region), else ``-log p_miss``."""
-        return -np.log(self.cfg.p_miss) if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
-
     def miss_cost(self, p: Projection) -> float:
         """A track without a window: free for a track predicted standing (no flow region), else
-        as dear as a clutter window. (Not the mode mixture -log((1 - mu) e^-cost + mu): that made
-        misses free for a walker hidden two frames and lowered analytic seed 105 to 77.7 %.)"""
+        as dear as a clutter window."""
         return C_CLUTTER if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
-
-    @staticmethod
-    def walk_cost(mu: float) -> float:
-        """-log P(walking): what explaining a window adds for a track of standing probability mu
-        (a standing person makes no window; one who starts to walk is the walking mode)."""
-        return float(-np.log(max(1.0 - mu, 1e-12)))
 
     def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
         """The best joint explanation of camera c's windows: window index -> indices (into
@@ -315,12 +261,11 @@ class JointTracker:
         result: dict[int, tuple[int, ...]] = {}
         cache: dict = {}
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
-        walk = {i: self.walk_cost(tracks[i].mu) for i in projs}
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
             if key not in cache:
-                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
+                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) if len(members) <= 3 else np.inf
             return cache[key]
 
         for ts, ws in comps.values():
@@ -418,12 +363,9 @@ class JointTracker:
         seen = [False] * len(tracks)
         for tr in tracks:
             tr.status = {}
-            tr.log_miss = 0.0
         for c, (expl, projs) in plans.items():
             boxes = frame[c]
             free[c] = [j for j in range(len(boxes)) if j not in expl]
-            for i, p in projs.items():
-                tracks[i].log_miss -= self.miss_walk(p)  # for the mode posterior, if no camera has its window
             for i in range(len(tracks)):
                 if i not in projs:
                     tracks[i].status[c] = (LOST, "out of view", None)
@@ -483,10 +425,6 @@ class JointTracker:
                 tr.s[2:] *= cfg.max_speed / speed
             tr.n_used = used[i]
             tr.seen = seen[i]
-            if tr.located:
-                # mode posterior: a window of its own (or a share of a merged one) says it walks;
-                # none anywhere is likelier standing, by P(no window | walking) over the cameras
-                tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
             if used[i]:  # a hit: a window that is this track alone
