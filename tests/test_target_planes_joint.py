@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
@@ -199,3 +200,33 @@ def test_config_noise_overrides_the_calibration(monkeypatch):
     TargetPlanes(initial_xy=list(tgt[0]), box_sigma_px=1.5, box_u_sigma_px=3.5).run(obs, cal)
     assert seen["window"] == 1.5 and seen["centroid"] == 3.5
     assert all(v == 5.0 for v in seen["flow"].values())  # per frame: the calibration's region-flow noise
+
+
+def _piecewise(times, knots):
+    """Floor positions at ``times`` along straight legs between (t, x, y) knots (standing where
+    two knots share a position)."""
+    kt, kx, ky = (np.array([k[i] for k in knots], float) for i in range(3))
+    return np.c_[np.interp(times, kt, kx), np.interp(times, kt, ky)]
+
+
+@pytest.mark.xfail(strict=True, reason="known gap (issue 12, evaluation seed 401): no standing mode; the target's track "
+                   "follows the look-alike's windows. The walking/standing mode of commit a180194 passes this but lowered "
+                   "analytic development seed 102's MOTA 0.891 -> 0.794, so it was reverted")
+def test_a_standing_target_keeps_its_id_while_a_look_alike_walks_past_and_away():
+    """The target walks 2.5 m and stands; standing, it makes no window (a flow tracker sees no
+    one still). A look-alike walks past 0.7 m beside it and walks off, then stands too. Every
+    window near the standing target is the look-alike's; the target's track must stay where the
+    target stands instead of following those windows."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 12.0, 0.1), 6)
+    tgt = _piecewise(times, [(0, 1.0, 2.0), (2.5, 3.5, 2.0), (12, 3.5, 2.0)])
+    other = _piecewise(times, [(0, 0.5, 2.7), (1.5, 0.5, 2.7), (5.0, 3.5, 2.7), (8.5, 7.0, 2.7), (12, 7.0, 2.7)])
+    boxes = _tagged(cams, {"target": tgt, "other": other}, times, sigma=0.3, seed=4, merge=True)
+    standing = (boxes.is_target & (boxes.t >= 2.55)) | (~boxes.is_target & ((boxes.t < 1.55) | (boxes.t >= 8.55)))
+    boxes = boxes[~standing].drop(columns="is_target")
+    tr = TargetPlanes(initial_xy=[1.0, 2.0]).run(Observations({"boxes": boxes}, 12.0), calib(cams)).tracks
+    assert len(tr) == len(times)
+    k = np.round(tr.t.to_numpy() * 10).astype(int)
+    err = np.hypot(tr.x.to_numpy() - tgt[k, 0], tr.y.to_numpy() - tgt[k, 1])
+    assert err.max() < 0.2  # held where it stands while the look-alike passes 0.7 m away and leaves
+    assert (tr.n_cameras.to_numpy()[tr.t.to_numpy() > 3.0] == 0).all()  # no one else's window taken as its own
