@@ -140,13 +140,6 @@ def cylinder_window(P: np.ndarray, xy, height: float, radius: float, n: int = 16
     return np.where((h > 1e-6).all(-1)[..., None], win, np.nan)
 
 
-def union_window(wins: np.ndarray) -> np.ndarray:
-    """Window circumscribing several windows (k, 4) (NaN rows ignored)."""
-    return np.array(
-        [np.nanmin(wins[:, 0]), np.nanmax(wins[:, 1]), np.nanmin(wins[:, 2]), np.nanmax(wins[:, 3])]
-    )
-
-
 # --- single-camera target area (section 3.2) -----------------------------------------------
 @dataclass(frozen=True)
 class TargetArea:
@@ -260,17 +253,6 @@ def target_area(
             verts.append(p0 + lam * dk)
     hull = cv2.convexHull(np.asarray(verts, np.float32).reshape(-1, 1, 2))
     return TargetArea(origin=o, direction=dirn, s_min=s_min, s_max=s_max, polygon=hull.reshape(-1, 2).astype(float))
-
-
-def intersect_areas(polygons: list[np.ndarray]) -> np.ndarray | None:
-    """Intersection of convex floor polygons (k_i, 2) (OpenCV ``intersectConvexConvex``); None if empty."""
-    cur = np.asarray(polygons[0], np.float32)
-    for p in polygons[1:]:
-        area, inter = cv2.intersectConvexConvex(cur, np.asarray(p, np.float32))
-        if inter is None or area <= 1e-8:
-            return None
-        cur = inter.reshape(-1, 2)
-    return cur.astype(float)
 
 
 # --- velocity (eq. 7) -----------------------------------------------------------------------

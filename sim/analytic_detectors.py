@@ -480,7 +480,8 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     for i in np.nonzero(cnt > 1)[0]:
         pos[i] = xy[f[i], merged_blob_member(cam, g.axis[f[i]], np.nonzero(grouped[i])[0])]
     gx, gy = error_uniforms(rng, det.shape, m, 2)
-    e = np.stack([_floor_error(m.error("xy"), gx[f, p], cam), _floor_error(m.error("xy"), gy[f, p], cam)], -1)
+    err = m.error("xy")
+    e = np.stack([_floor_error(err, gx[f, p], cam), _floor_error(err, gy[f, p], cam)], -1)
     cut = clip[f, p] < 0.999
     if "xy_clip_r" in m.errors and cut.any():
         # a blob whose head the border cuts is placed from its inner end: its error lies mostly
