@@ -16,8 +16,16 @@ As in the paper, the two classes are fitted from a training recording (``trackro
     p(g | stopped) = lambda exp(-lambda g)          (exponential, scale 1 / lambda)
 
 and the motion state is read from their likelihood ratio. The same fit stores the heading noise
-of the magnetometer against the true walking direction (von Mises concentration ``heading_kappa``)
-and the walking-speed distribution N(speed_mu, speed_sigma^2) (m/s) the camera side uses.
+of the magnetometer against the true walking direction (von Mises concentration ``heading_kappa``,
+after each phone's constant yaw offset in the pocket is taken out: the matcher estimates that
+offset itself) and the walking-speed distribution N(speed_mu, speed_sigma^2) (m/s) the camera
+side uses.
+
+Heading, tilt-compensated
+-------------------------
+A phone in a pocket is tilted, so its yaw is read from the magnetometer in the horizontal plane
+of the gravity direction the accelerometer gives (``tilt_compensated_yaw``); the fusion smoother's
+phone cues (``phone_motion``) use the same function.
 """
 from __future__ import annotations
 
@@ -26,9 +34,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
+from scipy import ndimage, stats
 
 DEFAULT_MODEL_PATH = Path(__file__).with_name("gait_default.json")
+GRAVITY_WINDOW_S = 2.0  # s, centred window of the gravity estimate (several strides)
 
 
 @dataclass(frozen=True)
@@ -117,20 +126,42 @@ def bobbing_feature(t: np.ndarray, acc: np.ndarray, t_query: np.ndarray, window_
     return np.where(n[:, 0] >= 2, g, 0.0)
 
 
-def phone_heading(t: np.ndarray, mag: np.ndarray, t_query: np.ndarray, window_s: float, field_world) -> np.ndarray:
-    """Phone yaw psi_m (rad, world frame) from the magnetometer, circular mean over (t_k - W, t_k].
+def tilt_compensated_yaw(acc: np.ndarray, mag: np.ndarray, field_world, n_gravity: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample phone yaw psi (rad, world frame) and unit up vector u (N, 3), tilt-compensated.
 
-    The phone's z axis is up, so the field measured in the phone frame is the world field
-    rotated by -psi about z:  angle(m_phone) = angle(m_world) - psi, hence
-    psi = atan2(Hy, Hx) - atan2(my, mx). Averaging is done on unit vectors (circular mean).
+    Gravity (the phone's "up" in its own frame) is u = mean(f) / |mean(f)| of the specific force f
+    over a centred window of ``n_gravity`` samples (walking accelerations average out; a pocket
+    tilt does not). The field's horizontal part m_h = m - (m . u) u and the phone's x axis
+    projected on the horizontal plane, x_h = e_x - u_x u, give the angle from x_h to m_h about u,
+    theta = atan2(u . (x_h x m_h), x_h . m_h), and the phone's yaw psi = atan2(H_y, H_x) - theta
+    (H the world field). For an upright phone (u = e_z) this is atan2(H_y, H_x) - atan2(m_y, m_x).
     """
-    mag = np.asarray(mag, float)
     hx, hy = float(field_world[0]), float(field_world[1])
     if np.hypot(hx, hy) < 1e-9:
         raise ValueError("magnetic field has no horizontal component: heading is undefined")
-    psi = np.arctan2(hy, hx) - np.arctan2(mag[:, 1], mag[:, 0])
+    acc = np.asarray(acc, float)
+    mag = np.asarray(mag, float)
+    g = ndimage.uniform_filter1d(acc, size=max(1, int(n_gravity)), axis=0, mode="nearest")
+    u = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
+    mh = mag - np.einsum("ij,ij->i", mag, u)[:, None] * u
+    xh = np.zeros_like(u)
+    xh[:, 0] = 1.0
+    xh = xh - u[:, [0]] * u
+    theta = np.arctan2(np.einsum("ij,ij->i", u, np.cross(xh, mh)), np.einsum("ij,ij->i", xh, mh))
+    return np.arctan2(hy, hx) - theta, u
+
+
+def phone_heading(t: np.ndarray, acc: np.ndarray, mag: np.ndarray, t_query: np.ndarray, window_s: float, field_world,
+                  gravity_window_s: float = GRAVITY_WINDOW_S) -> np.ndarray:
+    """Phone yaw psi_m (rad, world frame) at each query time: the tilt-compensated yaw
+    (``tilt_compensated_yaw``, gravity over a centred ``gravity_window_s``) averaged on the unit
+    circle over (t_k - W, t_k]. ``acc`` (N, 3) specific force and ``mag`` (N, 3) field, phone frame."""
+    t = np.asarray(t, float)
+    t_query = np.asarray(t_query, float)
+    rate = 1.0 / float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    psi, _ = tilt_compensated_yaw(acc, mag, field_world, int(round(gravity_window_s * rate)))
     unit = np.stack([np.cos(psi), np.sin(psi)], axis=1)
-    s, n = _window_sums(np.asarray(t, float), unit, np.asarray(t_query, float), window_s)
+    s, n = _window_sums(t, unit, t_query, window_s)
     # an empty window falls back to the nearest earlier sample
     empty = n == 0
     if empty.any():

@@ -25,8 +25,14 @@ Pipeline (one call of ``estimate``):
    The MAP sequence over s is found by the max-product recursion (eq. 19)
        V_k(s) = e_k(s) + max_s' [V_{k-1}(s') + log p(s | s')],   log L_MAP = max_s V_K(s)  (eq. 20)
    and psi_k, which has a flat prior, is integrated out within each frame in closed form:
-       log int vm(psi_c; psi, kappa_c) vm(psi_m; psi, kappa_m) dpsi/2pi  ~=  log vm(psi_c - psi_m; kappa_eff)
-       - log 2pi,   1/kappa_eff = 1/kappa_c + 1/kappa_m   (``scipy.stats.vonmises``).
+       log int vm(psi_c; psi, kappa_c) vm(psi_m; psi, kappa_m + o) dpsi/2pi  ~=  log vm(psi_m - psi_c; o, kappa_eff)
+       - log 2pi,   1/kappa_eff = 1/kappa_c + 1/kappa_m,
+   where o is the phone's yaw offset in its pocket (beyond the paper, which assumes o = 0): o is
+   unknown, with a von Mises prior of spread ``pocket_sigma_deg``, and is integrated out over each
+   segment's frames in closed form (``heading_evidence``: a Bessel function of the resultant of
+   the heading differences so far), so a constant heading difference is no evidence and how the
+   phone and the track turn together is. The phone heading is tilt-compensated with gravity from
+   the accelerometer (``gait.tilt_compensated_yaw``).
    Omega is put on a likelihood-ratio scale: the same recursion is run for the segment alone and
    for the phone alone (independent states), and
 
@@ -68,7 +74,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special, stats
 from scipy.optimize import linear_sum_assignment
 
 from trackroom.recording import Calibration, Observations
@@ -76,9 +82,6 @@ from trackroom.recording import Calibration, Observations
 from .base import Estimator, EstimatorError, check_tracks, param, register
 from .gait import GaitModel, bobbing_feature, load_default, phone_heading
 from .lazy_tracker import Segments, TrackerConfig, frames_from_detections, track_segments
-
-LOG_2PI = float(np.log(2 * np.pi))
-
 
 @dataclass(frozen=True)
 class PhoneFeatures:
@@ -96,9 +99,67 @@ def phone_features(imu: pd.DataFrame, frame_times: np.ndarray, gait: GaitModel, 
     for j, pid in enumerate(phone_ids):
         d = imu[imu["phone_id"].astype(str) == pid]
         t = d["t"].to_numpy(float)
-        g[:, j] = bobbing_feature(t, d[["ax", "ay", "az"]].to_numpy(float), frame_times, gait.window_s)
-        psi[:, j] = phone_heading(t, d[["mx", "my", "mz"]].to_numpy(float), frame_times, heading_window_s, field_world)
+        acc = d[["ax", "ay", "az"]].to_numpy(float)
+        g[:, j] = bobbing_feature(t, acc, frame_times, gait.window_s)
+        psi[:, j] = phone_heading(t, acc, d[["mx", "my", "mz"]].to_numpy(float), frame_times, heading_window_s, field_world)
     return PhoneFeatures(phone_ids, g, psi)
+
+
+def log_i0(x: np.ndarray) -> np.ndarray:
+    """log I0(x), the modified Bessel function of order 0, without overflow (``scipy.special.i0e``)."""
+    x = np.asarray(x, float)
+    return np.log(special.i0e(x)) + x
+
+
+def heading_evidence(delta: np.ndarray, kappa: np.ndarray, seg: np.ndarray, w: float, kappa0) -> np.ndarray:
+    """Per row and phone, the tempered heading log-ratio with the phone's yaw offset integrated out.
+
+    ``delta`` (N, P): phone heading minus the segment's velocity heading (rad); ``kappa`` (N, P):
+    the von Mises concentration of that difference about the offset; ``seg`` (N,): the rows'
+    segments (rows in frame order); ``w``: the evidence tempering; ``kappa0``: the prior on the
+    offset o: a concentration, von Mises about 0 (0: a flat prior; inf: o = 0 known), or per
+    segment and phone (S, P) a complex resultant R0, the von Mises prior of mean angle(R0) and
+    concentration |R0| (what other segments said of the phone's offset, ``offset_prior``).
+
+    With the tempered likelihood  prod_k [exp(kappa_k cos(delta_k - o)) / I0(kappa_k)]^w  and the
+    prior  exp(kappa0 cos o) / (2 pi I0(kappa0)),  the integral over o is closed-form in the
+    resultant R_k = kappa0 + sum_{j<=k} w kappa_j exp(i delta_j) of the segment's rows so far:
+
+        log p(delta_1..k | h, i) / p_uniform = log I0(|R_k|) - log I0(kappa0) - w sum_j log I0(kappa_j),
+
+    so each row adds  log I0(|R_k|) - log I0(|R_{k-1}|) - w log I0(kappa_k).  With kappa0 -> inf it
+    is w (kappa_k cos delta_k - log I0(kappa_k)), the fixed-offset von Mises ratio; with an unknown
+    offset, a constant difference of headings is no evidence, only how the two turn together is.
+    """
+    if np.isscalar(kappa0) and not np.isfinite(kappa0):
+        return w * (kappa * np.cos(delta) - log_i0(kappa))
+    z = w * kappa * np.exp(1j * delta)
+    order = np.argsort(seg, kind="stable")  # each segment's rows together, in frame order
+    zs = z[order]
+    c = np.cumsum(zs, axis=0)
+    ss = seg[order]
+    first = np.r_[True, ss[1:] != ss[:-1]]
+    head = np.maximum.accumulate(np.where(first, np.arange(len(ss)), 0))  # each row's segment's first row
+    r0 = kappa0 if np.isscalar(kappa0) else np.asarray(kappa0)[ss]
+    r_after = r0 + c - (c[head] - zs[head])
+    r_before = r_after - zs
+    inc = log_i0(np.abs(r_after)) - log_i0(np.abs(r_before)) - w * log_i0(kappa)[order]
+    out = np.empty_like(inc)
+    out[order] = inc
+    return out
+
+
+def offset_prior(z: np.ndarray, seg: np.ndarray, assigned: np.ndarray, n_segments: int, kappa0: float) -> np.ndarray:
+    """(S, P) complex prior resultants of each phone's pocket offset for each segment, from the
+    rows other segments' claims gave that phone: R0(h, i) = kappa0 + sum of z[r, i] over rows r
+    with assigned[r] = i and seg[r] != h (``z`` (N, P) = w kappa exp(i delta), as in
+    ``heading_evidence``). Leaving the segment's own rows out keeps its evidence from counting twice."""
+    N, P = z.shape
+    claimed = assigned >= 0
+    r, i = np.flatnonzero(claimed), assigned[claimed]
+    per_seg = np.zeros((n_segments, P), complex)
+    np.add.at(per_seg, (seg[r], i), z[r, i])
+    return kappa0 + per_seg.sum(axis=0)[None, :] - per_seg
 
 
 def output_track_ids(frame: np.ndarray, track: np.ndarray, assigned: np.ndarray, phone_ids: list[str]) -> np.ndarray:
@@ -177,6 +238,11 @@ class HMMMatcher(Estimator):
         switch_s: float = param(3.0, "mean time between walking/stopped switches (HMM prior), s")
         stop_speed_sigma: float = param(0.05, "speed spread of a standing person beyond estimation noise, m/s")
         kappa_max: float = param(100.0, "cap on the camera heading's von Mises concentration")
+        pocket_sigma_deg: float = param(45.0, "prior spread of a phone's yaw offset in its pocket (deg; von Mises of "
+                                              "concentration 1/sigma^2 about 0), integrated out per segment and phone; "
+                                              "0: the phone points where its carrier walks")
+        share_offset: bool = param(True, "second pass: a phone's pocket offset as the first pass's claims in other "
+                                         "segments measured it (prior of each segment, its own rows left out)")
         heading_window_s: float = param(-1.0, "magnetometer averaging window, s; < 0: velocity_window_s, so the phone's "
                                               "mean heading and the camera's mean velocity cover the same interval")
         newcomer_density: float = param(0.01, 'prior weight of "a new person" at a segment birth, 1/m^2')
@@ -256,8 +322,26 @@ class HMMMatcher(Estimator):
         return track_segments(frame_times, fidx, x, y, self.tracker_config(calibration), cam)
 
     # --- 3. emissions ------------------------------------------------------------------------
-    def emissions(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel):
-        """Tempered log emissions: camera (N, 2), phone (F, P, 2), joint (N, P, 2); index 0 = stopped."""
+    def heading_terms(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel) -> tuple[np.ndarray, np.ndarray]:
+        """(delta, kappa_eff), each (N, P): phone heading minus the row's velocity heading (rad) and
+        its von Mises concentration (module docstring, item 3)."""
+        rows = segs.rows
+        frame = rows["frame"].to_numpy()
+        vx, vy, pvv = rows["svx"].to_numpy(float), rows["svy"].to_numpy(float), rows["svv"].to_numpy(float)
+        kappa_c = np.clip((vx**2 + vy**2) / np.maximum(pvv, 1e-9), 1e-6, self.config.kappa_max)
+        kappa_eff = 1.0 / (1.0 / kappa_c[:, None] + 1.0 / gait.heading_kappa)
+        psi_c = np.arctan2(vy, vx)
+        delta = np.angle(np.exp(1j * (phones.heading[frame] - psi_c[:, None])))
+        return delta, kappa_eff
+
+    def pocket_kappa(self) -> float:
+        """Concentration of the prior on a phone's pocket offset (inf: no offset)."""
+        sigma = self.config.pocket_sigma_deg
+        return 1.0 / np.radians(sigma) ** 2 if sigma > 0 else np.inf
+
+    def emissions(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel, prior=None):
+        """Tempered log emissions: camera (N, 2), phone (F, P, 2), joint (N, P, 2); index 0 = stopped.
+        ``prior``: the pocket-offset prior of ``heading_evidence`` (default: ``pocket_sigma_deg``'s)."""
         cfg = self.config
         rows = segs.rows
         frame = rows["frame"].to_numpy()
@@ -268,27 +352,42 @@ class HMMMatcher(Estimator):
             stats.norm.logpdf(speed, loc=gait.speed_mu, scale=np.sqrt(gait.speed_sigma**2 + pvv)),
         ], axis=-1)
         ph = gait.loglik(phones.g)
-        kappa_c = np.clip(speed**2 / np.maximum(pvv, 1e-9), 1e-6, cfg.kappa_max)
-        kappa_eff = 1.0 / (1.0 / kappa_c[:, None] + 1.0 / gait.heading_kappa)
-        psi_c = np.arctan2(vy, vx)
-        delta = np.angle(np.exp(1j * (phones.heading[frame] - psi_c[:, None])))
-        heading = LOG_2PI + stats.vonmises.logpdf(delta, kappa_eff)  # log ratio vs independent headings
+        delta, kappa_eff = self.heading_terms(segs, phones, gait)
         w = cfg.evidence_weight
-        joint = cam[:, None, :] + ph[frame]
+        # log ratio vs independent headings, tempered, the phone's pocket offset integrated out
+        prior = self.pocket_kappa() if prior is None else prior
+        heading = heading_evidence(delta, kappa_eff, rows["segment"].to_numpy(), w, prior)
+        joint = w * (cam[:, None, :] + ph[frame])
         joint[..., 1] += heading
-        return w * cam, w * ph, w * joint
+        return w * cam, w * ph, joint
 
     # --- 3-5. recursion, carrying, assignment -------------------------------------------------
     def match(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel, privacy: bool = False) -> np.ndarray:
         """Phone index assigned to every tracker row (-1: none). ``privacy``: the cameras miss
-        people standing still, so a gap in a track is evidence that its person stood."""
+        people standing still, so a gap in a track is evidence that its person stood.
+
+        With ``share_offset``, a second pass: each (segment, phone) pair's pocket-offset prior is
+        sharpened by what the rows the first pass gave that phone in other segments say of the
+        offset (``offset_prior``), so a segment does not learn its phone's offset from scratch."""
+        assigned = self.assign(segs, phones, gait, privacy)
+        kappa0 = self.pocket_kappa()
+        if not (self.config.share_offset and np.isfinite(kappa0)) or not (assigned >= 0).any():
+            return assigned
+        delta, kappa = self.heading_terms(segs, phones, gait)
+        z = self.config.evidence_weight * kappa * np.exp(1j * delta)
+        prior = offset_prior(z, segs.rows["segment"].to_numpy(), assigned, segs.n_segments, kappa0)
+        return self.assign(segs, phones, gait, privacy, prior)
+
+    def assign(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel, privacy: bool = False,
+               prior=None) -> np.ndarray:
+        """One pass of the recursion, carrying and assignment (``prior``: as in ``emissions``)."""
         cfg = self.config
         rows = segs.rows
         N, P = len(rows), len(phones.phone_ids)
         assigned = np.full(N, -1, np.int64)
         if N == 0 or P == 0:
             return assigned
-        own = self.segment_llr(segs, phones, gait)
+        own = self.segment_llr(segs, phones, gait, prior)
         still = None
         if privacy:
             # unseen by a privacy camera = standing: per-frame log p(g | stopped) / p(g), cumulated
@@ -341,7 +440,7 @@ class HMMMatcher(Estimator):
             assigned[r0 + ri] = ci
         return assigned
 
-    def segment_llr(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel) -> np.ndarray:
+    def segment_llr(self, segs: Segments, phones: PhoneFeatures, gait: GaitModel, prior=None) -> np.ndarray:
         """log L_MAP(h, i) - log L_MAP(h) - log L_MAP(i) at every row of every segment (N, P).
 
         Max-product recursion over the walking state s (eqs. 19-20), for the joint (segment,
@@ -352,7 +451,7 @@ class HMMMatcher(Estimator):
         cfg = self.config
         rows = segs.rows
         N, P = len(rows), len(phones.phone_ids)
-        e_cam, e_ph, e_joint = self.emissions(segs, phones, gait)
+        e_cam, e_ph, e_joint = self.emissions(segs, phones, gait, prior)
         frame = rows["frame"].to_numpy()
         seg = rows["segment"].to_numpy()
         E = np.concatenate([e_joint, e_cam[:, None, :], e_ph[frame]], axis=1)  # (N, 2P+1, 2)

@@ -8,11 +8,10 @@ m (phone frame), for every grid time t_k:
   p(g | walking) > p(g | stopped).
 - **Gravity** (the phone's "up" in its own frame): u = mean(f) / |mean(f)| over a centred window
   of ``gravity_window_s`` (walking accelerations average out; the pocket tilt does not).
-- **Heading, tilt-compensated**: the field's horizontal part m_h = m - (m . u) u and the phone's
-  x axis projected on the horizontal plane, x_h = e_x - u_x u; the angle from x_h to m_h about u,
-  theta = atan2(u . (x_h x m_h), x_h . m_h), gives the phone's yaw in the world as
-  psi = atan2(H_y, H_x) - theta (H the world field; for an upright phone u = e_z this is
-  atan2(H_y, H_x) - atan2(m_y, m_x), ``gait.phone_heading``). Averaged on the unit circle over a
+- **Heading, tilt-compensated** (``gait.tilt_compensated_yaw``): the field's horizontal part
+  m_h = m - (m . u) u and the phone's x axis projected on the horizontal plane, x_h = e_x - u_x u;
+  the angle from x_h to m_h about u, theta = atan2(u . (x_h x m_h), x_h . m_h), gives the phone's
+  yaw in the world as psi = atan2(H_y, H_x) - theta (H the world field). Averaged on the unit circle over a
   centred window of ``heading_window_s``. The walking direction is psi - delta, with delta the
   phone's yaw offset in the pocket (estimated by the smoother, not here).
 - **Steps and cadence**: the vertical specific force a_v = f . u is band-passed
@@ -38,7 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy import ndimage, signal
 
-from .gait import GaitModel, bobbing_feature
+from .gait import GaitModel, bobbing_feature, tilt_compensated_yaw
 
 
 @dataclass(frozen=True)
@@ -72,21 +71,6 @@ class PhoneMotion:
 
 def _centred_mean(x: np.ndarray, n: int) -> np.ndarray:
     return ndimage.uniform_filter1d(x, size=max(1, n), axis=0, mode="nearest")
-
-
-def tilt_compensated_yaw(acc: np.ndarray, mag: np.ndarray, field_world, n_gravity: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-sample phone yaw psi (rad) and unit up vector u (N, 3) (module docstring)."""
-    hx, hy = float(field_world[0]), float(field_world[1])
-    if np.hypot(hx, hy) < 1e-9:
-        raise ValueError("magnetic field has no horizontal component: heading is undefined")
-    g = _centred_mean(acc, n_gravity)
-    u = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
-    mh = mag - np.einsum("ij,ij->i", mag, u)[:, None] * u
-    xh = np.zeros_like(u)
-    xh[:, 0] = 1.0
-    xh = xh - u[:, [0]] * u
-    theta = np.arctan2(np.einsum("ij,ij->i", u, np.cross(xh, mh)), np.einsum("ij,ij->i", xh, mh))
-    return np.arctan2(hy, hx) - theta, u
 
 
 def step_phase(t: np.ndarray, acc: np.ndarray, u: np.ndarray, rate: float, s: MotionSettings):

@@ -267,13 +267,13 @@ class SensorSpec:
     # phone errors (``sim/phone_errors.py``; simulator only): indoor magnetic disturbance (deg at
     # a wall, decaying over the range, m), accelerometer bias (m/s^2, per axis), the phone's yaw
     # offset and tilt in the pocket (deg, largest), phone-in-hand swings (episodes per minute,
-    # amplitude deg)
-    mag_disturbance_deg: float = 0.0
+    # amplitude deg). Modest by default: a phone in a trouser pocket, a building with some steel.
+    mag_disturbance_deg: float = 10.0
     mag_disturbance_range_m: float = 1.0
-    accel_bias: float = 0.0
-    pocket_yaw_deg: float = 0.0
-    pocket_tilt_deg: float = 0.0
-    swing_per_min: float = 0.0
+    accel_bias: float = 0.05
+    pocket_yaw_deg: float = 30.0
+    pocket_tilt_deg: float = 10.0
+    swing_per_min: float = 0.5
     swing_deg: float = 30.0
 
     def phone_errors(self) -> bool:

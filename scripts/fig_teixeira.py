@@ -38,7 +38,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 SETUPS = {
     # Teixeira sec. "Simulation": (1) ideal noiseless sensors, (2) regular camera with noise,
     # (3) privacy camera: the same noise plus 15 cm quantisation, blind to people standing still
-    "ideal": ["sensors.floor_sigma_m=0", "sensors.accel_sigma=0", "sensors.mag_sigma=0", "sensors.gyro_sigma=0"],
+    "ideal": ["sensors.floor_sigma_m=0", "sensors.accel_sigma=0", "sensors.mag_sigma=0", "sensors.gyro_sigma=0",
+              "sensors.mag_disturbance_deg=0", "sensors.accel_bias=0", "sensors.pocket_yaw_deg=0",
+              "sensors.pocket_tilt_deg=0", "sensors.swing_per_min=0"],
     "regular": [],
     "privacy": ["cameras.*.privacy=true"],
 }
@@ -63,13 +65,13 @@ def phoneless_claimed(ev) -> tuple[float, float, int]:
 
 
 def one_run(job: tuple) -> dict:
-    setup, n, seed, duration, phoneless, params = job
+    setup, n, seed, duration, phoneless, params, scene = job
     from trackroom.estimators.hmm_matcher import HMMMatcher
     from trackroom.metrics.score import evaluate
     from trackroom.scenes.loader import load_scene
     from trackroom.sim.simulate import simulate
 
-    over = SETUPS[setup] + [f"walkers.count={n}"] + ([f"walkers.phoneless={n // 3}"] if phoneless else [])
+    over = SETUPS[setup] + list(scene) + [f"walkers.count={n}"] + ([f"walkers.phoneless={n // 3}"] if phoneless else [])
     rec = simulate(load_scene("overhead_lab", over), seed, duration)
     est = HMMMatcher(**params)
     t0 = time.perf_counter()
@@ -198,6 +200,8 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", default="", help="per-run table (default OUT/teixeira_runs.csv)")
     ap.add_argument("--replot", metavar="CSV", help="only redraw the figures and tables from a per-run CSV")
     ap.add_argument("--set", dest="params", action="append", default=[], metavar="K=V", help="matcher parameter")
+    ap.add_argument("--scene", action="append", default=[], metavar="K=V",
+                    help="scene override after the setup's (e.g. sensors.pocket_yaw_deg=0)")
     args = ap.parse_args(argv)
     from trackroom.estimators.base import coerce_param
     from trackroom.estimators.hmm_matcher import HMMMatcher
@@ -217,9 +221,9 @@ def main(argv=None) -> int:
     setups = args.setups.split(",")
     jobs = []
     if not args.only_phoneless:
-        jobs += [(s, n, seed, args.duration, False, params) for s in setups for n in counts for seed in range(args.seed0, args.seed0 + args.seeds)]
+        jobs += [(s, n, seed, args.duration, False, params, args.scene) for s in setups for n in counts for seed in range(args.seed0, args.seed0 + args.seeds)]
     if args.phoneless or args.only_phoneless:
-        jobs += [(s, n, seed, args.duration, True, params) for s in setups for n in counts if n >= 3 for seed in range(args.seed0, args.seed0 + args.seeds)]
+        jobs += [(s, n, seed, args.duration, True, params, args.scene) for s in setups for n in counts if n >= 3 for seed in range(args.seed0, args.seed0 + args.seeds)]
     df = run_all(jobs, args.jobs)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

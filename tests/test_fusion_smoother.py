@@ -17,7 +17,10 @@ from trackroom.recording import Observations
 from trackroom.scenes.loader import parse_scene, resolve_scene_path
 from trackroom.sim.simulate import simulate
 
-NOISELESS = {"bearing_sigma_px": 0.0, "accel_sigma": 0.0, "gyro_sigma": 0.0, "mag_sigma": 0.0, "perception": "ideal"}
+# no noise and ideal phones (the phone errors, on by default, switched off)
+NOISELESS = {"bearing_sigma_px": 0.0, "accel_sigma": 0.0, "gyro_sigma": 0.0, "mag_sigma": 0.0, "perception": "ideal",
+             "mag_disturbance_deg": 0.0, "accel_bias": 0.0, "pocket_yaw_deg": 0.0, "pocket_tilt_deg": 0.0,
+             "swing_per_min": 0.0}
 
 
 def hall_scene(people: list[dict], sensors: dict | None = None, **walkers):

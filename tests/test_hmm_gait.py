@@ -29,8 +29,33 @@ def test_phone_heading_inverts_the_field_rotation(yaw):
     field = (0.0, -0.5, 0.0)
     c, s = np.cos(yaw), np.sin(yaw)
     m = np.array([[c * field[0] + s * field[1], -s * field[0] + c * field[1], 0.0]] * 10)
-    psi = phone_heading(np.arange(10) * 0.01, m, np.array([0.09]), 0.05, field)
+    acc = np.tile([0.0, 0.0, 9.81], (10, 1))
+    psi = phone_heading(np.arange(10) * 0.01, acc, m, np.array([0.09]), 0.05, field)
     assert np.angle(np.exp(1j * (psi[0] - yaw))) == pytest.approx(0, abs=1e-9)
+
+
+@pytest.mark.parametrize("tilt_axis", [0.0, 0.7, 2.0])
+def test_phone_heading_of_a_tilted_phone_is_its_yaw(tilt_axis):
+    # a phone turned by yaw and then tilted by 25 deg about a horizontal axis: the field (dipping
+    # 60 deg, as at mid latitudes) and gravity both read in that tilted frame; the tilt-compensated
+    # heading is the direction of the phone's x axis on the floor
+    field = np.array([0.0, 0.25, -0.43])
+    yaw, tilt = 0.6, np.radians(25)
+    a = np.array([np.cos(tilt_axis), np.sin(tilt_axis), 0.0])
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    R_tilt = np.eye(3) + np.sin(tilt) * K + (1 - np.cos(tilt)) * K @ K
+    R_yaw = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+    R = R_yaw @ R_tilt  # phone frame -> world
+    n = 50
+    acc = np.tile(R.T @ [0.0, 0.0, 9.81], (n, 1))
+    mag = np.tile(R.T @ field, (n, 1))
+    x_world = R[:, 0]
+    expected = np.arctan2(x_world[1], x_world[0])
+    psi = phone_heading(np.arange(n) * 0.01, acc, mag, np.array([0.4]), 0.1, field)
+    assert np.angle(np.exp(1j * (psi[0] - expected))) == pytest.approx(0, abs=1e-9)
+    # the uncompensated reading (the phone taken as upright) is off by degrees
+    upright = phone_heading(np.arange(n) * 0.01, np.tile([0.0, 0.0, 9.81], (n, 1)), mag, np.array([0.4]), 0.1, field)
+    assert abs(np.angle(np.exp(1j * (upright[0] - expected)))) > np.radians(5)
 
 
 def test_fit_gait_recovers_class_parameters():

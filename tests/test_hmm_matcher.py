@@ -37,8 +37,9 @@ def path(keys, t):
 
 def synthetic_recording(people: dict[str, list], phones: dict[str, str], duration: float, seed: int = 0,
                         floor_sigma: float = 0.0, privacy: bool = False, accel_sigma: float = 0.03,
-                        mag_sigma: float = 0.02, bob: float = 0.03) -> Recording:
-    """people: person id -> key frames; phones: person id -> phone id (absent: no phone)."""
+                        mag_sigma: float = 0.02, bob: float = 0.03, pocket_deg: dict[str, float] | None = None) -> Recording:
+    """people: person id -> key frames; phones: person id -> phone id (absent: no phone);
+    pocket_deg: person id -> the phone's yaw offset in the pocket (deg, default 0)."""
     rng = np.random.default_rng(seed)
     scene = load_scene("overhead_lab", {"cameras.*.privacy": privacy})
     rate, fps = 100.0, 20.0
@@ -71,7 +72,8 @@ def synthetic_recording(people: dict[str, list], phones: dict[str, str], duratio
             xy = np.round(xy / 0.15) * 0.15
         det.append(pd.DataFrame({"t": t[seen], "camera": "ceil_sw", "x": xy[:, 0], "y": xy[:, 1]}))
         if phone:
-            c, s = np.cos(yaw), np.sin(yaw)
+            phone_yaw = yaw + np.radians((pocket_deg or {}).get(pid, 0.0))
+            c, s = np.cos(phone_yaw), np.sin(phone_yaw)
             f = np.stack([a[:, 0], a[:, 1], az + G], axis=1)  # specific force, world frame
             fx, fy = c * f[:, 0] + s * f[:, 1], -s * f[:, 0] + c * f[:, 1]  # rotate by -yaw
             mx, my = c * FIELD[0] + s * FIELD[1], -s * FIELD[0] + c * FIELD[1]
@@ -117,6 +119,13 @@ def per_person_accuracy(rec: Recording, tracks: pd.DataFrame, t_from: float = 0.
     return out
 
 
+# The phones of these scenarios sit straight in their pockets, and the people walk straight legs
+# whose directions tell them apart: the cases below test the tracker, the carrying of evidence
+# and the assignment with the paper's heading model, a phone pointing where its carrier walks
+# (no pocket offset to integrate out; a constant heading difference would otherwise be no
+# evidence, see test_phones_turned_in_their_pockets_are_matched_by_how_they_turn).
+ALIGNED = {"pocket_sigma_deg": 0.0}
+
 # Two people cross at right angles in the middle of the room at t = 4 s.
 CROSSING = {"A": [(0, 2, 5), (1, 2, 5), (7, 8, 5), (10, 8, 5)], "B": [(0, 5, 2), (1, 5, 2), (7, 5, 8), (10, 5, 8)]}
 # Fig. 4: A and B walk towards each other, meet, stand 3 s; then A walks away and B stays still.
@@ -126,7 +135,7 @@ MEETING = {"A": [(0, 2, 5), (3, 4.75, 5), (6, 4.75, 5), (9, 4.75, 8), (12, 4.75,
 
 def test_crossing_people_are_identified_after_the_crossing():
     rec = synthetic_recording(CROSSING, {"A": "phA", "B": "phB"}, 10.0, floor_sigma=0.1)
-    tracks = run(rec)
+    tracks = run(rec, **ALIGNED)
     # the crossing cuts both tracks (ambiguity 3.6-4.75 s); evidence gathered before it is carried
     # over, so both are claimed right from shortly after it to the end
     acc = per_person_accuracy(rec, tracks, t_from=5.5)
@@ -139,14 +148,14 @@ def test_crossing_people_are_identified_after_the_crossing():
 def test_crossing_with_swapped_phones_follows_the_phones():
     # the same paths with the phones exchanged: the claims must follow the phones, not the paths
     rec = synthetic_recording(CROSSING, {"A": "phB", "B": "phA"}, 10.0, floor_sigma=0.1)
-    acc = per_person_accuracy(rec, run(rec), t_from=5.5)
+    acc = per_person_accuracy(rec, run(rec, **ALIGNED), t_from=5.5)
     assert min(acc.values()) > 0.95, acc
 
 
 @pytest.mark.parametrize("privacy", [False, True])
 def test_meeting_then_one_stays_still(privacy):
     rec = synthetic_recording(MEETING, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.05, privacy=privacy)
-    tracks = run(rec)
+    tracks = run(rec, **ALIGNED)
     # after A leaves (t > 6 s) the walker must carry A's phone: the still phone says "stopped"
     if not privacy:
         late = per_person_accuracy(rec, tracks, t_from=8.0)
@@ -169,7 +178,7 @@ def test_phoneless_person_gets_no_phone():
     people = {"A": [(0, 2, 2), (6, 8, 2), (12, 8, 8)], "B": [(0, 8, 8), (6, 2, 8), (12, 2, 2)],
               "C": [(0, 5, 3), (4, 5, 7), (8, 2, 5), (12, 8, 5)]}
     rec = synthetic_recording(people, {"A": "phA", "B": "phB"}, 12.0, floor_sigma=0.1)
-    tracks = run(rec)
+    tracks = run(rec, **ALIGNED)
     truth_c = rec.truth.people.query("person_id == 'C'")
     bad = 0
     for t, row in tracks.groupby("t"):
@@ -266,21 +275,82 @@ def test_claim_is_held_after_a_possible_swap_while_both_stand(monkeypatch, vanis
 
     segs, own = _two_standing_tracks(0.2, mate_vanishes=vanishes)
     phones = PhoneFeatures(["phone0"], np.zeros((40, 1)), np.zeros((40, 1)))
-    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g: own)
+    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g, prior=None: own)
     seg = segs.rows["segment"].to_numpy()
     gait = GaitModel.__new__(GaitModel)
-    held = HMMMatcher().match(segs, phones, gait)
+    held = HMMMatcher().assign(segs, phones, gait)
     assert (held[seg == 0] == 0).any()  # before the cut the phone is claimed
     assert (held[seg >= 2] == -1).all()  # after it, not (lead log(0.8 / 0.2) = 1.4 < margin_min)
     if vanishes:
         # without the frozen rival, the mate vanishing (a privacy camera misses it standing)
         # would hand the phone to the track that is left
-        plain = HMMMatcher(hold_rival=False).match(segs, phones, gait)
+        plain = HMMMatcher(hold_rival=False).assign(segs, phones, gait)
         assert (plain[(seg == 2) & (segs.rows["frame"].to_numpy() >= 30)] == 0).all()
-    old = HMMMatcher(swap_partner=False).match(segs, phones, gait)
+    old = HMMMatcher(swap_partner=False).assign(segs, phones, gait)
     assert (old[seg == 2] == 0).all()  # the former rule: the mate's share is lost, the claim made
     # a small p_swap does not hold the claim back
     segs, own = _two_standing_tracks(0.005, mate_vanishes=vanishes)
-    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g: own)
-    sure = HMMMatcher().match(segs, phones, gait)
+    monkeypatch.setattr(HMMMatcher, "segment_llr", lambda self, s, p, g, prior=None: own)
+    sure = HMMMatcher().assign(segs, phones, gait)
     assert (sure[segs.rows["segment"].to_numpy() == 2] == 0).all()
+
+
+def legs(start, t0, segments, speed=0.9):
+    """Key frames: standing at ``start`` until t0, then straight legs [(direction deg, duration s), ...]."""
+    x, y = start
+    t, keys = t0, [(0.0, x, y), (t0, x, y)]
+    for ang, dur in segments:
+        x += np.cos(np.radians(ang)) * dur * speed
+        y += np.sin(np.radians(ang)) * dur * speed
+        t += dur
+        keys.append((t, x, y))
+    return keys
+
+
+def test_phones_turned_in_their_pockets_are_matched_by_how_they_turn():
+    # A zig-zags east/north; B walks 40 deg further left, turning at other times. A's phone sits
+    # turned +40 deg in the pocket, B's -35 deg: A's phone points along B's first leg. Read as
+    # headings with no offset (pocket_sigma_deg=0, the paper's model), neither phone fits either
+    # track and nothing is claimed; with the offset integrated out, the phones are matched by
+    # turning when their tracks turn.
+    people = {"A": legs((1.0, 1.0), 1.0, [(0, 3), (90, 3), (0, 3), (90, 3)]),
+              "B": legs((3.0, 1.0), 1.0, [(40, 4.5), (130, 3), (40, 3), (130, 1.5)])}
+    rec = synthetic_recording(people, {"A": "phA", "B": "phB"}, 13.0, floor_sigma=0.1,
+                              pocket_deg={"A": 40.0, "B": -35.0})
+    tracks = run(rec)
+    acc = per_person_accuracy(rec, tracks, t_from=7.0)
+    assert min(acc.values()) > 0.95, acc
+    ev = evaluate(rec, tracks)
+    assert ev.identification.id_accuracy == 1.0
+    fixed = run(rec, pocket_sigma_deg=0.0)
+    assert (fixed["phone_id"] != "").mean() < 0.5 * (tracks["phone_id"] != "").mean()
+
+
+def test_heading_evidence_integrates_the_pocket_offset_out():
+    from scipy import integrate, stats
+
+    from trackroom.estimators.hmm_matcher import heading_evidence
+
+    rng = np.random.default_rng(3)
+    w, kappa0 = 0.5, 2.0
+    delta = rng.uniform(-np.pi, np.pi, (5, 2))
+    kappa = rng.uniform(0.5, 20.0, (5, 2))
+    seg = np.array([7, 3, 7, 3, 7])  # two segments, interleaved in frame order
+    ev = heading_evidence(delta, kappa, seg, w, kappa0)
+    for s in (3, 7):
+        rows = seg == s
+        for j in range(2):
+            d, k = delta[rows, j], kappa[rows, j]
+            # log of the integral over the offset o of prior(o) prod_k [2 pi vm(d_k; o, kappa_k)]^w
+            f = lambda o: stats.vonmises.pdf(o, kappa0) * np.prod(
+                (2 * np.pi * stats.vonmises.pdf(d, k, loc=o)) ** w)
+            expected = np.log(integrate.quad(f, -np.pi, np.pi, limit=200)[0])
+            assert ev[rows, j].sum() == pytest.approx(expected, abs=1e-7)
+    # a flat prior: a constant heading difference is no evidence (any offset explains it)
+    flat = heading_evidence(delta + 1.3, kappa, seg, w, 0.0)
+    assert flat.sum() == pytest.approx(heading_evidence(delta, kappa, seg, w, 0.0).sum(), abs=1e-9)
+    # a prior far more concentrated than the data: the fixed-offset von Mises ratio
+    sharp = heading_evidence(delta, kappa, seg, w, 1e8)
+    fixed = w * (stats.vonmises.logpdf(delta, kappa) + np.log(2 * np.pi))
+    np.testing.assert_allclose(sharp, fixed, atol=1e-5)
+    np.testing.assert_allclose(heading_evidence(delta, kappa, seg, w, np.inf), fixed, atol=1e-12)

@@ -14,12 +14,15 @@ from trackroom.sim.simulate import simulate
 
 ERRORS = ["sensors.mag_disturbance_deg=20", "sensors.accel_bias=0.05", "sensors.pocket_yaw_deg=30",
           "sensors.pocket_tilt_deg=10", "sensors.swing_per_min=3"]
+# every phone error off (they are on, modestly, by default)
+NONE = ["sensors.mag_disturbance_deg=0", "sensors.accel_bias=0", "sensors.pocket_yaw_deg=0",
+        "sensors.pocket_tilt_deg=0", "sensors.swing_per_min=0"]
 
 
 def test_same_seed_same_recording_and_only_the_imu_changes():
     a = simulate(load_scene("bearing_hall", ERRORS), 4, 20.0)
     b = simulate(load_scene("bearing_hall", ERRORS), 4, 20.0)
-    plain = simulate(load_scene("bearing_hall"), 4, 20.0)
+    plain = simulate(load_scene("bearing_hall", NONE), 4, 20.0)
     for kind in a.observations.tables:
         assert a.observations[kind].equals(b.observations[kind]), kind
     assert a.observations["bearings"].equals(plain.observations["bearings"])
@@ -30,7 +33,7 @@ def test_same_seed_same_recording_and_only_the_imu_changes():
 
 
 def test_pocket_yaw_turns_the_heading_and_keeps_the_magnitudes():
-    scene = load_scene("bearing_hall", ["sensors.pocket_yaw_deg=30"])
+    scene = load_scene("bearing_hall", NONE + ["sensors.pocket_yaw_deg=30"])
     rng = np.random.default_rng(1)
     n = 50
     r = np.zeros((1, n, 9))
@@ -53,8 +56,15 @@ def test_disturbance_is_strongest_at_the_walls(where, strongest):
     assert (near.mean() > np.radians(3.0)) == strongest
 
 
+def test_defaults_are_modest_and_on():
+    s = load_scene("bearing_hall").sensors
+    assert s.phone_errors()
+    assert (s.pocket_yaw_deg, s.pocket_tilt_deg, s.accel_bias, s.mag_disturbance_deg, s.swing_per_min) == (30, 10, 0.05, 10, 0.5)
+
+
 def test_no_errors_leave_the_readings_alone():
-    scene = load_scene("bearing_hall")
+    scene = load_scene("bearing_hall", NONE)
+    assert not scene.sensors.phone_errors()
     r = np.random.default_rng(2).normal(size=(2, 30, 9))
     out = phone_errors.apply(r, np.zeros((2, 30, 2)) + 5, np.arange(30) * 0.01, scene.floorplan, scene.sensors,
                              np.random.default_rng(0))

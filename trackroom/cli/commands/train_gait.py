@@ -4,7 +4,8 @@ As in Teixeira et al. (Fig. 6), the walking / stopped classes of the vertical-bo
 fitted from labelled training data: a Gaussian for walking and an exponential for stopped. The
 labels come from the training recordings' ground truth (each phone's carrier and whether that
 person was walking). The same pass fits the magnetometer heading noise against the true walking
-direction (von Mises concentration) and the walking-speed distribution. See ``estimators/gait.py``.
+direction (von Mises concentration, about each phone's own mean offset: how the phone sits in the
+pocket is not noise) and the walking-speed distribution. See ``estimators/gait.py``.
 """
 from __future__ import annotations
 
@@ -38,8 +39,9 @@ def training_samples(rec, window_s: float, rate: float):
             continue
         t = d["t"].to_numpy(float)
         tq = np.arange(np.ceil((t[0] + window_s) * rate), np.floor(t[-1] * rate) + 1) / rate
-        g = bobbing_feature(t, d[["ax", "ay", "az"]].to_numpy(float), tq, window_s)
-        psi = phone_heading(t, d[["mx", "my", "mz"]].to_numpy(float), tq, 1.0 / rate, field)
+        acc = d[["ax", "ay", "az"]].to_numpy(float)
+        g = bobbing_feature(t, acc, tq, window_s)
+        psi = phone_heading(t, acc, d[["mx", "my", "mz"]].to_numpy(float), tq, 1.0 / rate, field)
         ct = carrier["t"].to_numpy(float)
         j = np.clip(np.searchsorted(ct, tq), 0, len(ct) - 1)
         # a window is labelled walking when the carrier walked for all of it, stopped when for none
@@ -52,7 +54,10 @@ def training_samples(rec, window_s: float, rate: float):
         vx, vy = carrier["vx"].to_numpy(float)[j], carrier["vy"].to_numpy(float)[j]
         speed = np.hypot(vx, vy)
         moving = (frac == 1.0) & (speed > 0.3)
-        herr.append(psi[moving] - np.arctan2(vy, vx)[moving])
+        err = psi[moving] - np.arctan2(vy, vx)[moving]
+        # the phone's constant yaw offset in the pocket (its circular mean) is not noise: the
+        # matcher integrates it out itself (hmm_matcher.heading_evidence)
+        herr.append(err - np.angle(np.exp(1j * err).mean()) if len(err) else err)
         speeds.append(speed[moving])
     if not feats:
         raise RecordingError(f"recording {rec.scene!r} seed {rec.seed}: no phone is carried by anyone in the truth")
