@@ -6,7 +6,9 @@ per-frame assignment, everything from the observation tables to the tracks table
 repetitions, and reports recording seconds per wall second (best and median), with the stages
 timed separately and the machine's load average (the figure scales with free CPU).
 
-    python scripts/bench_hmm.py [--duration 60] [--repeats 5] [--people 1,10]
+    python scripts/bench_hmm.py [--duration 60] [--repeats 5] [--people 1,10] [--set K=V ...]
+
+``--set``: a matcher parameter (e.g. ``share_offset=false`` to time the single pass).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 
-def bench(n: int, duration: float, repeats: int, seed: int = 0) -> dict:
+def bench(n: int, duration: float, repeats: int, seed: int = 0, params: dict | None = None) -> dict:
     from trackroom.estimators.gait import load_default
     from trackroom.estimators.hmm_matcher import HMMMatcher, phone_features
     from trackroom.scenes.loader import load_scene
@@ -30,7 +32,7 @@ def bench(n: int, duration: float, repeats: int, seed: int = 0) -> dict:
 
     rec = simulate(load_scene("overhead_lab", [f"walkers.count={n}"]), seed, duration)
     obs, cal = rec.observations, rec.calibration
-    m = HMMMatcher()
+    m = HMMMatcher(**(params or {}))
     totals, stages = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -54,13 +56,18 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--people", default="1,10")
+    ap.add_argument("--set", dest="params", action="append", default=[], metavar="K=V", help="matcher parameter")
     args = ap.parse_args(argv)
+    from trackroom.estimators.base import coerce_param
+    from trackroom.estimators.hmm_matcher import HMMMatcher
+
+    params = {k: coerce_param(HMMMatcher, k, v) for k, v in (p.split("=", 1) for p in args.params)}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"machine: {os.cpu_count()} CPUs, load average {load:.2f} (1 min)")
     print("| people | detections | IMU rows | best s | median s | x real time (best) | x real time (median) | tracker s | phone features s | recursion + assignment s |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for n in [int(p) for p in args.people.split(",")]:
-        r = bench(n, args.duration, args.repeats)
+        r = bench(n, args.duration, args.repeats, params=params)
         print(f"| {n} | {r['detections']} | {r['imu_rows']} | {r['best_s']:.3f} | {r['median_s']:.3f} | {r['x_realtime_best']:.0f} | "
               f"{r['x_realtime_median']:.0f} | {r['tracker_s']:.3f} | {r['phone_features_s']:.3f} | {r['recursion_assignment_s']:.3f} |")
     return 0
