@@ -9,6 +9,8 @@ from the recording's own stream (same scene and seed, same errors):
   c(p) the clearance to the nearest wall or obstacle (m), so the deviation is largest next to
   them, and xi a smooth random field in [-1, 1] (a sum of ``N_WAVES`` plane waves of wavelength
   1.5-4 m, random directions and phases, normalised), one field per recording (the building's).
+  Along a walker's path it is evaluated every ``FIELD_STRIDE`` samples and interpolated between
+  them (it changes over metres, a walker covers centimetres in between).
 - **Accelerometer bias** (``accel_bias``): a constant N(0, b^2) per axis and phone (m/s^2).
 - **Pocket orientation**: the phone sits in the pocket turned by a yaw offset
   U(-``pocket_yaw_deg``, +``pocket_yaw_deg``) and tilted by U(0, ``pocket_tilt_deg``) about a
@@ -25,15 +27,22 @@ from __future__ import annotations
 import numpy as np
 
 N_WAVES = 6
+FIELD_STRIDE = 10  # samples between evaluations of the disturbance field along a path
 SWING_HZ = 0.9
 SWING_S = (4.0, 10.0)
 
 
-def _rot_z(angle: np.ndarray) -> np.ndarray:
+def _rot_z(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
-    R = np.zeros(np.shape(angle) + (3, 3))
-    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
-    return R
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _turn(v: np.ndarray, angle: np.ndarray) -> None:
+    """Rotate the rows of ``v`` (n, 3) about z by ``angle`` (n,) rad, in place."""
+    c, s = np.cos(angle), np.sin(angle)
+    x = v[:, 0].copy()
+    v[:, 0] = c * x - s * v[:, 1]
+    v[:, 1] = s * x + c * v[:, 1]
 
 
 def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -79,15 +88,20 @@ def apply(readings: np.ndarray, pos: np.ndarray, t: np.ndarray, floorplan, s, rn
             continue
         acc, gyro, mag = (out[i, :, j:j + 3] for j in (0, 3, 6))
         if s.mag_disturbance_deg > 0:
-            mag[:] = np.einsum("nij,nj->ni", _rot_z(field(pos[i])), mag)
+            # the field varies over metres: evaluated every FIELD_STRIDE samples along the path
+            # (0.1 s at 100 Hz, at most ~0.15 m walked) and interpolated in time between them
+            k = np.r_[np.arange(0, len(t), FIELD_STRIDE), len(t) - 1]
+            _turn(mag, np.interp(np.arange(len(t)), k, field(pos[i, k])))
         if n_sw:
             a = np.zeros(len(t))
             for t0, L in zip(starts, lengths):
                 m = (t >= t0) & (t < t0 + L)
                 a[m] = np.radians(s.swing_deg) * np.sin(2 * np.pi * SWING_HZ * (t[m] - t0)) * np.sin(np.pi * (t[m] - t0) / L)
-            Rs = _rot_z(-a)  # the phone turned by a: readings turned by -a
+            m = a != 0  # the phone turned by a: readings turned by -a (only where it swings)
             for v in (acc, gyro, mag):
-                v[:] = np.einsum("nij,nj->ni", Rs, v)
+                w = v[m]
+                _turn(w, -a[m])
+                v[m] = w
             gyro[:, 2] += np.gradient(a, t)
         R = _rot_z(yaw) @ _axis_angle([np.cos(axis_th), np.sin(axis_th), 0.0], tilt)  # phone in body frame
         for v in (acc, gyro, mag):

@@ -69,3 +69,26 @@ def test_no_errors_leave_the_readings_alone():
     out = phone_errors.apply(r, np.zeros((2, 30, 2)) + 5, np.arange(30) * 0.01, scene.floorplan, scene.sensors,
                              np.random.default_rng(0))
     np.testing.assert_array_equal(out, r)
+
+
+def test_swings_and_disturbance_turn_the_readings_about_the_vertical_only():
+    scene = load_scene("bearing_hall", NONE + ["sensors.swing_per_min=30", "sensors.mag_disturbance_deg=20"])
+    n = 3000
+    t = np.arange(n) * 0.01
+    r = np.zeros((1, n, 9))
+    r[0, :, 0:3] = [0.3, 0.1, 9.81]
+    r[0, :, 3:6] = [0.0, 0.0, 0.2]
+    r[0, :, 6:9] = [0.0, -0.5, 0.1]
+    pos = np.c_[np.linspace(0.3, 5.0, n), np.full(n, 5.0)][None]  # from a wall into the room
+    out = phone_errors.apply(r, pos, t, scene.floorplan, scene.sensors, np.random.default_rng(3))
+    for j in (0, 6):  # accelerometer, magnetometer: turned, their lengths and vertical parts kept
+        np.testing.assert_allclose(np.linalg.norm(out[0, :, j:j + 3], axis=1), np.linalg.norm(r[0, :, j:j + 3], axis=1))
+        np.testing.assert_allclose(out[0, :, j + 2], r[0, :, j + 2])
+    acc_turn = np.angle(np.exp(1j * (np.arctan2(out[0, :, 1], out[0, :, 0]) - np.arctan2(0.1, 0.3))))
+    swinging = np.abs(acc_turn) > 1e-12
+    assert 0.05 < swinging.mean() < 0.95  # some samples in a swing, some not
+    assert np.abs(acc_turn).max() <= np.radians(30) + 1e-9
+    # the magnetometer turns with the swing and, on top of it, with the disturbance, strongest at the wall
+    mag_turn = np.angle(np.exp(1j * (np.arctan2(out[0, :, 7], out[0, :, 6]) - np.arctan2(-0.5, 0.0)))) - acc_turn
+    assert np.abs(mag_turn[:100]).max() > np.radians(1.0)
+    assert np.abs(mag_turn).max() <= np.radians(20) + 1e-9
