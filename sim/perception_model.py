@@ -36,7 +36,12 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
            errors persist from frame to frame as the rendered ones do (the same silhouette gives
            the same error): the uniforms behind them are a Gaussian AR(1) copula per person and
-           camera with the fitted lag-one correlation ``err_rho``.
+           camera with the fitted lag-one correlation ``err_rho``. Floor errors (overhead,
+           privacy) are drawn along and across the camera's radial direction from tables by the
+           blob's state (head cut or whole, near another person or alone:
+           ``analytic_detectors.FLOOR_TABLES``), and the radial one adds ``head_gain`` times the
+           head-height shift (``CameraGeometry.head_shift``): the detector places a person by the
+           head, and a walking person's head bobs.
   label    P(the appearance label is the person's own colour); otherwise another colour of the
            scene's palette, drawn uniformly (the label is an appearance class, never an id).
   clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
