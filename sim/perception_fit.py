@@ -29,8 +29,9 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import FLOOR_TABLES, blob_candidates, nearest_gap, floor_state, radial_frame, silhouette_pairs, span_pairs, window_candidates
-from .perception_model import NEAR_GAP, DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
+from .analytic_detectors import (FLOOR_TABLES, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+                                 window_candidates)
+from .perception_model import DETECTORS, NEAR_GAP, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
@@ -538,7 +539,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
                 head_gain[name] = float(r @ h / (h @ h)) if h @ h > 0 else 0.0
                 errors[name + "_r"] = Quantiles.fit(r - head_gain[name] * h)
         for name, v in s.errors.items():
-            if name.endswith("_h") or name in errors:
+            if name in errors or name in {t + "_h" for t in FLOOR_TABLES.values()}:  # (not the windows' frag_h, clutter_h)
                 continue
             errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
         if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:

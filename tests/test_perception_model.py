@@ -524,3 +524,17 @@ def test_a_perception_draw_redraws_the_camera_tables_only():
     assert not a.observations[fd].equals(c.observations[fd])
     pd.testing.assert_frame_equal(a.observations["imu"], c.observations["imu"], check_exact=True)
     pd.testing.assert_frame_equal(a.truth.tables["people"], c.truth.tables["people"], check_exact=True)
+
+
+def test_the_fit_turns_head_shifts_into_gains_and_keeps_the_windows_size_tables():
+    """The floor tables' head shifts (``xy_h``) become a gain, not a table; the windows' fragment
+    and clutter heights (``frag_h``, ``clutter_h``) stay tables."""
+    rng = np.random.default_rng(0)
+    stats = {k: pf.DetectorStats() for k in DETECTORS}
+    h = rng.normal(0.0, 0.02, 500)
+    stats["overhead"].errors.update(xy_r=list(0.8 * h + rng.normal(0.0, 0.001, 500)), xy_t=list(rng.normal(0.0, 0.001, 500)), xy_h=list(h))
+    stats["windows"].errors.update(frag_h=list(rng.normal(size=100)), clutter_h=list(rng.normal(size=100)))
+    m = pf.fit(stats, ["test"])
+    assert abs(m["overhead"].head_gain["xy"] - 0.8) < 0.02 and "xy_h" not in m["overhead"].errors
+    assert m["overhead"].errors["xy_r"].sigma < 0.0015
+    assert {"frag_h", "clutter_h"} <= set(m["windows"].errors)
