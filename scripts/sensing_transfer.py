@@ -49,10 +49,12 @@ CASES = [
     ("qp_smoother", "bearing_hall", (None, "mota", "rmse")),
 ]
 MODES = ("analytic", "ideal", "rendered")
+MODEL = ["fitted"]  # the analytic twin's perception model (--model)
 
 
-def recording_for(folder: Path, mode: str, rendered_rec):
-    """The rendered recording itself, or its analytic twin (same resolved scene and seed)."""
+def recording_for(folder: Path, mode: str, rendered_rec, draw: int = 0):
+    """The rendered recording itself, or its analytic twin (same resolved scene and seed; ``draw``
+    > 0 redraws the analytic camera tables' random streams, ``simulate(perception_draw=...)``)."""
     from trackroom.scenes.loader import load_scene
 
     if mode == "rendered":
@@ -65,8 +67,8 @@ def recording_for(folder: Path, mode: str, rendered_rec):
         return rendered_rec
     from trackroom.sim.simulate import simulate
 
-    scene = load_scene(folder / "scene.toml", [f"sensors.perception={'fitted' if mode == 'analytic' else 'ideal'}"])
-    return simulate(scene, int(rendered_rec.meta["seed"]), float(rendered_rec.meta["duration"]))
+    scene = load_scene(folder / "scene.toml", [f"sensors.perception={MODEL[0] if mode == 'analytic' else 'ideal'}"])
+    return simulate(scene, int(rendered_rec.meta["seed"]), float(rendered_rec.meta["duration"]), perception_draw=draw)
 
 
 def figures(case: str, rec) -> dict:
@@ -110,8 +112,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="300-304", help="evaluation seeds (default 300-304)")
     ap.add_argument("--render", action="store_true", help="render the missing recordings")
     ap.add_argument("--csv", help="write every run's figures here")
-    ap.add_argument("--cases", help="comma-separated case names to run (default all)")
+    ap.add_argument("--cases", help="comma-separated case names or scene folders to run (default all)")
+    ap.add_argument("--draws", type=int, default=1, help="perception draws of the fitted analytic twin per seed "
+                    "(default 1: the recording's own; more average over redrawn camera streams and show their spread)")
+    ap.add_argument("--model", default="fitted", help="perception model file of the analytic twin (default: the bundled one)")
     a = ap.parse_args(argv)
+    MODEL[0] = a.model
     seeds = parse_seeds(a.seeds)
     root = Path(a.rendered)
     rows = []
@@ -121,13 +127,15 @@ def main(argv=None) -> int:
             d = ensure_rendered(root, folder, seed, a.render)
             rendered = read_recording(d)
             for mode in MODES:
-                rec = recording_for(d, mode, rendered)
-                for case, f, _ in cases:
-                    if f != folder:
-                        continue
-                    m = figures(case, rec)
-                    rows.append({"case": case, "scene": folder, "seed": seed, "mode": mode, **{k: m.get(k, np.nan) for k in
-                                 ("identity_held", "idf1", "id_accuracy", "mota", "rmse", "rmse_2plus")}})
+                for draw in range(a.draws if mode == "analytic" else 1):
+                    rec = recording_for(d, mode, rendered, draw)
+                    for case, f, _ in cases:
+                        if f != folder:
+                            continue
+                        m = figures(case, rec)
+                        rows.append({"case": case, "scene": folder, "seed": seed, "mode": mode, "draw": draw,
+                                     **{k: m.get(k, np.nan) for k in ("identity_held", "idf1", "id_accuracy", "mota", "rmse",
+                                                                       "rmse_2plus")}})
             print(f"done {folder} seed {seed}", file=sys.stderr, flush=True)
     df = pd.DataFrame(rows)
     if a.csv:
@@ -140,11 +148,17 @@ def main(argv=None) -> int:
 
 
 def transfer_table(df: pd.DataFrame, cases) -> pd.DataFrame:
-    """One row per case and figure: mean per mode, the rendered - analytic gap and the verdict."""
+    """One row per case and figure: mean per mode, the rendered - analytic gap and the verdict.
+    With several analytic draws per seed (column ``draw``) the analytic figure is the mean over
+    seeds and draws, and a column gives the range of the per-draw means over the seeds."""
     out = []
+    if "draw" not in df:
+        df = df.assign(draw=0)
+    draws = int(df["draw"].max()) + 1 if len(df) else 1
     for case, folder, (ident, mota, rmse) in cases:
         g = df[(df["case"] == case) & (df["scene"] == folder)]
         mean = g.groupby("mode").mean(numeric_only=True)
+        per_draw = g[g["mode"] == "analytic"].groupby("draw").mean(numeric_only=True)
         if not len(mean):
             continue
         label = f"{case}, {folder}"
@@ -163,8 +177,16 @@ def transfer_table(df: pd.DataFrame, cases) -> pd.DataFrame:
                 gap_text, ideal_text = f"{gap:+.3f}", f"{r - i:+.3f}"
             out.append({"estimator, scene": label, "figure": f"{kind} ({col})", "analytic (fitted)": show(a),
                         "rendered": show(r), "gap": gap_text, "target met": "yes" if ok else "NO",
-                        "analytic (ideal)": show(i), "gap to ideal": ideal_text, "seeds": int(g["seed"].nunique())})
+                        "analytic (ideal)": show(i), "gap to ideal": ideal_text, "seeds": int(g["seed"].nunique()),
+                        **({"analytic draws (min-max)": f"{per_draw[col].min():.3f}-{per_draw[col].max():.3f}",
+                            "gap over draws": spread(r, per_draw[col], kind)} if draws > 1 else {})})
     return pd.DataFrame(out)
+
+
+def spread(r: float, a: pd.Series, kind: str) -> str:
+    """The gap's range over the analytic draws (each draw's mean over the seeds)."""
+    g = r / a if kind == "RMSE" else r - a
+    return f"x{g.min():.2f}-x{g.max():.2f}" if kind == "RMSE" else f"{g.min():+.3f} to {g.max():+.3f}"
 
 
 if __name__ == "__main__":

@@ -77,6 +77,12 @@ class CameraGeometry:
     flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
     axis: np.ndarray | None = None  # (F, P, 2, 2) image points of the feet and the top of the head (overhead)
     width_px: np.ndarray | None = None  # (F, P) projected body diameter at the body centre, px (overhead)
+    # (F, P) overhead: how far out (m, along the camera's radial direction) the rendered detector
+    # places a person whose head is higher than the nominal person's (the scene's mean height) by
+    # dz, gait bob included: it back-projects the head's outer tangent ray to the nominal head
+    # height, so the floor point moves out by dz R / (H - Z) (R the person's horizontal distance
+    # from the camera, H the camera's height, Z the nominal head top)
+    head_shift: np.ndarray | None = None
 
 
 def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np.ndarray, steps: np.ndarray) -> CameraGeometry:
@@ -90,8 +96,11 @@ def project_people(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: 
         ends[..., 1, 2] = c[..., 2] + 0.5 * heights
         with np.errstate(divide="ignore", invalid="ignore"):
             width_px = np.where(depth > 1e-6, 2.0 * radii * cam.focal / depth, 0.0)
+        top = float(np.mean(heights)) if len(heights) else 0.0
+        rng_h = np.hypot(c[..., 0] - cam.position[0], c[..., 1] - cam.position[1])
+        head_shift = (ends[..., 1, 2] - top) * rng_h / max(float(cam.position[2]) - top, 0.1)
         return CameraGeometry(steps=steps, uv=uv, depth=depth, in_fov=in_fov, near=in_fov,
-                              axis=cam.project(ends)[0], width_px=width_px)
+                              axis=cam.project(ends)[0], width_px=width_px, head_shift=head_shift)
     else:
         foot = c.copy()
         foot[..., 2] = c[..., 2] - 0.5 * heights

@@ -15,7 +15,7 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import DetectorModel, correlated_normals, correlated_uniforms, ndtr
+from .perception_model import NEAR_GAP, DetectorModel, correlated_normals, correlated_uniforms, ndtr
 
 
 def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: float) -> np.ndarray:
@@ -452,6 +452,68 @@ def _floor_error(err, u: np.ndarray, cam: Camera) -> np.ndarray:
     return e
 
 
+# Error tables of the floor detections (overhead, privacy), by the blob's state: whole or with
+# the head cut by the image border, alone or near another detected person (their silhouettes
+# within NEAR_GAP body widths in the image: the other person's pixels take from or add to the
+# blob's outer end). Each is fitted along (_r) and across (_t) the camera's radial direction: a
+# ceiling camera places a blob by its outer end, so errors lie mostly along that direction.
+# "xy" (per floor axis, whole blobs) is the declared floor noise and what an older model without
+# the radial tables samples from.
+FLOOR_TABLES = {(False, False): "xy", (False, True): "xy_near", (True, False): "xy_clip", (True, True): "xy_clip_near"}
+
+
+def nearest_gap(gap: np.ndarray, P: int) -> np.ndarray:
+    """(F, P) the smallest of each person's pair entries in ``gap`` (F, pairs over
+    ``np.triu_indices(P, 1)``; inf where none is finite)."""
+    out = np.full((gap.shape[0], P), np.inf)
+    f, k = np.nonzero(np.isfinite(gap))
+    if len(f):
+        iu, ju = np.triu_indices(P, 1)
+        np.minimum.at(out, (f, iu[k]), gap[f, k])
+        np.minimum.at(out, (f, ju[k]), gap[f, k])
+    return out
+
+
+def floor_table(m: DetectorModel, cut: bool, near: bool) -> str | None:
+    """The radial error tables' name (without _r / _t) a blob in this state takes: its own, else
+    the alone one of its kind, else the whole one's; None for a model without radial tables."""
+    for key in ((cut, near), (cut, False), (False, False)):
+        name = FLOOR_TABLES[key]
+        if name + "_r" in m.errors:
+            return name
+    return None
+
+
+def floor_errors(m: DetectorModel, cam: Camera, pos: np.ndarray, ux: np.ndarray, uy: np.ndarray, cut: np.ndarray,
+                 near: np.ndarray, head_shift: np.ndarray | None = None) -> np.ndarray:
+    """(n, 2) floor errors of detections at ``pos`` from the uniforms ux, uy (along and across the
+    radial direction where the model has radial tables), by head cut and nearness (FLOOR_TABLES);
+    the radial error adds the fitted share (``head_gain``) of the head-height shift ``head_shift``
+    (n,): walking people's heads bob, and the detector places them by the head."""
+    if floor_table(m, False, False) is None:  # a model from before the radial tables
+        err = m.error("xy")
+        e = np.stack([_floor_error(err, ux, cam), _floor_error(err, uy, cam)], -1)
+        if "xy_clip_r" in m.errors and cut.any():
+            er, et = radial_frame(cam, pos[cut])
+            r = _floor_error(m.error("xy_clip_r"), ux[cut], cam)
+            tang = _floor_error(m.error("xy_clip_t"), uy[cut], cam)
+            e[cut] = r[:, None] * er + tang[:, None] * et
+        return e
+    e = np.empty((len(pos), 2))
+    er, et = radial_frame(cam, pos)
+    for c in (False, True):
+        for n in (False, True):
+            sel = (cut == c) & (near == n)
+            if sel.any():
+                name = floor_table(m, c, n)
+                r = _floor_error(m.error(name + "_r"), ux[sel], cam)
+                if head_shift is not None and m.head_gain.get(name):
+                    r = r + m.head_gain[name] * head_shift[sel]
+                t = _floor_error(m.error(name + "_t"), uy[sel], cam)
+                e[sel] = r[:, None] * er[sel] + t[:, None] * et[sel]
+    return e
+
+
 def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
@@ -465,11 +527,11 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
         # only pairs of detected people can merge: their gaps alone are measured (the costliest
         # step of an overhead camera), unless none is in reach, where whether any pair of all is
         # decides if merge_roots draws its uniforms (the random stream, as before)
+        # (they are also what makes a detection "near" another: NEAR_GAP, FLOOR_TABLES)
         iu, ju = np.triu_indices(P, 1)
-        gap = silhouette_pairs(g, reach, det[:, iu] & det[:, ju])
-        if not (gap < reach).any():
-            gap = silhouette_pairs(g, reach)
-    root = merge_roots(rng, det, gap, gap < reach, m)
+        gap = silhouette_pairs(g, max(reach, NEAR_GAP), det[:, iu] & det[:, ju])
+    mgap = gap if P < 2 or (gap < reach).any() else silhouette_pairs(g, reach)
+    root = merge_roots(rng, det, mgap, mgap < reach, m)
     f, p = _groups(root, det)
     pos = xy[f, p]
     grouped = det[f] & (root[f] == p[:, None])  # (n, P) members of each detection
@@ -477,19 +539,16 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     # a merged detection lies on one of the merged people, not between them: in the rendered
     # development recordings 80 % of merged detections lie within 2 cm (regular cameras) or 8 cm
     # (privacy, 15 cm grid) of one person along the line to the other
+    member = p.copy()
     for i in np.nonzero(cnt > 1)[0]:
-        pos[i] = xy[f[i], merged_blob_member(cam, g.axis[f[i]], np.nonzero(grouped[i])[0])]
+        member[i] = merged_blob_member(cam, g.axis[f[i]], np.nonzero(grouped[i])[0])
+        pos[i] = xy[f[i], member[i]]
     gx, gy = error_uniforms(rng, det.shape, m, 2)
-    err = m.error("xy")
-    e = np.stack([_floor_error(err, gx[f, p], cam), _floor_error(err, gy[f, p], cam)], -1)
-    cut = clip[f, p] < 0.999
-    if "xy_clip_r" in m.errors and cut.any():
-        # a blob whose head the border cuts is placed from its inner end: its error lies mostly
-        # along the camera's radial direction and is wider (fitted apart, in that frame)
-        er, et = radial_frame(cam, pos[cut])
-        r = _floor_error(m.error("xy_clip_r"), gx[f, p][cut], cam)
-        tang = _floor_error(m.error("xy_clip_t"), gy[f, p][cut], cam)
-        e[cut] = r[:, None] * er + tang[:, None] * et
+    near = np.zeros(len(f), bool)
+    if P > 1:
+        near = (nearest_gap(gap, P)[f, p] < NEAR_GAP) & (cnt == 1)
+    e = floor_errors(m, cam, pos, gx[f, p], gy[f, p], clip[f, p] < 0.999, near,
+                     g.head_shift[f, member] if g.head_shift is not None else None)
     pos = pos + e
     k = rng.poisson(m.clutter, F) if m.clutter > 0 else np.zeros(F, int)
     fc = np.repeat(np.arange(F), k)

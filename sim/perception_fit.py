@@ -29,14 +29,17 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import blob_candidates, floor_state, radial_frame, silhouette_pairs, span_pairs, window_candidates
-from .perception_model import DETECTORS, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
+from .analytic_detectors import (FLOOR_TABLES, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+                                 window_candidates)
+from .perception_model import DETECTORS, NEAR_GAP, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
 CLIP_EDGES = [-INF, 0.25, 0.5, 0.75, 0.999, INF]
 IMAGE_SPEED_EDGES = [-INF, 3, 6, 12, 25, 50, INF]  # px/s
-FLOOR_SPEED_EDGES = [-INF, 0.05, 0.1, 0.2, 0.4, 0.8, INF]  # m/s (privacy cameras)
+# m/s (privacy cameras; below 5 mm/s: standing still, which a motion camera misses far more often
+# than someone slowing down: 10 % against 25-47 % detected on the privacy development recordings)
+FLOOR_SPEED_EDGES = [-INF, 0.005, 0.05, 0.1, 0.2, 0.4, 0.8, INF]
 OVERLAP_EDGES = [-INF, 0.25, 0.5, 0.75, INF]
 # overhead: share of the image axis (feet to head) inside the image. People whose head the image
 # border cuts (a ceiling camera's far corners) are detected less often: on the rendered
@@ -347,6 +350,8 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
     reach = SILHOUETTE_EDGES[-2]
     gap = silhouette_pairs(g, reach) if P > 1 else np.zeros((F, 0))
     pair_index = {(int(i), int(j)): k for k, (i, j) in enumerate(zip(iu, ju))}
+    # nearness among people in the camera's view (the sampler: among those it detected)
+    nearest = nearest_gap(np.where(cand[:, iu] & cand[:, ju], gap, INF), P) if P > 1 else np.full((F, P), INF)
     s.frames += F
     for f in range(F):
         d = by_frame.get(f)
@@ -371,13 +376,17 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
         for p, rr in match.items():
             if own[f, p]:
                 e = D[rr] - xy[f, p]
-                if clip[f, p] >= 0.999:
+                # the blob's state (FLOOR_TABLES): head cut by the image border; near another person
+                # in the camera's view (whether it reports them in its tile or not: their pixels touch the blob)
+                near = nearest[f, p] < NEAR_GAP
+                if clip[f, p] >= 0.999:  # every whole blob's, per floor axis: the declared floor noise
                     s.errors["xy"].extend(e.tolist())
-                else:  # head cut by the image border: error along and across the camera's radial direction
-                    er, et = radial_frame(cam, xy[f, p])
-                    s.errors["xy_clip_r"].append(float(e @ er))
-                    s.errors["xy_clip_t"].append(float(e @ et))
-                s.err_seq.append((cam.name, p, f, float(e[0])))
+                name = FLOOR_TABLES[(bool(clip[f, p] < 0.999), bool(near))]
+                er, et = radial_frame(cam, xy[f, p])  # errors along and across the camera's radial direction
+                s.errors[name + "_r"].append(float(e @ er))
+                s.errors[name + "_t"].append(float(e @ et))
+                s.errors[name + "_h"].append(float(g.head_shift[f, p]))  # the head-height shift (fit: head_gain)
+                s.err_seq.append((cam.name, p, f, (float(e @ er), float(g.head_shift[f, p]), name)))
         s.clutter += len(D) - len(match)
         both = hit[f, iu] & hit[f, ju] & reportable[f, iu] & reportable[f, ju]
         for k in np.nonzero(both)[0]:
@@ -488,16 +497,19 @@ def fit_merge_rho(s: DetectorStats, merge: Table, seed: int = 0) -> float:
     return fit_run_rho(_sequences(s.pair_runs), p, merge_runs(s), True, seed)
 
 
-def fit_err_rho(s: DetectorStats) -> float:
+def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     """Lag-one correlation of a person's errors in consecutive frames, on normal scores (the
-    Gaussian copula the sampler uses); 0 without enough pairs."""
+    Gaussian copula the sampler uses); 0 without enough pairs. Floor errors are (radial error,
+    head shift, table): their correlation is that of what the tables draw, the radial error less
+    the fitted share of the head shift (``head_gain``)."""
     if len(s.err_seq) < 30:
         return 0.0
     from scipy.special import ndtri
     from scipy.stats import rankdata
 
     seq = sorted(s.err_seq, key=lambda r: (str(r[0]), r[1], r[2]))
-    v = np.array([r[3] for r in seq], float)
+    gain = head_gain or {}
+    v = np.array([r[3][0] - gain.get(r[3][2], 0.0) * r[3][1] if isinstance(r[3], tuple) else r[3] for r in seq], float)
     z = ndtri((rankdata(v) - 0.5) / len(v))
     same = np.array([str(a[0]) == str(b[0]) and a[1] == b[1] and b[2] == a[2] + 1 for a, b in zip(seq[:-1], seq[1:])])
     if same.sum() < 30:
@@ -518,16 +530,26 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
         p = detect(*X.T) if len(X) else np.zeros(0)
         pair_edges = SILHOUETTE_EDGES if k in ("overhead", "privacy") else OVERLAP_EDGES
         merge = Table.fit([pair_edges], [np.asarray(s.pair_feat, float)], np.asarray(s.pair_merged, bool))
-        errors = {}
+        errors, head_gain = {}, {}
+        for name in FLOOR_TABLES.values() if k in ("overhead", "privacy") else ():
+            r, h = np.asarray(s.errors.get(name + "_r", ()), float), np.asarray(s.errors.get(name + "_h", ()), float)
+            if len(r) >= 30:
+                # the radial error's share of the head-height shift, by least squares; the
+                # table then holds the rest
+                head_gain[name] = float(r @ h / (h @ h)) if h @ h > 0 else 0.0
+                errors[name + "_r"] = Quantiles.fit(r - head_gain[name] * h)
         for name, v in s.errors.items():
+            if name in errors or name in {t + "_h" for t in FLOOR_TABLES.values()}:  # (not the windows' frag_h, clutter_h)
+                continue
             errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
         if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:
             errors["u_clip"] = errors["u"]
-        if len(s.errors.get("xy_clip_r", ())) < 30:  # too few head-cut blobs: they take the whole ones' error
-            errors.pop("xy_clip_r", None), errors.pop("xy_clip_t", None)
+        for name in FLOOR_TABLES.values():  # too few blobs in a state: they take another state's tables (floor_table)
+            if len(s.errors.get(name + "_r", ())) < 30:
+                errors.pop(name + "_r", None), errors.pop(name + "_t", None)
         n_clutter_ids = max(len(s.clutter_ids), 1)
         out[k] = DetectorModel(
-            detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s), merge=merge, merge_rho=fit_merge_rho(s, merge), errors=errors,
+            detect=detect, rho=fit_rho(s, p), err_rho=fit_err_rho(s, head_gain), head_gain=head_gain, merge=merge, merge_rho=fit_merge_rho(s, merge), errors=errors,
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
             clutter=s.clutter / s.frames if s.frames else 0.0,
             clutter_frames=max(1.0, s.clutter / n_clutter_ids) if k == "windows" else 1.0,

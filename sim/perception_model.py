@@ -36,7 +36,12 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
            errors persist from frame to frame as the rendered ones do (the same silhouette gives
            the same error): the uniforms behind them are a Gaussian AR(1) copula per person and
-           camera with the fitted lag-one correlation ``err_rho``.
+           camera with the fitted lag-one correlation ``err_rho``. Floor errors (overhead,
+           privacy) are drawn along and across the camera's radial direction from tables by the
+           blob's state (head cut or whole, near another person or alone:
+           ``analytic_detectors.FLOOR_TABLES``), and the radial one adds ``head_gain`` times the
+           head-height shift (``CameraGeometry.head_shift``): the detector places a person by the
+           head, and a walking person's head bobs.
   label    P(the appearance label is the person's own colour); otherwise another colour of the
            scene's palette, drawn uniformly (the label is an appearance class, never an id).
   clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
@@ -75,6 +80,9 @@ DETECTORS = ("horizontal", "oblique", "windows", "overhead", "privacy")
 # horizontal: bearing blobs of horizontal cameras; oblique: bearing blobs of oblique cameras;
 # windows: oblique cameras' flow windows; overhead, privacy: floor detections of overhead cameras
 
+# overhead, privacy: a blob whose silhouette lies within this many body widths of another detected
+# person's in the image takes the "near" error tables (``analytic_detectors.FLOOR_TABLES``)
+NEAR_GAP = 1.5
 # quantile levels of an error table (the ends are the 0.5 % and 99.5 % quantiles)
 LEVELS = (0.005, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.995)
 
@@ -197,6 +205,9 @@ class DetectorModel:
     restart: float = 0.0  # per frame, an id that continues is replaced by a new one
     swap: float = 0.0  # at a split, the merged window's id goes to the other person
     max_gap: int = 2  # frames a window's id survives without a window
+    # overhead, privacy: per floor error table (``analytic_detectors.FLOOR_TABLES``) the share of
+    # the geometric head-height shift (``CameraGeometry.head_shift``) in the radial error
+    head_gain: dict[str, float] = field(default_factory=dict)
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -210,6 +221,7 @@ class DetectorModel:
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
             "fragment_frames": round(self.fragment_frames, 3), "fragment_label": round(self.fragment_label, 6),
             "restart": round(self.restart, 6), "swap": round(self.swap, 6), "max_gap": int(self.max_gap),
+            **({"head_gain": {k: round(v, 4) for k, v in self.head_gain.items()}} if self.head_gain else {}),
         }
 
     @classmethod
@@ -220,10 +232,13 @@ class DetectorModel:
                 clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
                 fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
-                swap=float(d["swap"]), max_gap=int(d["max_gap"]))
+                swap=float(d["swap"]), max_gap=int(d["max_gap"]),
+                head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()})
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
+        if not all(np.isfinite(v) for v in m.head_gain.values()):
+            raise ValueError("head_gain values must be finite")
         if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
             raise ValueError("clutter and fragment must be >= 0, clutter_frames and fragment_frames >= 1, max_gap >= 0")
         return m

@@ -193,7 +193,7 @@ def camera_tables(scene: Scene, traj: Trajectories, geometry: dict, occlusion, c
 
 
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
-             render_workers: int | None = None) -> Recording:
+             render_workers: int | None = None, perception_draw: int = 0) -> Recording:
     """Simulate ``scene`` for ``duration`` seconds with ``seed``; see the module docstring.
 
     sensing: "analytic" (projection + ray-cast occlusion) or "rendered" (``sim.rendered``).
@@ -201,7 +201,11 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     progress: a bar (tqdm) on stderr when it is a terminal (True), or on the given stream: over the
     IMU samples and ray-cast camera frames in analytic mode, over the rendered camera frames in rendered mode (the
     rendering is nearly all of its time). render_workers: the rendered mode's worker threads
-    (``sim.rendered.worker_count``; the tables do not depend on it).
+    (``sim.rendered.worker_count``; the tables do not depend on it). perception_draw: 0 (the
+    default) is the recording of ``seed``; k > 0 redraws only the analytic camera tables' random
+    streams (``numpy.random.SeedSequence((seed, k))``; walkers and phones unchanged), so figures can be
+    averaged over several draws of the perception model on the same paths (``scripts.sensing_transfer
+    --draws``).
     """
     if sensing not in SENSING_MODES:
         raise ValueError(f"sensing must be one of {SENSING_MODES}, got {sensing!r}")
@@ -212,6 +216,8 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     model = perception_model(scene)
     rng = np.random.default_rng(seed)
     motion_rng, imu_rng, cam_rng, render_rng = rng.spawn(4)
+    if perception_draw:
+        cam_rng = np.random.default_rng(np.random.SeedSequence((int(seed), int(perception_draw))))
     cam_rngs = dict(zip([c.name for c in scene.cameras], cam_rng.spawn(len(scene.cameras))))
 
     traj = plan_trajectories(scene, duration, motion_rng)

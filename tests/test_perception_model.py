@@ -237,6 +237,15 @@ def test_calibrate_sensing_fits_a_rendered_recording(tmp_path, capsys):
     # an analytic recording is refused: the model is fitted to rendered ones
     assert main(["generate", "occlusion_lab", "--duration", "1", "--out", str(tmp_path / "an"), "--quiet"]) == 0
     assert main(["calibrate-sensing", str(tmp_path / "an"), "--out", str(out)]) == 2
+    # --only refits the named detectors and keeps the others from --base; --draws averages the
+    # simulation over perception draws
+    only = tmp_path / "only.json"
+    assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--only", "windows", "--base", str(out),
+                 "--draws", "2", "--rounds", "1"]) == 0
+    a, b = load_model(out), load_model(only)
+    assert b["oblique"].to_dict() == a["oblique"].to_dict() and b["overhead"].to_dict() == a["overhead"].to_dict()
+    assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--only", "nope"]) == 2
+    assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--draws", "0"]) == 2
 
 
 def test_fitting_by_simulation_scales_counted_rates_towards_the_rendered_ones():
@@ -454,3 +463,78 @@ def test_head_cut_overhead_blobs_err_along_the_radial_direction_and_the_fit_find
     assert len(s.errors["xy_clip_r"]) > 100
     assert abs(r.bias - 0.05) < 0.03 and 0.07 < r.sigma < 0.13
     assert abs(t.bias) < 0.003 and t.sigma < 0.01
+
+
+def test_overhead_errors_follow_the_head_shift_and_nearness_and_the_fit_finds_them_back(tmp_path):
+    """A ceiling camera places a person by the head: a walking person's bobbing head moves the
+    floor point out by the head-height shift (``CameraGeometry.head_shift``), and a blob near
+    another person's errs more. Simulated with known parameters (60 % of the head shift; whole
+    blobs alone err +- 2 mm, near another person 1 cm outwards +- 2 cm; frame correlation 0.5),
+    the measurement and the fit find them back."""
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.rho, o.merge, o.clutter, o.err_rho = constant(1.0), 0.0, constant(0.0), 0.0, 0.5
+        o.errors = {"xy": Quantiles.gaussian(0.005), "xy_r": Quantiles.gaussian(0.002), "xy_t": Quantiles.gaussian(0.002),
+                    "xy_near_r": Quantiles.gaussian(0.02, bias=0.01), "xy_near_t": Quantiles.gaussian(0.002)}
+        o.head_gain = {"xy": 0.6, "xy_near": 0.6}
+    scene = load_scene("overhead_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=8"])
+    rec = simulate(scene, seed=0, duration=60.0)
+    stats = pf.measure(rec, scene)
+    s = stats["overhead"]
+    assert len(s.errors["xy_r"]) > 2000 and len(s.errors["xy_near_r"]) > 300
+    # the head shift is what makes the raw radial errors wide: walking people's heads bob
+    assert np.std(s.errors["xy_r"]) > 3 * 0.002
+    m = pf.fit(stats, ["test"])["overhead"]
+    assert abs(m.head_gain["xy"] - 0.6) < 0.05 and abs(m.head_gain["xy_near"] - 0.6) < 0.1
+    r, near = m.errors["xy_r"], m.errors["xy_near_r"]
+    assert abs(r.bias) < 0.001 and 0.0015 < r.sigma < 0.003
+    assert abs(near.bias - 0.01) < 0.004 and 0.015 < near.sigma < 0.025
+    assert abs(m.err_rho - 0.5) < 0.1
+
+
+def test_a_model_without_head_gains_or_radial_tables_reads_and_samples_as_before(tmp_path):
+    """Model files written before the radial floor tables (no ``head_gain``, no ``xy_r``) load,
+    and their floor errors are drawn per floor axis from ``xy`` as they were."""
+    from trackroom.sim.analytic_detectors import floor_errors
+    from trackroom.sim.perception_model import DetectorModel, Quantiles
+
+    d = load_model("fitted")["overhead"].to_dict()
+    d.pop("head_gain", None)
+    d["errors"] = {"xy": Quantiles.gaussian(0.01).to_dict()}
+    m = DetectorModel.from_dict(d)
+    assert m.head_gain == {}
+    cam = _ceiling_camera()
+    u = np.array([0.1, 0.5, 0.9])
+    e = floor_errors(m, cam, np.array([[3.0, 2.0]] * 3), u, u[::-1], np.zeros(3, bool), np.ones(3, bool), np.ones(3))
+    assert np.allclose(e[:, 0], m.error("xy").at(u)) and np.allclose(e[:, 1], m.error("xy").at(u[::-1]))
+
+
+def test_a_perception_draw_redraws_the_camera_tables_only():
+    """``simulate(perception_draw=k)``: 0 is the seed's recording; k > 0 redraws the analytic
+    camera tables on the same paths, phones and truth (sensing_transfer --draws, calibrate-sensing
+    --draws), the same for the same k."""
+    scene = load_scene("overhead_lab")
+    a, b, c, d = (simulate(scene, seed=3, duration=3.0, perception_draw=k) for k in (0, 0, 1, 1))
+    ref = simulate(scene, seed=3, duration=3.0)
+    fd = "floor_detections"
+    pd.testing.assert_frame_equal(a.observations[fd], ref.observations[fd], check_exact=True)
+    pd.testing.assert_frame_equal(c.observations[fd], d.observations[fd], check_exact=True)
+    assert not a.observations[fd].equals(c.observations[fd])
+    pd.testing.assert_frame_equal(a.observations["imu"], c.observations["imu"], check_exact=True)
+    pd.testing.assert_frame_equal(a.truth.tables["people"], c.truth.tables["people"], check_exact=True)
+
+
+def test_the_fit_turns_head_shifts_into_gains_and_keeps_the_windows_size_tables():
+    """The floor tables' head shifts (``xy_h``) become a gain, not a table; the windows' fragment
+    and clutter heights (``frag_h``, ``clutter_h``) stay tables."""
+    rng = np.random.default_rng(0)
+    stats = {k: pf.DetectorStats() for k in DETECTORS}
+    h = rng.normal(0.0, 0.02, 500)
+    stats["overhead"].errors.update(xy_r=list(0.8 * h + rng.normal(0.0, 0.001, 500)), xy_t=list(rng.normal(0.0, 0.001, 500)), xy_h=list(h))
+    stats["windows"].errors.update(frag_h=list(rng.normal(size=100)), clutter_h=list(rng.normal(size=100)))
+    m = pf.fit(stats, ["test"])
+    assert abs(m["overhead"].head_gain["xy"] - 0.8) < 0.02 and "xy_h" not in m["overhead"].errors
+    assert m["overhead"].errors["xy_r"].sigma < 0.0015
+    assert {"frag_h", "clutter_h"} <= set(m["windows"].errors)

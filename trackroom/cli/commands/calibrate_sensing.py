@@ -4,7 +4,7 @@ Reads rendered recordings (folders, or folders holding them; each keeps its reso
 ``scene.toml``, its seed and duration in the manifest) or renders them first (``--render SCENE``
 with ``--seeds``), measures every detector against the analytic view of the same walkers
 (``sim.perception_fit``), fits the model by counting, then by simulation (``--rounds``: the model
-is simulated on the same scenes and seeds and its rates scaled by rendered / analytic), and writes it (``--out``, JSON; a scene uses it with
+is simulated on the same scenes and seeds, ``--draws`` perception draws each, and its rates scaled by rendered / analytic), and writes it (``--out``, JSON; a scene uses it with
 ``sensors.perception = "PATH"``). Then it simulates analytic recordings with the fitted model on
 the same scenes and seeds, measures them the same way, and prints the fitted parameters and a
 table per detector, rendered beside analytic (``--table`` also writes it as CSV).
@@ -31,6 +31,14 @@ def add_arguments(p) -> None:
     p.add_argument("--rounds", type=int, default=2,
                    help="rounds of fitting by simulation after counting: each simulates the model on the same scenes and "
                         "seeds and scales its rates by rendered / analytic (default 2; 0: counts only)")
+    p.add_argument("--draws", type=int, default=1,
+                   help="perception draws per recording in each simulation (rounds and the final table): the rates "
+                        "are corrected by their means over the draws, not by one draw's noise (default 1)")
+    p.add_argument("--only", metavar="DETECTORS",
+                   help="refit only these detectors (comma-separated, e.g. overhead,privacy) and keep the others "
+                        "from --base; the recordings need only show these detectors")
+    p.add_argument("--base", default="fitted",
+                   help="with --only: the model the other detectors come from (default: the bundled model)")
     p.add_argument("--quiet", action="store_true", help="no progress bar while rendering")
 
 
@@ -81,6 +89,8 @@ def run(args) -> int:
 
     if args.rounds < 0:
         raise CommandError(f"--rounds must be 0 or more, got {args.rounds}")
+    if args.draws < 1:
+        raise CommandError(f"--draws must be 1 or more, got {args.draws}")
     folders = find_recordings(args.recordings) if args.recordings else []
     if args.render:
         check_duration(args.duration)
@@ -107,6 +117,27 @@ def run(args) -> int:
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
     model = pf.fit(rendered, names)
+    if args.only:
+        from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
+
+        only = [k.strip() for k in args.only.split(",") if k.strip()]
+        unknown = [k for k in only if k not in DETECTORS]
+        if unknown or not only:
+            raise CommandError(f"--only: unknown detector(s) {', '.join(unknown) or '(none)'}; choose from {', '.join(DETECTORS)}")
+        try:
+            base = load_model(args.base)
+        except ModelError as e:
+            raise CommandError(str(e)) from None
+        # the detectors are fitted independently (each its own statistics and corrections): the
+        # others are the base model's as they were
+        model.fitted_on = list(dict.fromkeys(base.fitted_on + names))
+
+    def keep_others(model):
+        if args.only:  # the other detectors stay the base model's through the correction rounds too
+            model.detectors = {k: model.detectors[k] if k in only else base.detectors[k] for k in model.detectors}
+        return model
+
+    model = keep_others(model)
 
     def simulated(model, path):
         """The model's analytic statistics on the same scenes and seeds (the model saved at ``path``,
@@ -114,14 +145,16 @@ def run(args) -> int:
         model.save(path)
         out = []
         for d, rec, scene, feats, _ in measured:
-            sim = simulate(_with_model(scene, path), int(rec.meta["seed"]), float(rec.meta["duration"]))
-            out.append(pf.measure(sim, scene, feats))
+            for draw in range(args.draws):  # draw 0: the recording of the seed; more redraw the camera streams
+                sim = simulate(_with_model(scene, path), int(rec.meta["seed"]), float(rec.meta["duration"]),
+                               perception_draw=draw)
+                out.append(pf.measure(sim, scene, feats))
         return pf.merge_stats(out)
 
     with tempfile.TemporaryDirectory() as tmp:  # the rounds' models: --out gets only the final one
         trial = Path(tmp) / "model.json"
         for i in range(args.rounds):  # fitting by simulation: rates corrected until analytic matches rendered
-            model = pf.correct(model, rendered, simulated(model, trial))
+            model = keep_others(pf.correct(model, rendered, simulated(model, trial)))
             print(f"correction round {i + 1} of {args.rounds} done", flush=True)
     analytic = simulated(model, args.out)  # writes the final model
     print(f"{args.out}: perception model fitted on {len(names)} rendered recording(s)")
