@@ -25,7 +25,7 @@ Pipeline (one call of ``estimate``):
    The MAP sequence over s is found by the max-product recursion (eq. 19)
        V_k(s) = e_k(s) + max_s' [V_{k-1}(s') + log p(s | s')],   log L_MAP = max_s V_K(s)  (eq. 20)
    and psi_k, which has a flat prior, is integrated out within each frame in closed form:
-       log int vm(psi_c; psi, kappa_c) vm(psi_m; psi, kappa_m + o) dpsi/2pi  ~=  log vm(psi_m - psi_c; o, kappa_eff)
+       log int vm(psi_c; psi, kappa_c) vm(psi_m; psi + o, kappa_m) dpsi/2pi  ~=  log vm(psi_m - psi_c; o, kappa_eff)
        - log 2pi,   1/kappa_eff = 1/kappa_c + 1/kappa_m,
    where o is the phone's yaw offset in its pocket (beyond the paper, which assumes o = 0): o is
    unknown, with a von Mises prior of spread ``pocket_sigma_deg``, and is integrated out over each
@@ -154,10 +154,9 @@ def offset_prior(z: np.ndarray, seg: np.ndarray, assigned: np.ndarray, n_segment
     rows other segments' claims gave that phone: R0(h, i) = kappa0 + sum of z[r, i] over rows r
     with assigned[r] = i and seg[r] != h (``z`` (N, P) = w kappa exp(i delta), as in
     ``heading_evidence``). Leaving the segment's own rows out keeps its evidence from counting twice."""
-    N, P = z.shape
     claimed = assigned >= 0
     r, i = np.flatnonzero(claimed), assigned[claimed]
-    per_seg = np.zeros((n_segments, P), complex)
+    per_seg = np.zeros((n_segments, z.shape[1]), complex)
     np.add.at(per_seg, (seg[r], i), z[r, i])
     return kappa0 + per_seg.sum(axis=0)[None, :] - per_seg
 
