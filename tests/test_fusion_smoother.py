@@ -143,7 +143,7 @@ def bend_heading(obs: Observations, offset_of_t) -> Observations:
 def test_offset_knots_follow_a_heading_bias_that_ramps_along_the_path():
     """A magnetometer bias that ramps from 0 to 15 degrees over a noiseless 40 s walk to and fro
     past two cameras: with the offset as knots 5 s apart (``offset_knot_s``) every knot after
-    the first is within 4 degrees of the bias (measured at most 3.8, the first, where the walker
+    the first is within 4 degrees of the bias (measured at most 3.5; the first, where the walker
     starts from rest, 7.9) and the path's RMSE is at most 0.6 of the constant offset's (measured
     0.083 m against 0.174 m, whose one offset is 3.8 degrees off at the median)."""
     walk = {**STRAIGHT, "waypoints": [[1.0, 1.0], [9.0, 9.0]], "loop": True, "speed": [1.1, 1.1]}
