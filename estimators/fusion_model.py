@@ -1,12 +1,19 @@
 """Phone factors on a trajectory's velocity, for the fusion smoother (``fusion_smoother``).
 
-Variables: the trajectory X (state s_k = [x, vx, y, vy], ``qp_model``) followed by two per-person
-parameters theta = [l, delta]: l the step length at the reference cadence f_0 (m) and delta the
-phone's yaw offset in the pocket (rad; walking direction = phone yaw - delta). Their priors are
-extra rows of the prior factor (``Prior.with_parameters``).
+Variables: the trajectory X (state s_k = [x, vx, y, vy], ``qp_model``) followed by per-person
+parameters theta = [l, delta_0, ..., delta_{K-1}]: l the step length at the reference cadence f_0
+(m) and delta the phone's heading offset (rad; walking direction = phone yaw - delta): the yaw
+offset in the pocket plus the indoor magnetic disturbance, which is smooth along the path. With
+one knot (K = 1) delta is one constant; with knots every ``knot_steps`` grid steps it is linear
+between them,
+
+    delta(k) = (1 - w_k) delta_j + w_k delta_{j+1},   j = floor(k / knot_steps), w_k = k / knot_steps - j,
+
+with a random-walk prior between consecutive knots (``offset_knot_prior``). Their priors are
+extra rows of the prior factor (``Prior.with_parameter_rows``).
 
 For grid step k with phone heading psi_k (``phone_motion``), unit walking direction
-e_k = (cos(psi_k - delta), sin(psi_k - delta)) and its left normal n_k:
+e_k = (cos(psi_k - delta(k)), sin(psi_k - delta(k))) and its left normal n_k:
 
 - **speed from cadence** (walking, a cadence f_k): the speed is linear in cadence above a cadence
   f_1 at which it extrapolates to zero, and proportional to the step length l at f_0:
@@ -51,7 +58,7 @@ import scipy.sparse as sp
 
 from .qp_model import IVX, IVY, NS
 
-N_PAR = 2  # [l, delta]
+N_PAR = 2  # [l, delta] with one offset knot (the constant offset)
 G_MIN = 0.15  # least speed per unit step length, 1/s (0.1 m/s at l = 0.7 m): cadences near f_1
 IL, ID = 0, 1
 
@@ -181,8 +188,9 @@ def irls_weight(r: np.ndarray, c: float, loss: str) -> np.ndarray:
 class PhoneFactors:
     """The phone rows of one person: walking steps ``kw`` with heading ``psi`` and cadence ``f``
     (NaN: none), stopped steps ``ks``, gyro pairs ``kg`` -> ``kg + 1`` with heading change ``dpsi``.
-    ``T``: trajectory steps (the parameters sit at columns NS T, NS T + 1). ``l_prior``: the prior
-    mean of l, for the fixed weights."""
+    ``T``: trajectory steps (the parameters sit at columns NS T (l) and NS T + 1 ... (the offset's
+    knots, ``knot_steps`` apart; one knot if 0)). ``l_prior``: the prior mean of l, for the fixed
+    weights."""
 
     T: int
     kw: np.ndarray
@@ -196,8 +204,15 @@ class PhoneFactors:
     s: PhoneFactorSettings
     omega: np.ndarray | None = None  # yaw rate at the walking steps, rad/s (None: no widening)
     accel: np.ndarray | None = None  # horizontal acceleration at the walking steps, m/s^2 (None: no widening)
+    knot_steps: int = 0  # grid steps between heading-offset knots; 0: one constant offset
+    bounded: bool = False  # knots as deviations b_j about a constant delta_c (``OffsetKnots``)
 
     def __post_init__(self):
+        self.n_knots = n_knots(self.T, self.knot_steps)
+        self.bounded = bool(self.bounded and self.n_knots > 1)
+        self.n_par = 1 + self.n_knots + int(self.bounded)
+        # each walking row's offset: knots j0, j0 + 1 with weights 1 - w, w (module docstring)
+        self.kj, self.kwt = knot_weights(self.kw, self.T, self.knot_steps)
         f = self.f
         has = np.isfinite(f)
         self.has_f = has
@@ -226,8 +241,15 @@ class PhoneFactors:
     def _raw(self, X: np.ndarray):
         """Raw whitened residuals and their Jacobian as (rows, cols, vals) triplets."""
         s, T = self.s, self.T
-        l, delta = X[NS * T + IL], X[NS * T + ID]
+        l = X[NS * T + IL]
         cl, cd = NS * T + IL, NS * T + ID
+        cb = cd + int(self.bounded)  # the first knot's column
+        knots = X[cb:cb + self.n_knots]
+        j0, w1 = self.kj, self.kwt
+        j1 = np.minimum(j0 + 1, self.n_knots - 1)
+        delta_w = (1.0 - w1) * knots[j0] + w1 * knots[j1]  # the offset at each walking row
+        if self.bounded:
+            delta_w = delta_w + X[cd]
         res, R, C, V = [], [], [], []
         row0 = 0
         # along-track speed and cross-track heading. With a cadence both are read relative to
@@ -235,7 +257,7 @@ class PhoneFactors:
         # path shrunk towards a camera together with l then costs the phone rows nothing, so
         # only the step length's prior, not the rows' noise model, decides the scale
         ka, fa = self.kw[self.ia], self.f[self.ia]
-        th = self.psi[self.ia] - delta
+        th = self.psi[self.ia] - delta_w[self.ia]
         e = np.stack([np.cos(th), np.sin(th)], axis=1)
         nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
         v = np.stack([X[ka * NS + IVX], X[ka * NS + IVY]], axis=1)
@@ -247,13 +269,16 @@ class PhoneFactors:
         res.append((ev - speed) / sa)
         # r = (e.v - s) / (c s), c = sig_a / s~:  dr/ds = -(e.v) / (c s^2), ds/dl = g
         rows = row0 + np.arange(len(ka))
-        R += [rows, rows, rows, rows]
-        C += [ka * NS + IVX, ka * NS + IVY, np.full(len(ka), cl), np.full(len(ka), cd)]
-        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * ga / sa, -nv / sa]
+        ia, dd = self.ia, -nv / sa  # dr/d delta(k), shared by its two knots
+        R += [rows, rows, rows, rows, rows]
+        C += [ka * NS + IVX, ka * NS + IVY, np.full(len(ka), cl), cb + j0[ia], cb + j1[ia]]
+        V += [e[:, 0] / sa, e[:, 1] / sa, -(ev / speed) * ga / sa, (1.0 - w1[ia]) * dd, w1[ia] * dd]
+        if self.bounded:
+            R, C, V = R + [rows], C + [np.full(len(ka), cd)], V + [dd]
         row0 += len(ka)
         # cross-track heading (rows with a cadence relative to s_k(l); the others to s~_k)
         kw = self.kw
-        th = self.psi - delta
+        th = self.psi - delta_w
         e = np.stack([np.cos(th), np.sin(th)], axis=1)
         nrm = np.stack([-e[:, 1], e[:, 0]], axis=1)
         v = np.stack([X[kw * NS + IVX], X[kw * NS + IVY]], axis=1)
@@ -272,9 +297,11 @@ class PhoneFactors:
             dl[nc] = -(nv[nc] / sc[nc]) / l
         res.append(nv / sc)
         rows = row0 + np.arange(len(kw))
-        R += [rows, rows, rows, rows]
-        C += [kw * NS + IVX, kw * NS + IVY, np.full(len(kw), cd), np.full(len(kw), cl)]
-        V += [nrm[:, 0] / sc, nrm[:, 1] / sc, ev / sc, dl]
+        R += [rows, rows, rows, rows, rows]
+        C += [kw * NS + IVX, kw * NS + IVY, cb + j0, cb + j1, np.full(len(kw), cl)]
+        V += [nrm[:, 0] / sc, nrm[:, 1] / sc, (1.0 - w1) * ev / sc, w1 * ev / sc, dl]
+        if self.bounded:
+            R, C, V = R + [rows], C + [np.full(len(kw), cd)], V + [ev / sc]
         row0 += len(kw)
         # stopped
         ks = self.ks
@@ -306,6 +333,12 @@ class PhoneFactors:
             row0 += len(k0)
         return np.concatenate(res), np.concatenate(R), np.concatenate(C), np.concatenate(V), row0
 
+    def offsets(self, X: np.ndarray) -> np.ndarray:
+        """The heading offset at each knot (rad): delta_j, or delta_c + b_j when ``bounded``."""
+        cd = NS * self.T + ID
+        cb = cd + int(self.bounded)
+        return X[cb:cb + self.n_knots] + (X[cd] if self.bounded else 0.0)
+
     def raw_residual(self, X: np.ndarray) -> np.ndarray:
         return self._raw(X)[0]
 
@@ -316,6 +349,57 @@ class PhoneFactors:
     def robust(self) -> Robust:
         """These rows through Huber's loss (threshold ``huber`` sigmas)."""
         return Robust(self, self.s.huber, self.s.loss)
+
+
+def n_knots(T: int, knot_steps: int) -> int:
+    """Number of heading-offset knots for T grid steps, ``knot_steps`` apart (1 if 0: a constant)."""
+    if knot_steps <= 0 or T < 2:
+        return 1
+    return int(np.ceil((T - 1) / knot_steps)) + 1
+
+
+def knot_weights(k: np.ndarray, T: int, knot_steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """(j, w): step k's offset is (1 - w) delta_j + w delta_{j+1} (j = 0, w = 0 with one knot)."""
+    k = np.asarray(k, int)
+    K = n_knots(T, knot_steps)
+    if K == 1:
+        return np.zeros(len(k), int), np.zeros(len(k))
+    j = np.minimum(k // knot_steps, K - 2)
+    return j, (k - j * knot_steps) / knot_steps
+
+
+def offset_knot_prior(step_length: np.ndarray, knot_steps: int, T: int, rate: float, floor: float) -> np.ndarray:
+    """Std (rad) of delta_j - delta_{j-1} for j = 1 .. K-1: a random walk along the path,
+
+        sigma_j^2 = rate^2 max(d_j, floor),   d_j = sum over the steps between the knots of the
+                                             distance the phone says was walked (m),
+
+    ``step_length`` (T,) the metres walked in each grid step at the prior's step length (0 stopped),
+    ``rate`` rad / sqrt(m); ``floor`` m keeps a knot free where the walker stood (the phone may
+    still be turned in the pocket)."""
+    K = n_knots(T, knot_steps)
+    if K == 1:
+        return np.zeros(0)
+    d = np.add.reduceat(np.asarray(step_length, float), np.arange(0, T, knot_steps))[:K - 1]
+    return rate * np.sqrt(np.maximum(d, floor))
+
+
+def offset_bounded_prior(step_length: np.ndarray, knot_steps: int, T: int, sigma: float, length: float,
+                         floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """(rho_j, sigma_j) of the bounded model's knots b_j (``PhoneFactors.bounded``): a stationary
+    Gauss-Markov (Ornstein-Uhlenbeck) process along the path about the constant offset,
+
+        b_0 ~ N(0, sigma^2),   b_j - rho_j b_{j-1} ~ N(0, sigma^2 (1 - rho_j^2)),   rho_j = exp(-d_j / length),
+
+    d_j the metres walked between the knots (at least ``floor``), as ``offset_knot_prior``: a
+    disturbance of std ``sigma`` (rad) that changes over ``length`` m, and is no wider after a long
+    walk (a random walk's would grow without bound)."""
+    K = n_knots(T, knot_steps)
+    if K == 1:
+        return np.zeros(0), np.zeros(0)
+    d = np.add.reduceat(np.asarray(step_length, float), np.arange(0, T, knot_steps))[:K - 1]
+    rho = np.exp(-np.maximum(d, floor) / length)
+    return rho, sigma * np.sqrt(1.0 - rho**2)
 
 
 class ScaledPrior:

@@ -47,8 +47,8 @@ from scipy.optimize import linear_sum_assignment
 from trackroom.recording import Calibration, Observations
 
 from .base import EstimatorError, check_tracks, param, register
-from .fusion_model import (ID, IL, LOSSES, N_PAR, PhoneFactors, PhoneFactorSettings, Residuals, Robust, ScaledPrior,
-                           speed_per_step_length)
+from .fusion_model import (ID, IL, LOSSES, PhoneFactors, PhoneFactorSettings, Residuals, Robust, ScaledPrior,
+                           offset_bounded_prior, offset_knot_prior, speed_per_step_length)
 from .gait import GaitModel, load_default
 from .phone_motion import MotionSettings, PhoneMotion, phone_motion
 from trackroom.scenes.spec import GaussMarkovParams
@@ -96,6 +96,21 @@ class FusionSmoother(QPSmoother):
                                          "cadence_ref (f - cadence_zero) / (cadence_ref - cadence_zero) (population "
                                          "constant; fitted on development recordings, docs/fusion_smoother.md)")
         offset_sigma_deg: float = param(180.0, "prior std of the phone's yaw offset in the pocket, deg")
+        offset_knot_s: float = param(0.0, "the heading offset as knots this far apart (s), linear between them, with a "
+                                          "random walk along the path between knots (offset_rate_deg): the pocket "
+                                          "offset plus the indoor magnetic disturbance; 0: one constant offset")
+        offset_rate_deg: float = param(5.0, "random walk of the heading offset between knots, deg per sqrt(m) walked "
+                                            "(indoor magnetic disturbance: about 10 deg changing over 2-4 m near walls, "
+                                            "docs/fusion_smoother.md)")
+        offset_disturbance_deg: float = param(0.0, "with knots: > 0 makes them deviations about one constant offset, "
+                                                   "a bounded disturbance of this std (deg) changing over "
+                                                   "offset_length_m (an Ornstein-Uhlenbeck prior, "
+                                                   "fusion_model.offset_bounded_prior) instead of a random walk; 0: "
+                                                   "the random walk (offset_rate_deg)")
+        offset_length_m: float = param(2.0, "with offset_disturbance_deg: the distance over which the disturbance "
+                                            "changes, m")
+        offset_floor_m: float = param(0.25, "least distance counted between two knots for their random walk, m "
+                                            "(a phone may turn in the pocket while its carrier stands)")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
         speed_rel: float = param(0.08, "relative speed noise of cadence x step length")
@@ -140,6 +155,8 @@ class FusionSmoother(QPSmoother):
                 raise EstimatorError(f"fusion_smoother: {key} must be positive, got {getattr(c, key)}")
         if c.bearing_loss not in LOSSES or not c.bearing_robust > 0:
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
+        if c.offset_knot_s < 0 or not c.offset_rate_deg > 0 or not c.offset_floor_m > 0:
+            raise EstimatorError("fusion_smoother: need offset_knot_s >= 0, offset_rate_deg > 0 and offset_floor_m > 0")
         if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
             raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1, starts >= 1 and start_iter >= 1")
         if not 0 <= c.cadence_zero < c.cadence_ref:
@@ -208,7 +225,12 @@ class FusionSmoother(QPSmoother):
             d["mismatch"] = {p: float(v) for p, v in mismatch.get(label, {}).items()}
             if pid:
                 d["step_length"] = float(res.X[NS * grid.T + IL])
-                d["heading_offset_deg"] = float(np.degrees(np.angle(np.exp(1j * res.X[NS * grid.T + ID]))))
+                knots = self.factors(motions[pid], grid.T).offsets(res.X)
+                # the mean offset (circular) over the knots; its spread along the path beside it
+                mean = np.angle(np.mean(np.exp(1j * knots)))
+                d["heading_offset_deg"] = float(np.degrees(mean))
+                d["heading_offset_range_deg"] = float(np.degrees(np.ptp(np.angle(np.exp(1j * (knots - mean))))))
+                d["heading_offset_knots_deg"] = np.degrees(knots).tolist()
             self.diagnostics_[label] = d
             f = track_frame(label, res.X, 0, grid.T, grid.dt)
             f["phone_id"] = pid
@@ -259,11 +281,41 @@ class FusionSmoother(QPSmoother):
         rate = np.abs(np.concatenate([m.dyaw, [0.0]]) + np.concatenate([[0.0], m.dyaw])) / (2 * dt)  # yaw rate at t_k
         return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
                             psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
-                            omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw])
+                            omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw],
+                            knot_steps=self.knot_steps(dt), bounded=self.config.offset_disturbance_deg > 0)
 
-    def augmented_prior(self, prior: Prior) -> Prior:
+    def knot_steps(self, dt: float) -> int:
+        """Grid steps between heading-offset knots (0: one constant offset)."""
         c = self.config
-        return prior.with_parameters([c.step_length, 0.0], [c.step_length_sigma, np.radians(c.offset_sigma_deg)], [0.1, 0.1])
+        return max(1, int(round(c.offset_knot_s / dt))) if c.offset_knot_s > 0 else 0
+
+    def augmented_prior(self, prior: Prior, fac: PhoneFactors | None = None) -> Prior:
+        """The prior with [l, delta_0, ..., delta_{K-1}] appended: l ~ N(step_length,
+        step_length_sigma), the first knot ~ N(0, offset_sigma_deg) and each later knot a random walk
+        from the one before, (delta_j - delta_{j-1}) ~ N(0, sigma_j) (``fusion_model.offset_knot_prior``:
+        offset_rate_deg per sqrt of the metres the phone says were walked between them)."""
+        c = self.config
+        K = 1 if fac is None else fac.n_knots
+        n_par = 1 + K if fac is None else fac.n_par
+        inv = np.concatenate([[1.0 / c.step_length_sigma, 1.0 / np.radians(c.offset_sigma_deg)], np.zeros(n_par - 2)])
+        W = sp.diags(inv).tolil()
+        if K > 1:
+            walked = np.zeros(prior.T)
+            walked[fac.kw] = fac.s_nom * prior.dt  # metres per step at the prior's step length
+            j = np.arange(1, K)
+            if fac.bounded:  # [l, delta_c, b_0 .. b_{K-1}]
+                rho, sig = offset_bounded_prior(walked, fac.knot_steps, prior.T, np.radians(c.offset_disturbance_deg),
+                                                c.offset_length_m, c.offset_floor_m)
+                W[2, 2] = 1.0 / np.radians(c.offset_disturbance_deg)
+                W[2 + j, 2 + j] = 1.0 / sig
+                W[2 + j, 1 + j] = -rho / sig
+            else:  # [l, delta_0 .. delta_{K-1}]
+                sig = offset_knot_prior(walked, fac.knot_steps, prior.T, np.radians(c.offset_rate_deg), c.offset_floor_m)
+                W[1 + j, 1 + j] = 1.0 / sig
+                W[1 + j, j] = -1.0 / sig
+        w = np.zeros(n_par)
+        w[0] = c.step_length / c.step_length_sigma
+        return prior.with_parameter_rows(W.tocsc(), w, np.full(n_par, 0.1))
 
     def solve_phone_only(self, prior: Prior, m: PhoneMotion, calibration: Calibration, X0: np.ndarray | None = None) -> SolveResult:
         """The phone's own explanation: prior + phone rows, no bearings, no constraints (from X0,
@@ -314,7 +366,7 @@ class FusionSmoother(QPSmoother):
             measured[fac.kw[fac.has_f]] = True
             mask = measured[1:] & measured[:-1]
             prior = self.prior(T, prior.dt, calibration, alt=(GaussMarkovParams(c.q_pos, c.q_vel_phone), mask))
-        return self.augmented_prior(prior)
+        return self.augmented_prior(prior, fac)
 
     def fused_prior(self, prior: Prior, fac: PhoneFactors, calibration: Calibration) -> Prior | ScaledPrior:
         """The prior of a solve with a phone: ``phone_prior``, with ``scale_free`` its transition
@@ -331,14 +383,15 @@ class FusionSmoother(QPSmoother):
         pa = self.fused_prior(prior, fac, calibration)
         # and the step length positive (l >= step_length_min): a walk run backwards with a
         # negative step length explains the bearings of a straight walk as well
-        l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + N_PAR))
-        Ca = sp.vstack([sp.hstack([C, sp.csc_matrix((C.shape[0], N_PAR))]), l_row], format="csc")
+        n_par = fac.n_par
+        l_row = sp.csc_matrix(([1.0], ([0], [NS * T + IL])), shape=(1, NS * T + n_par))
+        Ca = sp.vstack([sp.hstack([C, sp.csc_matrix((C.shape[0], n_par))]), l_row], format="csc")
         lower = np.append(lower, self.config.step_length_min)
         extra_a = None
         if extra is not None:
-            def extra_a(X, _f=extra, _nx=NS * T):  # noqa: F811 (the padded version of extra)
+            def extra_a(X, _f=extra, _nx=NS * T, _np=n_par):  # noqa: F811 (the padded version of extra)
                 out = _f(X[:_nx])
-                Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], N_PAR))], format="csc")
+                Ce = sp.hstack([out[0], sp.csc_matrix((out[0].shape[0], _np))], format="csc")
                 return (Ce,) + tuple(out[1:])
         obs_r = self.robust_bearings(obs, self.cameras_)
         resid = Residuals(obs_r, fac.robust())
@@ -447,10 +500,11 @@ class FusionSmoother(QPSmoother):
             e = np.stack([np.cos(m.heading - delta), np.sin(m.heading - delta)], axis=1)
             xy = sol[:2] + l * A + B
             v = (l * a + b)[:, None] * e
-            X = np.zeros(NS * T + N_PAR)
+            X = np.zeros(NS * T + fac.n_par)
             X[IX:NS * T:NS], X[IY:NS * T:NS] = xy[:, 0], xy[:, 1]
             X[IVX:NS * T:NS], X[IVY:NS * T:NS] = v[:, 0], v[:, 1]
-            X[NS * T + IL], X[NS * T + ID] = l, delta
+            X[NS * T + IL], X[NS * T + ID:] = l, 0.0 if fac.bounded else delta  # every knot at the start's offset
+            X[NS * T + ID] = delta
             out.append(X)
         return out
 

@@ -98,8 +98,18 @@ class Prior:
         mean, sigma, scale = (np.asarray(a, float).ravel() for a in (mean, sigma, scale))
         if not (len(mean) == len(sigma) == len(scale)) or np.any(sigma <= 0) or np.any(scale <= 0):
             raise ValueError("extra parameters need one mean, positive sigma and positive scale each")
-        G = sp.block_diag([self.G, sp.diags(1.0 / sigma)], format="csc")
-        g = np.concatenate([self.g, mean / sigma])
+        return self.with_parameter_rows(sp.diags(1.0 / sigma), mean / sigma, scale)
+
+    def with_parameter_rows(self, W, w, scale) -> "Prior":
+        """This prior with extra parameters theta appended to X and the prior rows W theta - w
+        below G (W square and invertible, e.g. a random walk's differences, so G stays square as
+        the lifted solver needs). ``scale``: their typical step (the solver's variable scaling)."""
+        W = sp.csc_matrix(W)
+        w, scale = np.asarray(w, float).ravel(), np.asarray(scale, float).ravel()
+        if W.shape[0] != W.shape[1] or not (W.shape[0] == len(w) == len(scale)) or np.any(scale <= 0):
+            raise ValueError("extra parameters need a square W, one w and one positive scale each")
+        G = sp.block_diag([self.G, W], format="csc")
+        g = np.concatenate([self.g, w])
         return Prior(G=G, g=g, dt=self.dt, T=self.T, par_scale=np.concatenate([self.par_scale, scale]))
 
     @staticmethod

@@ -8,6 +8,7 @@ wall time and in the process's CPU time (on a busy machine the wall time counts 
 turns; the load average is printed beside it).
 
     python -m scripts.bench_fusion --frames 240 3840 --repeat 3
+    python -m scripts.bench_fusion --frames 240 3840 --repeat 1 --param offset_knot_s=5
 """
 from __future__ import annotations
 
@@ -32,13 +33,17 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, nargs="+", default=[240, 3840])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="fusion_smoother parameter")
     args = ap.parse_args(argv)
-    print(f"load average {os.getloadavg()[0]:.1f}")
+    from scripts.experiment_fusion import parse_params
+
+    params = parse_params(args.param)
+    print(f"load average {os.getloadavg()[0]:.1f}; parameters {params or 'the defaults'}")
     for T in args.frames:
         rec = simulate(load_scene("bearing_hall"), args.seed, T / 4.0)
         times, cpu, parts = [], [], None
         for _ in range(args.repeat):
-            est = get("fusion_smoother")()
+            est = get("fusion_smoother")(**params)
             t0, c0 = time.perf_counter(), time.process_time()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)

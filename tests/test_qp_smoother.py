@@ -228,3 +228,15 @@ def test_bordered_lu_equals_a_plain_lu_and_is_only_used_for_dense_columns():
     np.testing.assert_allclose(lu.solve(rhs[:, 0]), spla.splu(K).solve(rhs[:, 0]), rtol=1e-9, atol=1e-9)
     plain = sparse_lu(sp.diags([np.ones(n - 1), 4.0 * np.ones(n), np.ones(n - 1)], [-1, 0, 1]).tocsc())
     assert not isinstance(plain, BorderedLU)
+    # more columns pass the test than the border holds (the heading offset's knots, each filling a
+    # stretch of rows): the DENSE_MAX fullest go to the border, the answer is the same
+    many = band.copy()
+    for d in range(20, 600, 50):
+        lo = max(0, d - 125)
+        many[lo:lo + 250, d] = g.normal(size=(min(250, n - lo), 1))
+        many[d, lo:lo + 250] = g.normal(size=(1, min(250, n - lo)))
+        many[d, d] = 50.0
+    K = many.tocsc()
+    lu = sparse_lu(K)
+    assert isinstance(lu, BorderedLU) and {200, 201} <= set(lu.d.tolist()) and len(lu.d) == 8
+    np.testing.assert_allclose(lu.solve(rhs), spla.splu(K).solve(rhs), rtol=1e-8, atol=1e-9)
