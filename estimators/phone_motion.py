@@ -37,14 +37,14 @@ import numpy as np
 import pandas as pd
 from scipy import ndimage, signal
 
-from .gait import GaitModel, bobbing_feature, tilt_compensated_yaw
+from .gait import GRAVITY_WINDOW_S, GaitModel, bobbing_feature, tilt_compensated_yaw
 
 
 @dataclass(frozen=True)
 class MotionSettings:
     """Feature windows and step-detector thresholds (see the module docstring)."""
 
-    gravity_window_s: float = 2.0
+    gravity_window_s: float = GRAVITY_WINDOW_S
     heading_window_s: float = 0.5
     band_hz: tuple[float, float] = (0.6, 4.0)
     cadence_window_s: float = 0.5

@@ -197,10 +197,7 @@ class Occluders:
             d = b - a
             boxes.append((*(0.5 * (a + b)), 0.5 * float(np.hypot(*d)), 0.5 * w.thickness, w.height, float(np.arctan2(d[1], d[0]))))
         self.boxes = np.array(boxes, float).reshape(-1, 6)
-        self.centres = {}
-        for c, P in Ps.items():
-            M, p4 = P[:, :3], P[:, 3]
-            self.centres[c] = -np.linalg.solve(M, p4)
+        self.centres = {c: geo.camera_centre(P) for c, P in Ps.items()}
         self.z = height * np.asarray(VIS_FRACTIONS)
 
     def visible(self, c: str, xy: np.ndarray) -> bool:
