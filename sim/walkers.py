@@ -89,12 +89,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import make_interp_spline, make_lsq_spline
 from scipy.ndimage import gaussian_filter1d, map_coordinates
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from trackroom.scenes.spec import GaussMarkovParams, Scene, WalkerSpec
+from .bspline import interp_spline, lsq_spline
 
 GRID = 0.1  # planning grid, m
 MARGIN = 0.15  # extra clearance beyond the body radius when planning, m
@@ -270,6 +268,10 @@ class FreeSpace:
 
     def _graph(self, inflate: float):
         if inflate not in self._graphs:
+            # imported here: only a path around an obstacle needs the graph, and scipy.sparse.csgraph
+            # (with the scipy.sparse.linalg it loads) is a tenth of a second of every start-up
+            from scipy.sparse import coo_matrix
+
             free = self.grid >= inflate
             idx = np.arange(self.nx * self.ny).reshape(self.nx, self.ny)
             rows, cols, w = [], [], []
@@ -301,6 +303,8 @@ class FreeSpace:
         a, b = np.asarray(a, float), np.asarray(b, float)
         if self.segment_free(a, b, inflate):
             return np.stack([a, b])
+        from scipy.sparse.csgraph import dijkstra  # see _graph
+
         g, _ = self._graph(inflate)
         src, dst = self.nearest_free_cell(a, inflate), self.nearest_free_cell(b, inflate)
         _, pred = dijkstra(g, directed=False, indices=src, return_predecessors=True)
@@ -613,8 +617,8 @@ def _lsq_quintic(t: np.ndarray, y: np.ndarray, spacing: float):
     inner = np.linspace(t[0], t[-1], n_int + 2)[1:-1]
     knots = np.concatenate([[t[0]] * (k + 1), inner, [t[-1]] * (k + 1)])
     if len(t) < len(knots) - k:  # too short for a least-squares fit
-        return make_interp_spline(t, y, k=min(k, len(t) - 1 - (len(t) % 2 == 0)) if len(t) > 1 else 0)
-    return make_lsq_spline(t, y, knots, k=k, method="norm-eq")
+        return interp_spline(t, y, min(k, len(t) - 1 - (len(t) % 2 == 0)) if len(t) > 1 else 0)
+    return lsq_spline(t, y, knots, k)
 
 
 def _derivs(spl, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -637,7 +641,7 @@ def _smooth_all(t: np.ndarray, rough: list, specs, smooth_s: list, dt: float):
     bob = np.array([w.bob_amplitude for w in specs])[:, None]
     amp = bob * (1.0 - np.exp(-((speed / WALKING_SPEED_BOB) ** 2)))  # smooth in v: no kinks in z''
     z = 0.5 * height + amp * (np.sin(np.pi * phi) ** 2 - 0.5)
-    pz, vz, az = (x.T for x in _derivs(make_interp_spline(t, z.T, k=5), t))
+    pz, vz, az = (x.T for x in _derivs(interp_spline(t, z.T, 5), t))
     # heading: direction of travel while moving, held while standing
     heading = np.zeros((P, n))
     direction = np.arctan2(v[..., 1], v[..., 0])  # (P, N)
