@@ -111,6 +111,13 @@ class FusionSmoother(QPSmoother):
                                             "changes, m")
         offset_floor_m: float = param(0.25, "least distance counted between two knots for their random walk, m "
                                             "(a phone may turn in the pocket while its carrier stands)")
+        heading_gyro_tau_s: float = param(30.0, "gyro-aided heading: the phone's yaw from the integrated (tilt-compensated) gyro, "
+                                                "its constant and drift from the magnetometer smoothed over this time "
+                                                "constant (phone_motion.gyro_aided_heading), s; 0: the magnetometer alone")
+        gyro_gravity_window_s: float = param(10.0, "centred window of the accelerometer mean the gyro's yaw rate is projected "
+                                                   "on (the phone's up), s: in a turn the centripetal acceleration tilts a "
+                                                   "short mean and the projected rate under-reads the turn "
+                                                   "(docs/fusion_smoother.md)")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
         speed_rel: float = param(0.08, "relative speed noise of cadence x step length")
@@ -157,6 +164,9 @@ class FusionSmoother(QPSmoother):
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
         if c.offset_knot_s < 0 or not c.offset_rate_deg > 0 or not c.offset_floor_m > 0:
             raise EstimatorError("fusion_smoother: need offset_knot_s >= 0, offset_rate_deg > 0 and offset_floor_m > 0")
+        if c.heading_gyro_tau_s < 0 or not c.gyro_gravity_window_s > 0:
+            raise EstimatorError("fusion_smoother: need heading_gyro_tau_s >= 0 and gyro_gravity_window_s > 0, got "
+                                 f"{c.heading_gyro_tau_s} and {c.gyro_gravity_window_s}")
         if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
             raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1, starts >= 1 and start_iter >= 1")
         if not 0 <= c.cadence_zero < c.cadence_ref:
@@ -267,7 +277,7 @@ class FusionSmoother(QPSmoother):
         out = {}
         for pid in sorted(imu["phone_id"].astype(str).unique()):
             try:
-                out[pid] = phone_motion(imu, pid, t_grid, gait, field, MotionSettings())
+                out[pid] = phone_motion(imu, pid, t_grid, gait, field, MotionSettings(gyro_heading_tau_s=c.heading_gyro_tau_s, gyro_gravity_window_s=c.gyro_gravity_window_s))
             except ValueError as e:
                 raise EstimatorError(f"fusion_smoother: phone {pid!r}: {e}") from None
         return out
