@@ -38,9 +38,11 @@ e_k = (cos(psi_k - delta(k)), sin(psi_k - delta(k))) and its left normal n_k:
   the path is scaled about a camera together with l (``ScaledPrior`` does the same for the prior):
   with one camera only the step length's prior then holds the scale.
 - **gyro** (optional, walking at k and k+1): the heading change equals the integrated yaw rate
-  dpsi_k, whatever delta and the magnetic field:
-      r_g = (n~_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~_k sigma_gyro)
-  with n~ the normal of the phone heading (fixed, so the row is linear in v).
+  dpsi_k, whatever the magnetic field:
+      r_g = (n_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~ sigma_gyro)
+  with n_{k+1} the normal of the walking direction psi_{k+1} - delta(k+1) (with the phone's own
+  heading instead, the row also read sin(delta) times the change of speed), and, with
+  ``scale_free``, its sigma times l / l_prior like the other rows.
 
 Robust loss (missed steps, a phone taken out of the pocket): every row r goes through Huber's
 rho with threshold c (in sigmas); the bearings, whose detector reports clipped people at the
@@ -314,22 +316,36 @@ class PhoneFactors:
             C += [ks * NS + iv, np.full(len(ks), cl)] if s.scale_free else [ks * NS + iv]
             V += [np.full(len(ks), 1.0 / ss), -r / l] if s.scale_free else [np.full(len(ks), 1.0 / ss)]
             row0 += len(ks)
-        # gyro: heading change between consecutive walking steps
+        # gyro: heading change between consecutive walking steps, across the walking direction
+        # at k0 + 1 (phone heading minus the offset there: across the phone's own heading the
+        # row would also read sin(delta) of the change of speed), in units of the step length
         if s.gyro and len(self.kg):
             k0 = self.kg
+            gj0, gw1 = knot_weights(k0 + 1, T, self.knot_steps)
+            gj1 = np.minimum(gj0 + 1, self.n_knots - 1)
+            d1 = (1.0 - gw1) * knots[gj0] + gw1 * knots[gj1] + (X[cd] if self.bounded else 0.0)
+            th1 = self.psi_g - d1
+            e1 = np.stack([np.cos(th1), np.sin(th1)], axis=1)
+            n1 = np.stack([-e1[:, 1], e1[:, 0]], axis=1)  # normal at k0 + 1
             c, sn = np.cos(self.dpsi), np.sin(self.dpsi)
-            n1 = np.stack([-np.sin(self.psi_g), np.cos(self.psi_g)], axis=1)  # normal at k0 + 1
-            # n1 . (v1 - R v0):  R v0 = (c vx - s vy, s vx + c vy)
+            v0 = np.stack([X[k0 * NS + IVX], X[k0 * NS + IVY]], axis=1)
+            v1 = np.stack([X[(k0 + 1) * NS + IVX], X[(k0 + 1) * NS + IVY]], axis=1)
+            dv = v1 - np.stack([c * v0[:, 0] - sn * v0[:, 1], sn * v0[:, 0] + c * v0[:, 1]], axis=1)  # v1 - R v0
+            # n1 . (v1 - R v0):  d/dv0 = -R^T n1
             a_x = -(n1[:, 0] * c + n1[:, 1] * sn)
             a_y = -(-n1[:, 0] * sn + n1[:, 1] * c)
-            v0x, v0y = X[k0 * NS + IVX], X[k0 * NS + IVY]
-            v1x, v1y = X[(k0 + 1) * NS + IVX], X[(k0 + 1) * NS + IVY]
-            sg = self.sig_g
-            res.append((n1[:, 0] * v1x + n1[:, 1] * v1y + a_x * v0x + a_y * v0y) / sg)
+            sg = np.full(len(k0), self.sig_g * (q if s.scale_free else 1.0))
+            r = np.einsum("ij,ij->i", n1, dv) / sg
+            res.append(r)
             rows = row0 + np.arange(len(k0))
-            R += [rows] * 4
-            C += [(k0 + 1) * NS + IVX, (k0 + 1) * NS + IVY, k0 * NS + IVX, k0 * NS + IVY]
-            V += [n1[:, 0] / sg, n1[:, 1] / sg, a_x / sg, a_y / sg]
+            dd = np.einsum("ij,ij->i", e1, dv) / sg  # dn1/d delta = e1
+            R += [rows] * 6
+            C += [(k0 + 1) * NS + IVX, (k0 + 1) * NS + IVY, k0 * NS + IVX, k0 * NS + IVY, cb + gj0, cb + gj1]
+            V += [n1[:, 0] / sg, n1[:, 1] / sg, a_x / sg, a_y / sg, (1.0 - gw1) * dd, gw1 * dd]
+            if self.bounded:
+                R, C, V = R + [rows], C + [np.full(len(k0), cd)], V + [dd]
+            if s.scale_free:
+                R, C, V = R + [rows], C + [np.full(len(k0), cl)], V + [-r / l]
             row0 += len(k0)
         return np.concatenate(res), np.concatenate(R), np.concatenate(C), np.concatenate(V), row0
 
