@@ -20,11 +20,13 @@ e_k = (cos(psi_k - delta(k)), sin(psi_k - delta(k))) and its left normal n_k:
       s_k = l g(f_k),   g(f) = f_0 (f - f_1) / (f_0 - f_1)   (floored at ``G_MIN``)
   (f_1 a population constant; the step length at cadence f is s / f). Proportional to l, so a
   path scaled about a camera together with l keeps these rows exactly;
-      r_a = (e_k . v_k - s_k) / sigma_a,k,     sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2 + (tau_a a_k)^2
+      r_a = (e_k . v_k - s_k) / sigma_a,k,
+      sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2 + (tau_a a_k)^2 + (l f_0 / (f_0 - f_1) sigma_f,k)^2
   (people slow down in turns faster than a cadence over half a second follows: tau and omega_k
   as below), and by tau_a a_k (a_k the phone's horizontal acceleration, ``phone_motion``): the
   cadence lags a change of speed by about its averaging window tau_a, and the first and last
-  steps of a walk are short
+  steps of a walk are short; and by the cadence's own standard error sigma_f,k (``phone_motion``:
+  a weak bob at slow walking gives a ragged step phase) through the speed law's slope
 - **heading** (walking): the velocity's component across the phone heading, a von Mises heading
   error of concentration kappa in its small-angle (Gaussian) form, sigma_psi = 1 / sqrt(kappa),
   widened in turns, where the body (and the phone with it) turns a little before or after the
@@ -206,6 +208,7 @@ class PhoneFactors:
     s: PhoneFactorSettings
     omega: np.ndarray | None = None  # yaw rate at the walking steps, rad/s (None: no widening)
     accel: np.ndarray | None = None  # horizontal acceleration at the walking steps, m/s^2 (None: no widening)
+    f_se: np.ndarray | None = None  # the cadence's standard error at the walking steps, Hz (None or NaN: none)
     knot_steps: int = 0  # grid steps between heading-offset knots; 0: one constant offset
     bounded: bool = False  # knots as deviations b_j about a constant delta_c (``OffsetKnots``)
 
@@ -224,7 +227,11 @@ class PhoneFactors:
         self.s_nom = nominal
         turn = np.zeros(len(f)) if self.omega is None else self.s.turn_lag * self.omega
         lag = np.zeros(len(f)) if self.accel is None else self.s.speed_lag * self.accel
-        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2 + lag**2)
+        # the cadence's own error through the speed law: ds/df = l f_0 / (f_0 - f_1), at the prior's l
+        cad = np.zeros(len(f)) if self.f_se is None else np.nan_to_num(np.asarray(self.f_se, float), nan=0.0)
+        cad = cad * self.l_prior * self.s.f0 / (self.s.f0 - self.s.f1)
+        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2 + lag**2
+                             + cad**2)
         sig_psi = self.s.sigma_psi
         if self.omega is not None:
             sig_psi = np.sqrt(sig_psi**2 + (self.s.turn_lag * self.omega) ** 2)

@@ -3,9 +3,10 @@
 Bearing-only tracking with sparse non-overlapping cameras leaves depth unobservable between
 views (Rahimi et al. Fig. 1a: with the target's speed known, one camera fixes depth). Every
 walker carries a phone, and a phone tells how its carrier moves: walking or stopped (the gait
-model's bobbing feature), the walking direction (tilt-compensated magnetometer heading, up to the
-phone's yaw offset in the pocket), the speed (step cadence times the person's step length) and
-the turn rate (gyro). This estimator adds those cues to the QP smoother's problem as residuals on
+model's bobbing feature), the walking direction (the gyro's integrated yaw with its constant and
+drift from the tilt-compensated magnetometer, immune to the indoor magnetic disturbance; up to
+the phone's yaw offset in the pocket), the speed (step cadence times the person's step length,
+as noisy as the step phase is ragged) and the turn rate (gyro). This estimator adds those cues to the QP smoother's problem as residuals on
 the trajectory's velocity (``fusion_model.PhoneFactors``), with the step length l and the heading
 offset delta of each person estimated jointly (``Prior.with_parameters``), so that each
 Gauss-Newton step is still one sparse QP (``qp_solver.solve_map``, the same prior, bearing model,
@@ -131,6 +132,9 @@ class FusionSmoother(QPSmoother):
         bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
         border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
         border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
+        cadence_noise: bool = param(True, "widen each speed row by the cadence's own standard error (the scatter of the "
+                                          "step phase's rate over its window, phone_motion): a weak bob at slow walking "
+                                          "gives a ragged, upward-biased cadence")
         speed_lag_s: float = param(0.5, "speed noise where the carrier speeds up or slows down: the cadence lags a "
                                         "change of speed by about this (sigma widened by the phone's horizontal "
                                         "acceleration times this), s")
@@ -283,6 +287,7 @@ class FusionSmoother(QPSmoother):
         return out
 
     def factors(self, m: PhoneMotion, T: int) -> PhoneFactors:
+        c = self.config
         kw = np.flatnonzero(m.walking)
         ks = np.flatnonzero(~m.walking)
         both = m.walking[:-1] & m.walking[1:]
@@ -292,6 +297,7 @@ class FusionSmoother(QPSmoother):
         return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
                             psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
                             omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw],
+                            f_se=None if m.cadence_se is None or not c.cadence_noise else m.cadence_se[kw],
                             knot_steps=self.knot_steps(dt), bounded=self.config.offset_disturbance_deg > 0)
 
     def knot_steps(self, dt: float) -> int:

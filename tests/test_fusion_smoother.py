@@ -375,3 +375,17 @@ def test_gyro_rows_read_the_turn_not_the_change_of_speed(bounded):
     rv0 = np.stack([c * v[:-1, 0] - s * v[:-1, 1], s * v[:-1, 0] + c * v[:-1, 1]], axis=1)
     old = np.einsum("ij,ij->i", n_phone, v[1:] - rv0) / fac.sig_g
     np.testing.assert_allclose(np.abs(old), 0.5 * 0.1 / fac.sig_g, rtol=1e-9)
+
+
+def test_speed_rows_widen_by_the_cadence_standard_error():
+    """sigma_a^2 gains (l_prior f_0 / (f_0 - f_1) sigma_f)^2: with l_prior 0.7 m, f_0 1.8 Hz, f_1
+    1.0 Hz and sigma_f 0.1 Hz, 0.1575^2 (m/s)^2 (by hand); no standard error (None or NaN) adds
+    nothing."""
+    from trackroom.estimators.fusion_model import PhoneFactors, PhoneFactorSettings
+
+    kw = np.arange(4)
+    base = dict(T=5, kw=kw, psi=np.zeros(4), f=np.array([1.5, 1.8, np.nan, 2.0]), ks=np.zeros(0, int),
+                kg=np.zeros(0, int), dpsi=np.zeros(0), psi_g=np.zeros(0), l_prior=0.7, s=PhoneFactorSettings())
+    plain = PhoneFactors(**base)
+    wide = PhoneFactors(**base, f_se=np.array([0.1, np.nan, 0.2, 0.0]))
+    np.testing.assert_allclose(wide.sig_a**2 - plain.sig_a**2, [0.1575**2, 0.0, 0.315**2, 0.0], rtol=1e-12, atol=1e-15)
