@@ -20,11 +20,13 @@ e_k = (cos(psi_k - delta(k)), sin(psi_k - delta(k))) and its left normal n_k:
       s_k = l g(f_k),   g(f) = f_0 (f - f_1) / (f_0 - f_1)   (floored at ``G_MIN``)
   (f_1 a population constant; the step length at cadence f is s / f). Proportional to l, so a
   path scaled about a camera together with l keeps these rows exactly;
-      r_a = (e_k . v_k - s_k) / sigma_a,k,     sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2 + (tau_a a_k)^2
+      r_a = (e_k . v_k - s_k) / sigma_a,k,
+      sigma_a^2 = sigma_speed^2 + (rel_speed s~_k)^2 + (tau omega_k s~_k)^2 + (tau_a a_k)^2 + (l f_0 / (f_0 - f_1) sigma_f,k)^2
   (people slow down in turns faster than a cadence over half a second follows: tau and omega_k
   as below), and by tau_a a_k (a_k the phone's horizontal acceleration, ``phone_motion``): the
   cadence lags a change of speed by about its averaging window tau_a, and the first and last
-  steps of a walk are short
+  steps of a walk are short; and by the cadence's own standard error sigma_f,k (``phone_motion``:
+  a weak bob at slow walking gives a ragged step phase) through the speed law's slope
 - **heading** (walking): the velocity's component across the phone heading, a von Mises heading
   error of concentration kappa in its small-angle (Gaussian) form, sigma_psi = 1 / sqrt(kappa),
   widened in turns, where the body (and the phone with it) turns a little before or after the
@@ -38,9 +40,11 @@ e_k = (cos(psi_k - delta(k)), sin(psi_k - delta(k))) and its left normal n_k:
   the path is scaled about a camera together with l (``ScaledPrior`` does the same for the prior):
   with one camera only the step length's prior then holds the scale.
 - **gyro** (optional, walking at k and k+1): the heading change equals the integrated yaw rate
-  dpsi_k, whatever delta and the magnetic field:
-      r_g = (n~_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~_k sigma_gyro)
-  with n~ the normal of the phone heading (fixed, so the row is linear in v).
+  dpsi_k, whatever the magnetic field:
+      r_g = (n_{k+1} . (v_{k+1} - R(dpsi_k) v_k)) / (s~ sigma_gyro)
+  with n_{k+1} the normal of the walking direction psi_{k+1} - delta(k+1) (with the phone's own
+  heading instead, the row also read sin(delta) times the change of speed), and, with
+  ``scale_free``, its sigma times l / l_prior like the other rows.
 
 Robust loss (missed steps, a phone taken out of the pocket): every row r goes through Huber's
 rho with threshold c (in sigmas); the bearings, whose detector reports clipped people at the
@@ -204,6 +208,7 @@ class PhoneFactors:
     s: PhoneFactorSettings
     omega: np.ndarray | None = None  # yaw rate at the walking steps, rad/s (None: no widening)
     accel: np.ndarray | None = None  # horizontal acceleration at the walking steps, m/s^2 (None: no widening)
+    f_se: np.ndarray | None = None  # the cadence's standard error at the walking steps, Hz (None or NaN: none)
     knot_steps: int = 0  # grid steps between heading-offset knots; 0: one constant offset
     bounded: bool = False  # knots as deviations b_j about a constant delta_c (``OffsetKnots``)
 
@@ -222,7 +227,11 @@ class PhoneFactors:
         self.s_nom = nominal
         turn = np.zeros(len(f)) if self.omega is None else self.s.turn_lag * self.omega
         lag = np.zeros(len(f)) if self.accel is None else self.s.speed_lag * self.accel
-        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2 + lag**2)
+        # the cadence's own error through the speed law: ds/df = l f_0 / (f_0 - f_1), at the prior's l
+        cad = np.zeros(len(f)) if self.f_se is None else np.nan_to_num(np.asarray(self.f_se, float), nan=0.0)
+        cad = cad * self.l_prior * self.s.f0 / (self.s.f0 - self.s.f1)
+        self.sig_a = np.sqrt(self.s.sigma_speed**2 + (self.s.rel_speed * nominal) ** 2 + (turn * nominal) ** 2 + lag**2
+                             + cad**2)
         sig_psi = self.s.sigma_psi
         if self.omega is not None:
             sig_psi = np.sqrt(sig_psi**2 + (self.s.turn_lag * self.omega) ** 2)
@@ -314,22 +323,36 @@ class PhoneFactors:
             C += [ks * NS + iv, np.full(len(ks), cl)] if s.scale_free else [ks * NS + iv]
             V += [np.full(len(ks), 1.0 / ss), -r / l] if s.scale_free else [np.full(len(ks), 1.0 / ss)]
             row0 += len(ks)
-        # gyro: heading change between consecutive walking steps
+        # gyro: heading change between consecutive walking steps, across the walking direction
+        # at k0 + 1 (phone heading minus the offset there: across the phone's own heading the
+        # row would also read sin(delta) of the change of speed), in units of the step length
         if s.gyro and len(self.kg):
             k0 = self.kg
+            gj0, gw1 = knot_weights(k0 + 1, T, self.knot_steps)
+            gj1 = np.minimum(gj0 + 1, self.n_knots - 1)
+            d1 = (1.0 - gw1) * knots[gj0] + gw1 * knots[gj1] + (X[cd] if self.bounded else 0.0)
+            th1 = self.psi_g - d1
+            e1 = np.stack([np.cos(th1), np.sin(th1)], axis=1)
+            n1 = np.stack([-e1[:, 1], e1[:, 0]], axis=1)  # normal at k0 + 1
             c, sn = np.cos(self.dpsi), np.sin(self.dpsi)
-            n1 = np.stack([-np.sin(self.psi_g), np.cos(self.psi_g)], axis=1)  # normal at k0 + 1
-            # n1 . (v1 - R v0):  R v0 = (c vx - s vy, s vx + c vy)
+            v0 = np.stack([X[k0 * NS + IVX], X[k0 * NS + IVY]], axis=1)
+            v1 = np.stack([X[(k0 + 1) * NS + IVX], X[(k0 + 1) * NS + IVY]], axis=1)
+            dv = v1 - np.stack([c * v0[:, 0] - sn * v0[:, 1], sn * v0[:, 0] + c * v0[:, 1]], axis=1)  # v1 - R v0
+            # n1 . (v1 - R v0):  d/dv0 = -R^T n1
             a_x = -(n1[:, 0] * c + n1[:, 1] * sn)
             a_y = -(-n1[:, 0] * sn + n1[:, 1] * c)
-            v0x, v0y = X[k0 * NS + IVX], X[k0 * NS + IVY]
-            v1x, v1y = X[(k0 + 1) * NS + IVX], X[(k0 + 1) * NS + IVY]
-            sg = self.sig_g
-            res.append((n1[:, 0] * v1x + n1[:, 1] * v1y + a_x * v0x + a_y * v0y) / sg)
+            sg = np.full(len(k0), self.sig_g * (q if s.scale_free else 1.0))
+            r = np.einsum("ij,ij->i", n1, dv) / sg
+            res.append(r)
             rows = row0 + np.arange(len(k0))
-            R += [rows] * 4
-            C += [(k0 + 1) * NS + IVX, (k0 + 1) * NS + IVY, k0 * NS + IVX, k0 * NS + IVY]
-            V += [n1[:, 0] / sg, n1[:, 1] / sg, a_x / sg, a_y / sg]
+            dd = np.einsum("ij,ij->i", e1, dv) / sg  # dn1/d delta = e1
+            R += [rows] * 6
+            C += [(k0 + 1) * NS + IVX, (k0 + 1) * NS + IVY, k0 * NS + IVX, k0 * NS + IVY, cb + gj0, cb + gj1]
+            V += [n1[:, 0] / sg, n1[:, 1] / sg, a_x / sg, a_y / sg, (1.0 - gw1) * dd, gw1 * dd]
+            if self.bounded:
+                R, C, V = R + [rows], C + [np.full(len(k0), cd)], V + [dd]
+            if s.scale_free:
+                R, C, V = R + [rows], C + [np.full(len(k0), cl)], V + [-r / l]
             row0 += len(k0)
         return np.concatenate(res), np.concatenate(R), np.concatenate(C), np.concatenate(V), row0
 

@@ -3,9 +3,10 @@
 Bearing-only tracking with sparse non-overlapping cameras leaves depth unobservable between
 views (Rahimi et al. Fig. 1a: with the target's speed known, one camera fixes depth). Every
 walker carries a phone, and a phone tells how its carrier moves: walking or stopped (the gait
-model's bobbing feature), the walking direction (tilt-compensated magnetometer heading, up to the
-phone's yaw offset in the pocket), the speed (step cadence times the person's step length) and
-the turn rate (gyro). This estimator adds those cues to the QP smoother's problem as residuals on
+model's bobbing feature), the walking direction (the gyro's integrated yaw with its constant and
+drift from the tilt-compensated magnetometer, immune to the indoor magnetic disturbance; up to
+the phone's yaw offset in the pocket), the speed (step cadence times the person's step length,
+as noisy as the step phase is ragged) and the turn rate (gyro). This estimator adds those cues to the QP smoother's problem as residuals on
 the trajectory's velocity (``fusion_model.PhoneFactors``), with the step length l and the heading
 offset delta of each person estimated jointly (``Prior.with_parameters``), so that each
 Gauss-Newton step is still one sparse QP (``qp_solver.solve_map``, the same prior, bearing model,
@@ -111,6 +112,13 @@ class FusionSmoother(QPSmoother):
                                             "changes, m")
         offset_floor_m: float = param(0.25, "least distance counted between two knots for their random walk, m "
                                             "(a phone may turn in the pocket while its carrier stands)")
+        heading_gyro_tau_s: float = param(30.0, "gyro-aided heading: the phone's yaw from the integrated (tilt-compensated) gyro, "
+                                                "its constant and drift from the magnetometer smoothed over this time "
+                                                "constant (phone_motion.gyro_aided_heading), s; 0: the magnetometer alone")
+        gyro_gravity_window_s: float = param(10.0, "centred window of the accelerometer mean the gyro's yaw rate is projected "
+                                                   "on (the phone's up), s: in a turn the centripetal acceleration tilts a "
+                                                   "short mean and the projected rate under-reads the turn "
+                                                   "(docs/fusion_smoother.md)")
         heading_sigma_deg: float = param(8.6, "walking-direction noise of the phone heading (1/sqrt(kappa)), deg")
         speed_sigma: float = param(0.05, "absolute speed noise of cadence x step length, m/s")
         speed_rel: float = param(0.08, "relative speed noise of cadence x step length")
@@ -124,6 +132,9 @@ class FusionSmoother(QPSmoother):
         bearing_robust: float = param(3.0, "threshold of that loss, in bearing sigmas")
         border_px: float = param(60.0, "bearings this close to the image's left or right edge get wider noise, px")
         border_sigma_px: float = param(20.0, "the extra bearing noise at the edge itself (falling to 0 at border_px), px")
+        cadence_noise: bool = param(True, "widen each speed row by the cadence's own standard error (the scatter of the "
+                                          "step phase's rate over its window, phone_motion): a weak bob at slow walking "
+                                          "gives a ragged, upward-biased cadence")
         speed_lag_s: float = param(0.5, "speed noise where the carrier speeds up or slows down: the cadence lags a "
                                         "change of speed by about this (sigma widened by the phone's horizontal "
                                         "acceleration times this), s")
@@ -157,6 +168,9 @@ class FusionSmoother(QPSmoother):
             raise EstimatorError(f"fusion_smoother: bearing_loss must be one of {LOSSES} and bearing_robust positive")
         if c.offset_knot_s < 0 or not c.offset_rate_deg > 0 or not c.offset_floor_m > 0:
             raise EstimatorError("fusion_smoother: need offset_knot_s >= 0, offset_rate_deg > 0 and offset_floor_m > 0")
+        if c.heading_gyro_tau_s < 0 or not c.gyro_gravity_window_s > 0:
+            raise EstimatorError("fusion_smoother: need heading_gyro_tau_s >= 0 and gyro_gravity_window_s > 0, got "
+                                 f"{c.heading_gyro_tau_s} and {c.gyro_gravity_window_s}")
         if c.speed_rel < 0 or c.offset_grid < 1 or c.starts < 1 or c.start_iter < 1:
             raise EstimatorError("fusion_smoother: need speed_rel >= 0, offset_grid >= 1, starts >= 1 and start_iter >= 1")
         if not 0 <= c.cadence_zero < c.cadence_ref:
@@ -267,12 +281,13 @@ class FusionSmoother(QPSmoother):
         out = {}
         for pid in sorted(imu["phone_id"].astype(str).unique()):
             try:
-                out[pid] = phone_motion(imu, pid, t_grid, gait, field, MotionSettings())
+                out[pid] = phone_motion(imu, pid, t_grid, gait, field, MotionSettings(gyro_heading_tau_s=c.heading_gyro_tau_s, gyro_gravity_window_s=c.gyro_gravity_window_s))
             except ValueError as e:
                 raise EstimatorError(f"fusion_smoother: phone {pid!r}: {e}") from None
         return out
 
     def factors(self, m: PhoneMotion, T: int) -> PhoneFactors:
+        c = self.config
         kw = np.flatnonzero(m.walking)
         ks = np.flatnonzero(~m.walking)
         both = m.walking[:-1] & m.walking[1:]
@@ -282,6 +297,7 @@ class FusionSmoother(QPSmoother):
         return PhoneFactors(T=T, kw=kw, psi=m.heading[kw], f=m.cadence[kw], ks=ks, kg=kg, dpsi=m.dyaw[kg],
                             psi_g=m.heading[kg + 1], l_prior=self.config.step_length, s=self.factor_settings(),
                             omega=rate[kw], accel=None if m.accel_h is None else m.accel_h[kw],
+                            f_se=None if m.cadence_se is None or not c.cadence_noise else m.cadence_se[kw],
                             knot_steps=self.knot_steps(dt), bounded=self.config.offset_disturbance_deg > 0)
 
     def knot_steps(self, dt: float) -> int:

@@ -154,7 +154,9 @@ def test_offset_knots_follow_a_heading_bias_that_ramps_along_the_path():
     truth = truth_grid(rec, "walker", dt)
     rmse = {}
     for knot_s in (0.0, 5.0):
-        est = get("fusion_smoother")(sigma_px=1.0, q_vel=0.05, offset_knot_s=knot_s)
+        # the magnetometer heading alone: the gyro-aided one would follow a bias this slow (tau 30 s)
+        # only in part (it is what a gyro drift looks like)
+        est = get("fusion_smoother")(sigma_px=1.0, q_vel=0.05, offset_knot_s=knot_s, heading_gyro_tau_s=0.0)
         with warnings.catch_warnings():
             warnings.simplefilter("error", RuntimeWarning)
             tracks = est.estimate(obs, rec.calibration)
@@ -312,3 +314,78 @@ def test_offset_knot_rows_jacobian_and_weights(bounded):
     else:
         Y[NS * T + ID:] = Xc[NS * T + ID]
     np.testing.assert_allclose(fac.raw_residual(Y), const.raw_residual(Xc), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("bounded", [False, True])
+def test_gyro_rows_read_the_turn_not_the_change_of_speed(bounded):
+    """The gyro rows (``gyro=true``): a walker who speeds up from 0.4 to 1.2 m/s while turning at
+    a known rate, carrying a phone turned 30 degrees in the pocket. At the true path, step length
+    and offset every row is 0 (with the phone's own heading as the normal, as before, they read
+    sin(30 deg) of each change of speed: here 0.5 x 0.1 m/s per frame over a sigma of 0.042 m/s,
+    1.2 sigma per row), unchanged when the path is scaled about a point with the step length
+    (scale-free, like every other phone row), and the Jacobian is the residual's derivative."""
+    from trackroom.estimators.fusion_model import ID, IL, PhoneFactors, PhoneFactorSettings
+    from trackroom.estimators.qp_model import NS
+
+    T, dt, delta = 9, 0.25, np.radians(30.0)
+    speed = np.linspace(0.4, 1.2, T)
+    heading = 0.3 + 0.2 * np.arange(T)  # walking direction, turning at 0.8 rad/s
+    kw = np.arange(T)
+    kg = np.arange(T - 1)
+    psi = heading + delta  # the phone's yaw
+    fac = PhoneFactors(T=T, kw=kw, psi=psi, f=np.full(T, np.nan), ks=np.zeros(0, int), kg=kg,
+                       dpsi=np.diff(heading), psi_g=psi[kg + 1], l_prior=0.7, s=PhoneFactorSettings(gyro=True),
+                       knot_steps=4 if bounded else 0, bounded=bounded)
+    n = NS * T + fac.n_par
+    X = np.zeros(n)
+    X[1:NS * T:NS], X[3:NS * T:NS] = speed * np.cos(heading), speed * np.sin(heading)
+    X[0:NS * T:NS] = np.concatenate([[0.0], np.cumsum(dt * X[1:NS * T:NS])[:-1]])
+    X[2:NS * T:NS] = np.concatenate([[0.0], np.cumsum(dt * X[3:NS * T:NS])[:-1]])
+    X[NS * T + IL] = 0.7
+    if bounded:
+        X[NS * T + ID] = delta  # delta_c, every deviation 0
+    else:
+        X[NS * T + ID:] = delta
+    gyro = fac.raw_residual(X)[-len(kg):]
+    np.testing.assert_allclose(gyro, 0.0, atol=1e-12)
+    # scaled about (2, -1) with the step length: the same rows (at a perturbed point, where they are not 0)
+    a, c0 = 0.6, np.array([2.0, -1.0])
+
+    def scaled(X):
+        Y = X.copy()
+        Y[0:NS * T:NS], Y[2:NS * T:NS] = c0[0] + a * (X[0:NS * T:NS] - c0[0]), c0[1] + a * (X[2:NS * T:NS] - c0[1])
+        Y[1:NS * T:NS], Y[3:NS * T:NS], Y[NS * T + IL] = a * X[1:NS * T:NS], a * X[3:NS * T:NS], a * X[NS * T + IL]
+        return Y
+
+    Z = X + np.random.default_rng(2).normal(0, 0.05, n)
+    np.testing.assert_allclose(fac.raw_residual(scaled(Z))[-len(kg):], fac.raw_residual(Z)[-len(kg):], rtol=1e-9,
+                               atol=1e-9)
+    assert np.abs(fac.raw_residual(Z)[-len(kg):]).max() > 0.1
+    J = fac.raw_jacobian(Z, n).toarray()
+    num = np.empty_like(J)
+    for i in range(n):
+        e = np.zeros(n)
+        e[i] = 1e-6
+        num[:, i] = (fac.raw_residual(Z + e) - fac.raw_residual(Z - e)) / 2e-6
+    np.testing.assert_allclose(J, num, rtol=1e-5, atol=1e-6)
+    # the old row: across the phone's own heading, a change of speed read as a turn
+    n_phone = np.stack([-np.sin(psi[kg + 1]), np.cos(psi[kg + 1])], axis=1)
+    v = np.stack([X[1:NS * T:NS], X[3:NS * T:NS]], axis=1)
+    c, s = np.cos(np.diff(heading)), np.sin(np.diff(heading))
+    rv0 = np.stack([c * v[:-1, 0] - s * v[:-1, 1], s * v[:-1, 0] + c * v[:-1, 1]], axis=1)
+    old = np.einsum("ij,ij->i", n_phone, v[1:] - rv0) / fac.sig_g
+    np.testing.assert_allclose(np.abs(old), 0.5 * 0.1 / fac.sig_g, rtol=1e-9)
+
+
+def test_speed_rows_widen_by_the_cadence_standard_error():
+    """sigma_a^2 gains (l_prior f_0 / (f_0 - f_1) sigma_f)^2: with l_prior 0.7 m, f_0 1.8 Hz, f_1
+    1.0 Hz and sigma_f 0.1 Hz, 0.1575^2 (m/s)^2 (by hand); no standard error (None or NaN) adds
+    nothing."""
+    from trackroom.estimators.fusion_model import PhoneFactors, PhoneFactorSettings
+
+    kw = np.arange(4)
+    base = dict(T=5, kw=kw, psi=np.zeros(4), f=np.array([1.5, 1.8, np.nan, 2.0]), ks=np.zeros(0, int),
+                kg=np.zeros(0, int), dpsi=np.zeros(0), psi_g=np.zeros(0), l_prior=0.7, s=PhoneFactorSettings())
+    plain = PhoneFactors(**base)
+    wide = PhoneFactors(**base, f_se=np.array([0.1, np.nan, 0.2, 0.0]))
+    np.testing.assert_allclose(wide.sig_a**2 - plain.sig_a**2, [0.1575**2, 0.0, 0.315**2, 0.0], rtol=1e-12, atol=1e-15)
