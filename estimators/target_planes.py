@@ -38,6 +38,7 @@ from trackroom.recording import Calibration, Observations
 from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
+from .tp_identity import IdentityLag
 from .tp_initiate import propose
 from .tp_joint import LOST, JointTrack, JointTracker, Occluders
 
@@ -123,6 +124,10 @@ class TargetPlanes(Estimator):
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
+        identity_lag_s: float = param(1.0, "fixed lag of the identity decision after two tracks were ambiguous, s "
+                                           "(``tp_identity``; the issue: a smoother over the last second, 10 "
+                                           "frames at the cameras' 10 fps); 0: the tracker's own (greedy) "
+                                           "identities")
         box_sigma_px: float | None = param(None, "window edge noise, px; none: the calibration's box_sigma_px, else 0")
         box_u_sigma_px: float | None = param(None, "window centroid noise, px; none: the calibration's box_u_sigma_px, "
                                                    "else (analytic windows) bearing_sigma_px")
@@ -197,6 +202,8 @@ class TargetPlanes(Estimator):
             tracks.append(tr)
             keep = 0
         next_id = len(tracks)
+        # who is who after an encounter: decided lag_s after it (tp_identity); 0: as tracked
+        idl = IdentityLag(cfg.identity_lag_s, cfg.accel_sigma, cfg.radius, watch=keep) if cfg.identity_lag_s > 0 else None
         rows, status_rows = [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:
@@ -205,15 +212,22 @@ class TargetPlanes(Estimator):
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
             free = jt.step(tracks, frame, dt)
             proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room)
-            taken = jt.locate(tracks[0], proposals, frame, accept) if keep is not None and not tracks[0].located else set()
+            target = next((tr for tr in tracks if tr.tid == keep), None)
+            taken = jt.locate(target, proposals, frame, accept) if target is not None and not target.located else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
                 next_id += 1
             tracks = jt.prune(tracks, keep, inside_room)
+            if idl is not None:
+                idl.update(t, tracks)
+                if keep is not None:
+                    keep = idl.holder(0)  # the target's track (an exchange may have moved it)
             for tr in tracks:
-                if not tr.confirmed or (keep is not None and tr.tid != keep):
+                # every confirmed track is kept (in single-target mode too: the identity decision
+                # may hand the target's identity to another track retroactively, within the lag)
+                if not tr.confirmed:
                     continue
                 x = tr.estimate()
                 rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode))
@@ -221,6 +235,13 @@ class TargetPlanes(Estimator):
                     st, reason, win = tr.status.get(c, (LOST, "", None))
                     status_rows.append((t, tr.tid, c, st, reason, win))
         tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
+        status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
+        if idl is not None:
+            tracks_df["track_id"] = idl.relabel(tracks_df["t"].to_numpy(), tracks_df["track_id"].to_numpy())
+            status_df["track_id"] = idl.relabel(status_df["t"].to_numpy(), status_df["track_id"].to_numpy())
+        if not cfg.multi_person:
+            tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
+            status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
         return TargetPlanesResult(tracks_df, pd.DataFrame(status_rows, columns=STATUS_COLUMNS))
 
     # ------------------------------------------------------------------------------------------
