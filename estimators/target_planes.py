@@ -225,17 +225,25 @@ class TargetPlanes(Estimator):
                 if keep is not None:
                     keep = idl.holder(0)  # the target's track (an exchange may have moved it)
             for tr in tracks:
-                # every confirmed track is kept (in single-target mode too: the identity decision
+                # every track is kept for now (in single-target mode too: the identity decision
                 # may hand the target's identity to another track retroactively, within the lag)
-                if not tr.confirmed:
-                    continue
                 x = tr.estimate()
-                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode))
+                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed))
                 for c in cams:
                     st, reason, win = tr.status.get(c, (LOST, "", None))
                     status_rows.append((t, tr.tid, c, st, reason, win))
-        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
+        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
         status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
+        # a track is reported once confirmed, and - the output being fixed-lag - from up to
+        # identity_lag_s before its confirmation: its first frames, from its birth, when it was
+        # confirmed within the lag (an unconfirmed track's frames are never reported otherwise)
+        tracks_df["confirmed"] = tracks_df["confirmed"].astype(bool)
+        t_conf = tracks_df[tracks_df["confirmed"]].groupby("track_id")["t"].min()
+        since = tracks_df["track_id"].map(t_conf).to_numpy(float)  # NaN: never confirmed
+        report = tracks_df["confirmed"].to_numpy() | (tracks_df["t"].to_numpy() >= since - max(cfg.identity_lag_s, 0.0) - 1e-9)
+        tracks_df = tracks_df[report].drop(columns="confirmed").reset_index(drop=True)
+        since_st = status_df["track_id"].map(t_conf).to_numpy(float)
+        status_df = status_df[status_df["t"].to_numpy() >= np.where(np.isnan(since_st), np.inf, since_st - max(cfg.identity_lag_s, 0.0) - 1e-9)].reset_index(drop=True)
         if idl is not None:
             tracks_df["track_id"] = idl.relabel(tracks_df["t"].to_numpy(), tracks_df["track_id"].to_numpy())
             status_df["track_id"] = idl.relabel(status_df["t"].to_numpy(), status_df["track_id"].to_numpy())

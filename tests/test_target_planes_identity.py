@@ -85,7 +85,9 @@ def test_side_by_side_at_the_same_speed_gives_no_evidence_and_identities_stay_as
 
 def test_the_estimator_with_and_without_the_lag_agrees_where_the_tracker_holds_identities():
     """Hand-made windows of two walkers crossing in one view (as in test_target_planes_joint):
-    the tracker keeps them apart, and the decision leaves that as it is."""
+    the tracker keeps them apart, and the decision leaves that as it is. The fixed-lag output
+    also reports each track from its birth when it was confirmed within the lag (the greedy one
+    from its confirmation, ``confirm_frames`` later)."""
     from tests.test_target_planes_joint import boxes_table, line_path
 
     south, west = right_angle_pair()
@@ -95,5 +97,12 @@ def test_the_estimator_with_and_without_the_lag_agrees_where_the_tracker_holds_i
     obs, cal = Observations({"boxes": boxes}, 6.0), calib([south, west])
     with_lag = TargetPlanes(multi_person=True).run(obs, cal).tracks
     greedy = TargetPlanes(multi_person=True, identity_lag_s=0.0).run(obs, cal).tracks
-    pd.testing.assert_frame_equal(with_lag, greedy)
-    assert with_lag.track_id.nunique() == 2
+    assert with_lag.track_id.nunique() == greedy.track_id.nunique() == 2
+    both = greedy.merge(with_lag, on=["t", "track_id"], how="left", suffixes=("", "_lag"))
+    assert np.allclose(both[["x", "y"]].to_numpy(), both[["x_lag", "y_lag"]].to_numpy())  # same ids, same states
+    # the fixed-lag output adds only each track's frames before its confirmation (within the lag)
+    extra = with_lag.merge(greedy[["t", "track_id"]], on=["t", "track_id"], how="left", indicator=True)
+    extra = extra[extra["_merge"] == "left_only"]
+    first = greedy.groupby("track_id")["t"].min()
+    assert len(extra) and (extra["t"].to_numpy() < extra["track_id"].map(first).to_numpy()).all()
+    assert (extra["t"].to_numpy() >= extra["track_id"].map(first).to_numpy() - 1.0 - 1e-9).all()
