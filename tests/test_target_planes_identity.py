@@ -106,3 +106,30 @@ def test_the_estimator_with_and_without_the_lag_agrees_where_the_tracker_holds_i
     first = greedy.groupby("track_id")["t"].min()
     assert len(extra) and (extra["t"].to_numpy() < extra["track_id"].map(first).to_numpy()).all()
     assert (extra["t"].to_numpy() >= extra["track_id"].map(first).to_numpy() - 1.0 - 1e-9).all()
+
+
+def test_a_track_is_reported_back_to_a_lag_before_its_confirmation_along_its_velocity():
+    """One walker, seen by south from t = 0 and by west from t = 0.5 s only (hand-made windows):
+    no track can start before two cameras' planes cross (t = 0.5), and the greedy output starts
+    at its confirmation, ``confirm_frames`` later. The fixed-lag output starts 1 s before the
+    confirmation: from the birth, and before it the birth's position moved back along the
+    velocity at confirmation ("extrapolated"); those frames lie on the walker."""
+    from tests.test_target_planes_joint import boxes_table, line_path
+
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 3.0, 0.1), 6)
+    paths = {"C": line_path([2.0, 2.0], [4.5, 3.0], times)}
+    boxes = boxes_table([south, west], paths, times)
+    boxes = boxes[(boxes.camera != "west") | (boxes.t >= 0.5 - 1e-9)].reset_index(drop=True)
+    obs, cal = Observations({"boxes": boxes}, 3.0), calib([south, west])
+    lag = TargetPlanes(multi_person=True).run(obs, cal).tracks
+    greedy = TargetPlanes(multi_person=True, identity_lag_s=0.0).run(obs, cal).tracks
+    assert lag.track_id.nunique() == greedy.track_id.nunique() == 1
+    t0_greedy = greedy.t.min()
+    assert t0_greedy >= 0.9 - 1e-9  # birth at 0.5 at the earliest, confirmed 4 frames later
+    assert abs(lag.t.min() - max(t0_greedy - 1.0, 0.0)) < 1e-6
+    early = lag[lag.t < t0_greedy - 1e-9]
+    assert (early["mode"] == "extrapolated").sum() >= 3  # the frames before the birth
+    k = np.searchsorted(times, early.t.to_numpy() - 1e-9)
+    err = np.hypot(early.x.to_numpy() - paths["C"][k, 0], early.y.to_numpy() - paths["C"][k, 1])
+    assert err.max() < 0.15
