@@ -21,8 +21,14 @@ frame, m) or ``initial_window`` (``[camera, u_left, u_right, v_top, v_bottom]`` 
 frame); it is one of the tracks, the one whose identity is reported. With ``multi_person = true``
 every confirmed track is reported (section 6's future work).
 
+The output is fixed-lag (``identity_lag_s``, 1 s): who is who after two tracks were ambiguous is
+decided a second after they part, by the joint likelihood of their states before and after
+(``tp_identity``), and the output of the last second follows the decision; a track confirmed
+within the lag is reported from its birth, and in multi-person mode from a lag before its
+confirmation (before its birth: moved back along its velocity, ``mode`` extrapolated).
+
 ``run`` returns the tracks (with ``n_cameras``: cameras whose window was the track alone, and
-``mode``: planes / area / merged / predicted) and a per-frame, per-camera status table (tracking /
+``mode``: planes / area / merged / predicted / extrapolated) and a per-frame, per-camera status table (tracking /
 merged / unreliable / lost and why, Figs. 11-12); ``estimate`` returns the tracks only.
 """
 from __future__ import annotations
@@ -38,6 +44,7 @@ from trackroom.recording import Calibration, Observations
 from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
+from .tp_identity import IdentityLag
 from .tp_initiate import propose
 from .tp_joint import LOST, JointTrack, JointTracker, Occluders
 
@@ -123,6 +130,12 @@ class TargetPlanes(Estimator):
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
+        identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
+                                           "second, 10 frames at the cameras' 10 fps): identities after two tracks "
+                                           "were ambiguous are decided this long after they part (``tp_identity``), "
+                                           "and a track is reported from this long before its confirmation (in "
+                                           "multi-person mode moved back along its velocity before its birth); "
+                                           "0: no lag (the tracker's own identities, tracks from confirmation)")
         box_sigma_px: float | None = param(None, "window edge noise, px; none: the calibration's box_sigma_px, else 0")
         box_u_sigma_px: float | None = param(None, "window centroid noise, px; none: the calibration's box_u_sigma_px, "
                                                    "else (analytic windows) bearing_sigma_px")
@@ -197,6 +210,8 @@ class TargetPlanes(Estimator):
             tracks.append(tr)
             keep = 0
         next_id = len(tracks)
+        # who is who after an encounter: decided lag_s after it (tp_identity); 0: as tracked
+        idl = IdentityLag(cfg.identity_lag_s, cfg.accel_sigma, cfg.radius, watch=keep) if cfg.identity_lag_s > 0 else None
         rows, status_rows = [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:
@@ -205,23 +220,79 @@ class TargetPlanes(Estimator):
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
             free = jt.step(tracks, frame, dt)
             proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room)
-            taken = jt.locate(tracks[0], proposals, frame, accept) if keep is not None and not tracks[0].located else set()
+            target = next((tr for tr in tracks if tr.tid == keep), None)
+            taken = jt.locate(target, proposals, frame, accept) if target is not None and not target.located else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
                 next_id += 1
             tracks = jt.prune(tracks, keep, inside_room)
+            if idl is not None:
+                idl.update(t, tracks)
+                if keep is not None:
+                    keep = idl.holder(0)  # the target's track (an exchange may have moved it)
             for tr in tracks:
-                if not tr.confirmed or (keep is not None and tr.tid != keep):
-                    continue
+                # every track is kept for now (in single-target mode too: the identity decision
+                # may hand the target's identity to another track retroactively, within the lag)
                 x = tr.estimate()
-                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode))
+                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed))
                 for c in cams:
                     st, reason, win = tr.status.get(c, (LOST, "", None))
                     status_rows.append((t, tr.tid, c, st, reason, win))
-        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
-        return TargetPlanesResult(tracks_df, pd.DataFrame(status_rows, columns=STATUS_COLUMNS))
+        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
+        status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
+        # a track is reported once confirmed, and - the output being fixed-lag - from up to
+        # identity_lag_s before its confirmation: its first frames, from its birth, when it was
+        # confirmed within the lag (an unconfirmed track's frames are never reported otherwise)
+        tracks_df["confirmed"] = tracks_df["confirmed"].astype(bool)
+        t_conf = tracks_df[tracks_df["confirmed"]].groupby("track_id")["t"].min()
+        since = tracks_df["track_id"].map(t_conf).to_numpy(float)  # NaN: never confirmed
+        report = tracks_df["confirmed"].to_numpy() | (tracks_df["t"].to_numpy() >= since - max(cfg.identity_lag_s, 0.0) - 1e-9)
+        tracks_df = tracks_df[report].drop(columns="confirmed").reset_index(drop=True)
+        since_st = status_df["track_id"].map(t_conf).to_numpy(float)
+        status_df = status_df[status_df["t"].to_numpy() >= np.where(np.isnan(since_st), np.inf, since_st - max(cfg.identity_lag_s, 0.0) - 1e-9)].reset_index(drop=True)
+        if cfg.multi_person:
+            tracks_df = self._extend_back(tracks_df, t_conf, np.asarray(times, float), inside_room)
+        if idl is not None:
+            tracks_df["track_id"] = idl.relabel(tracks_df["t"].to_numpy(), tracks_df["track_id"].to_numpy())
+            status_df["track_id"] = idl.relabel(status_df["t"].to_numpy(), status_df["track_id"].to_numpy())
+        if not cfg.multi_person:
+            tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
+            status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
+        return TargetPlanesResult(tracks_df, status_df)
+
+    def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
+        """Multi-person mode: each reported track's frames before its birth, back to
+        ``identity_lag_s`` before its confirmation, at its first reported position moved back
+        along its velocity at confirmation (constant velocity: the fixed-lag output's smoother
+        over the frames before the two-camera crossing that started it); ``n_cameras`` 0, ``mode``
+        ``extrapolated``. Not on the floor plan, or within 4 ``radius`` of another reported track
+        then (someone else's, or the same person's previous track): not added."""
+        cfg = self.config
+        lag = max(cfg.identity_lag_s, 0.0)
+        if lag <= 0 or not len(tracks_df):
+            return tracks_df
+        first = tracks_df.sort_values("t", kind="stable").groupby("track_id").head(1)
+        at_conf = tracks_df.set_index(["track_id", "t"])
+        extra = []
+        for r in first.itertuples():
+            tc = float(t_conf[r.track_id])
+            ts = times[(times >= tc - lag - 1e-9) & (times < r.t - 1e-9)]
+            if not len(ts):
+                continue
+            v = at_conf.loc[(r.track_id, tc), ["vx", "vy"]].to_numpy(float)
+            xy = np.c_[r.x + v[0] * (ts - r.t), r.y + v[1] * (ts - r.t)]
+            ok = np.asarray(inside_room(xy), bool).reshape(-1)
+            for t, (x, y) in zip(ts[ok], xy[ok]):
+                other = tracks_df[(np.abs(tracks_df["t"].to_numpy() - t) < 1e-6) & (tracks_df["track_id"].to_numpy() != r.track_id)]
+                if len(other) and float(np.hypot(other["x"] - x, other["y"] - y).min()) < 4.0 * cfg.radius:
+                    continue
+                extra.append((t, r.track_id, x, y, v[0], v[1], 0, "extrapolated"))
+        if not extra:
+            return tracks_df
+        out = pd.concat([tracks_df, pd.DataFrame(extra, columns=tracks_df.columns)], ignore_index=True)
+        return out.sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)
 
     # ------------------------------------------------------------------------------------------
     def _initial_target(self, cams, Ps, frame0, inside_room):

@@ -1,0 +1,162 @@
+"""Fixed-lag identity decision of ``target_planes`` (issue 12): who is who after two tracks were ambiguous.
+
+The joint tracker (``tp_joint``) keeps one track per person, but two people who walk close
+together share windows, and the tracks that follow them may come out of the encounter on each
+other's person. Which track carries which identity (the hand-chosen target's, or a reported id in
+multi-person mode) is decided here, after the encounter and a short lag, by the joint likelihood
+of the pair's states before and after it, with both assignments kept until then:
+
+- **Ambiguous pair**: two located tracks are ambiguous in a frame when a camera's window is
+  explained as both of them merged, or their floor positions are nearer than ``4 radius`` (two
+  bodies side by side, each a window width: any nearer and one's window can be taken for the
+  other's). An **episode** starts at the first ambiguous frame; each track's *pre* state is its
+  filtered state s, S (``[x, y, vx, vy]``, m, m/s) in the frame before (a track born during the
+  episode: its first state).
+- **Decision**: the episode ends at the first frame the pair is not ambiguous, t1; the decision
+  waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the episode), so
+  the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
+  the last ``lag_s``, in the filter's form). Both hypotheses are scored, identities kept (K) or
+  exchanged (X):
+
+      log L(K) = log N(s_a(td); F s_a^pre, F S_a^pre F^T + Q + S_a(td)) + (the same for b)
+      log L(X) = log N(s_b(td); F s_a^pre, F S_a^pre F^T + Q + S_b(td)) + (a with b's prediction)
+
+  F and Q the constant-velocity model over td - t_pre with the tracker's white-acceleration
+  density ``accel_sigma``^2 (``tp_joint``'s predict step): the paper's velocity discrimination
+  over position and velocity together, for the pair. The identities are exchanged when
+  log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01) (the design's 1 % error level,
+  as the existence test's); otherwise, and whenever a track of the pair is gone, they are kept.
+- **Retroactive relabelling, within the lag**: an exchange holds from t1 (``lag_s`` before the
+  decision) on: the output for those frames follows the winning hypothesis, so the reported
+  target's path after the separation is the track the decision gave it. Frames before t1 (the
+  encounter itself, where the two are within a body width or two of each other) keep what was
+  reported: the decision never reaches back further than ``lag_s``.
+
+``IdentityLag.update`` is called once a frame with the tracks after the tracker's step;
+``relabel`` maps (time, internal track id) rows to identities afterwards.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+EXCHANGE_LOG_ODDS = float(np.log(0.99 / 0.01))  # exchange identities only on 99:1 evidence
+
+
+@dataclass
+class Episode:
+    """An open encounter of tracks ``a`` and ``b``: their pre states (s, S, t) and, once they are
+    apart, the first frame ``t1`` they were."""
+
+    a: int
+    b: int
+    pre: dict
+    t1: float | None = None
+
+
+@dataclass
+class IdentityLag:
+    """Fixed-lag identity decision (module docstring). ``ident``: internal track id -> identity
+    (a new track's identity is its own id); ``events``: (t_from, {internal id: identity}) in
+    decision order; ``watch``: None to decide for every pair of confirmed tracks (multi-person
+    mode), else the identity whose pairs are decided (the hand-chosen target's)."""
+
+    lag_s: float
+    accel_sigma: float
+    radius: float
+    watch: int | None = None
+    ident: dict = field(default_factory=dict)
+    events: list = field(default_factory=list)
+    episodes: dict = field(default_factory=dict)
+    last: dict = field(default_factory=dict)  # internal id -> (s, S, t) of the previous frame
+    log: list = field(default_factory=list)  # (td, a, b, log L(X) - log L(K)) of every decision
+
+    def identity(self, tid: int) -> int:
+        return self.ident.setdefault(tid, tid)
+
+    def holder(self, identity: int) -> int | None:
+        """The internal track carrying ``identity`` now."""
+        for tid, i in self.ident.items():
+            if i == identity:
+                return tid
+        return None
+
+    def ambiguous(self, a, b) -> bool:
+        if float(np.linalg.norm(a.s[:2] - b.s[:2])) < 4.0 * self.radius:
+            return True
+        return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
+
+    def _candidates(self, tracks):
+        loc = [tr for tr in tracks if tr.located]
+        if self.watch is None:
+            conf = [tr for tr in loc if tr.confirmed]
+            return [(a, b) for i, a in enumerate(conf) for b in conf[i + 1:]]
+        tgt = self.holder(self.watch)
+        ta = next((tr for tr in loc if tr.tid == tgt), None)
+        return [] if ta is None else [(ta, b) for b in loc if b.tid != tgt]
+
+    def update(self, t: float, tracks) -> None:
+        """One frame: open, extend, close and decide episodes; remember the states."""
+        for tr in tracks:
+            self.identity(tr.tid)
+        alive = {tr.tid: tr for tr in tracks}
+        for a, b in self._candidates(tracks):
+            key = (min(a.tid, b.tid), max(a.tid, b.tid))
+            ep = self.episodes.get(key)
+            if self.ambiguous(a, b):
+                if ep is None:
+                    pre = {tr.tid: self.last.get(tr.tid, (tr.s.copy(), tr.S.copy(), t)) for tr in (a, b)}
+                    self.episodes[key] = Episode(key[0], key[1], pre)
+                else:
+                    ep.t1 = None  # together again within the lag: the same encounter
+            elif ep is not None and ep.t1 is None:
+                ep.t1 = t
+        for key, ep in list(self.episodes.items()):
+            if ep.a not in alive or ep.b not in alive:
+                del self.episodes[key]  # a track of the pair is gone: nothing to exchange
+            elif ep.t1 is not None and t - ep.t1 >= self.lag_s - 1e-9:
+                del self.episodes[key]
+                self.decide(t, ep, alive[ep.a], alive[ep.b])
+        self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
+
+    def _predict(self, s, S, dt):
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        Q = self.accel_sigma**2 * np.kron(np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]), np.eye(2))
+        return F @ s, F @ S @ F.T + Q
+
+    @staticmethod
+    def _loglik(r, C) -> float:
+        return float(-0.5 * (r @ np.linalg.solve(C, r) + np.linalg.slogdet(2 * np.pi * C)[1]))
+
+    def exchange_log_odds(self, td: float, ep: Episode, ta, tb) -> float:
+        """log L(X) - log L(K) of the module docstring."""
+        pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2]) for k in (ep.a, ep.b))
+        keep = self._loglik(ta.s - pa[0], pa[1] + ta.S) + self._loglik(tb.s - pb[0], pb[1] + tb.S)
+        swap = self._loglik(tb.s - pa[0], pa[1] + tb.S) + self._loglik(ta.s - pb[0], pb[1] + ta.S)
+        return swap - keep
+
+    def decide(self, td: float, ep: Episode, ta, tb) -> None:
+        if not (ta.confirmed and tb.confirmed):
+            return
+        llr = self.exchange_log_odds(td, ep, ta, tb)
+        self.log.append((td, ep.a, ep.b, llr))
+        if llr <= EXCHANGE_LOG_ODDS:
+            return
+        ia, ib = self.identity(ep.a), self.identity(ep.b)
+        self.ident[ep.a], self.ident[ep.b] = ib, ia
+        self.events.append((ep.t1, {ep.a: ib, ep.b: ia}))
+        for key in [k for k in self.episodes if ep.a in k or ep.b in k]:
+            del self.episodes[key]  # their other encounters were scored with the old identities
+
+    def relabel(self, t: np.ndarray, tid: np.ndarray) -> np.ndarray:
+        """Identity of each output row (time ``t``, internal track ``tid``): its own id, changed
+        by every exchange from its t_from on."""
+        out = np.asarray(tid).copy()
+        t = np.asarray(t, float)
+        for t_from, change in self.events:
+            later = t >= t_from - 1e-9
+            for k, ident in change.items():
+                out[later & (np.asarray(tid) == k)] = ident
+        return out

@@ -1,0 +1,135 @@
+"""target_planes' fixed-lag identity decision (``tp_identity``) on hand-made track states.
+
+The tracks below stand for what the joint tracker hands the decision each frame (10 fps):
+two look-alikes pass each other and the tracks that follow them come out of the encounter on
+each other's person (a greedy assignment's swap), or stay on their own.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators.tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
+from trackroom.estimators.tp_joint import JointTrack
+from trackroom.recording import Observations
+from tests.test_target_planes import calib, right_angle_pair
+
+S0 = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])  # a well-tracked person: 5 cm, 0.1 m/s
+TIMES = np.round(np.arange(0.0, 5.01, 0.1), 6)
+
+
+def run(paths, swap_at, lag_s=1.0):
+    """Feed ``IdentityLag`` two confirmed tracks following ``paths`` (name -> function t ->
+    (x, y, vx, vy)): track 0 on "A" (the target) and track 1 on "B" until ``swap_at``, on each
+    other's person after it. Returns the decision and the identity of each frame's rows."""
+    idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0)
+    rows = []
+    for t in TIMES:
+        on = ("A", "B") if t < swap_at else ("B", "A")
+        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        idl.update(float(t), trs)
+        rows += [(t, k) for k in (0, 1)]
+    t, tid = np.array(rows).T
+    return idl, t, tid.astype(int), idl.relabel(t, tid.astype(int))
+
+
+def head_on(speed=1.5):
+    """A walks east along y = 3.0, B west along y = 3.4 (0.4 m apart), passing at t = 2 s, x = 3 m."""
+    return {"A": lambda t: (3.0 + speed * (t - 2.0), 3.0, speed, 0.0), "B": lambda t: (3.0 - speed * (t - 2.0), 3.4, -speed, 0.0)}
+
+
+def test_head_on_look_alikes_swapped_by_the_tracker_get_their_identities_back_within_the_lag():
+    """The tracks swap at the encounter (the greedy outcome: track 0, the target's, leaves on B).
+    The pair is ambiguous while nearer than 4 radius = 0.8 m (|t - 2| < 0.23 s at 3 m/s closing:
+    frames 1.8-2.2), apart from t1 = 2.3; at td = 3.3 s, a second later, the exchange wins by far
+    (opposite velocities) and holds from t1 on, not before."""
+    idl, t, tid, ident = run(head_on(), swap_at=2.05)
+    (td, a, b, llr), = idl.log
+    assert abs(td - 3.3) < 1e-6 and {a, b} == {0, 1}
+    assert llr > EXCHANGE_LOG_ODDS
+    # after the decision the target's identity is carried by track 1 (on A)
+    assert idl.holder(0) == 1
+    target_rows = ident == 0
+    assert set(tid[target_rows & (t >= 2.3 - 1e-9)]) == {1}
+    assert set(tid[target_rows & (t < 2.3 - 1e-9)]) == {0}  # never further back than the lag
+    # greedy (the identities as tracked): the target's identity ends on B
+    assert set(tid[(tid == 0) & (t > 2.05)]) == {0}
+
+
+def test_tracks_that_stay_on_their_people_keep_their_identities():
+    idl, t, tid, ident = run(head_on(), swap_at=np.inf)
+    (_, _, _, llr), = idl.log
+    assert llr < -EXCHANGE_LOG_ODDS  # strong evidence for keeping them
+    assert (ident == tid).all()
+
+
+def test_side_by_side_at_the_same_speed_gives_no_evidence_and_identities_stay_as_tracked():
+    """Two look-alikes walking east side by side (0.5 m apart, the same 1 m/s) for 3 s, then
+    parting at 30 degrees each: positions and velocities after the encounter say nothing about
+    who was who before it under a walker model of 1 m/s^2/sqrt(Hz) (a swap is not undone: the
+    decision's limit, docs/target_planes.md)."""
+    def walker(y0, sign):
+        def f(t):
+            if t < 3.0:
+                return (1.0 + t, y0, 1.0, 0.0)
+            c, s = np.cos(np.radians(30)), sign * np.sin(np.radians(30))
+            return (4.0 + c * (t - 3.0), y0 + s * (t - 3.0), c, s)
+        return f
+
+    idl, t, tid, ident = run({"A": walker(3.0, -1), "B": walker(3.5, +1)}, swap_at=2.5)
+    (_, _, _, llr), = idl.log
+    assert abs(llr) < EXCHANGE_LOG_ODDS
+    assert (ident == tid).all()
+
+
+def test_the_estimator_with_and_without_the_lag_agrees_where_the_tracker_holds_identities():
+    """Hand-made windows of two walkers crossing in one view (as in test_target_planes_joint):
+    the tracker keeps them apart, and the decision leaves that as it is. The fixed-lag output
+    also reports each track from its birth when it was confirmed within the lag (the greedy one
+    from its confirmation, ``confirm_frames`` later)."""
+    from tests.test_target_planes_joint import boxes_table, line_path
+
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 6.0, 0.1), 6)
+    paths = {"A": line_path([1.0, 1.0], [5.0, 2.2], times), "B": line_path([5.0, 5.2], [1.0, 3.2], times)}
+    boxes = boxes_table([south, west], paths, times, merged_in=("south",))
+    obs, cal = Observations({"boxes": boxes}, 6.0), calib([south, west])
+    with_lag = TargetPlanes(multi_person=True).run(obs, cal).tracks
+    greedy = TargetPlanes(multi_person=True, identity_lag_s=0.0).run(obs, cal).tracks
+    assert with_lag.track_id.nunique() == greedy.track_id.nunique() == 2
+    both = greedy.merge(with_lag, on=["t", "track_id"], how="left", suffixes=("", "_lag"))
+    assert np.allclose(both[["x", "y"]].to_numpy(), both[["x_lag", "y_lag"]].to_numpy())  # same ids, same states
+    # the fixed-lag output adds only each track's frames before its confirmation (within the lag)
+    extra = with_lag.merge(greedy[["t", "track_id"]], on=["t", "track_id"], how="left", indicator=True)
+    extra = extra[extra["_merge"] == "left_only"]
+    first = greedy.groupby("track_id")["t"].min()
+    assert len(extra) and (extra["t"].to_numpy() < extra["track_id"].map(first).to_numpy()).all()
+    assert (extra["t"].to_numpy() >= extra["track_id"].map(first).to_numpy() - 1.0 - 1e-9).all()
+
+
+def test_a_track_is_reported_back_to_a_lag_before_its_confirmation_along_its_velocity():
+    """One walker, seen by south from t = 0 and by west from t = 0.5 s only (hand-made windows):
+    no track can start before two cameras' planes cross (t = 0.5), and the greedy output starts
+    at its confirmation, ``confirm_frames`` later. The fixed-lag output starts 1 s before the
+    confirmation: from the birth, and before it the birth's position moved back along the
+    velocity at confirmation ("extrapolated"); those frames lie on the walker."""
+    from tests.test_target_planes_joint import boxes_table, line_path
+
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 3.0, 0.1), 6)
+    paths = {"C": line_path([2.0, 2.0], [4.5, 3.0], times)}
+    boxes = boxes_table([south, west], paths, times)
+    boxes = boxes[(boxes.camera != "west") | (boxes.t >= 0.5 - 1e-9)].reset_index(drop=True)
+    obs, cal = Observations({"boxes": boxes}, 3.0), calib([south, west])
+    lag = TargetPlanes(multi_person=True).run(obs, cal).tracks
+    greedy = TargetPlanes(multi_person=True, identity_lag_s=0.0).run(obs, cal).tracks
+    assert lag.track_id.nunique() == greedy.track_id.nunique() == 1
+    t0_greedy = greedy.t.min()
+    assert t0_greedy >= 0.9 - 1e-9  # birth at 0.5 at the earliest, confirmed 4 frames later
+    assert abs(lag.t.min() - max(t0_greedy - 1.0, 0.0)) < 1e-6
+    early = lag[lag.t < t0_greedy - 1e-9]
+    assert (early["mode"] == "extrapolated").sum() >= 3  # the frames before the birth
+    k = np.searchsorted(times, early.t.to_numpy() - 1e-9)
+    err = np.hypot(early.x.to_numpy() - paths["C"][k, 0], early.y.to_numpy() - paths["C"][k, 1])
+    assert err.max() < 0.15
