@@ -41,13 +41,15 @@ def _model_file(tmp_path, edit) -> str:
     return str(path)
 
 
-def test_fitted_sensing_is_deterministic_and_keeps_the_detector_columns():
-    scene = load_scene("occlusion_lab")
+@pytest.mark.parametrize("name", ["occlusion_lab", "overhead_lab"])  # overhead: the held merge and miss uniforms
+def test_fitted_sensing_is_deterministic_and_keeps_the_detector_columns(name):
+    scene = load_scene(name)
     a, b, c = (simulate(scene, seed=s, duration=4.0) for s in (5, 5, 6))
     for kind, df in a.observations.tables.items():
         pd.testing.assert_frame_equal(df, b.observations.tables[kind], check_exact=True)
         assert list(df.columns) == OBSERVATION_COLUMNS[kind]  # nothing but what the detector outputs
-    assert not a.observations["boxes"].equals(c.observations["boxes"])
+    kind = "boxes" if name == "occlusion_lab" else "floor_detections"
+    assert not a.observations[kind].equals(c.observations[kind])
 
 
 def test_oblique_windows_merge_when_two_people_overlap_in_the_image():
