@@ -15,14 +15,18 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import NEAR_GAP, DetectorModel, correlated_normals, correlated_uniforms, ndtr
+from .perception_model import NEAR_GAP, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events
 
 
-def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, rho: float) -> np.ndarray:
-    """(F, P) bool: candidates kept where the copula uniform falls below P(detect)."""
+def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, m: DetectorModel) -> np.ndarray:
+    """(F, P) bool: candidates kept unless missed; misses come in runs (``run_events`` with
+    ``m.miss_stay``: a held uniform below 1 - P(detect); models without it: missed where the
+    AR(1) copula's uniform, correlation ``m.rho``, falls above P(detect))."""
     if not cand.any():
         return cand.copy()
-    return cand & (correlated_uniforms(rng, cand.shape, rho) < p)
+    if m.miss_stay is not None:
+        return cand & ~run_events(rng, 1.0 - p, m.miss_stay, cand)
+    return cand & (correlated_uniforms(rng, cand.shape, m.rho) < p)
 
 
 def error_uniforms(rng: np.random.Generator, shape: tuple[int, int], m: DetectorModel, count: int) -> list[np.ndarray]:
@@ -41,10 +45,15 @@ def merge_roots(rng: np.random.Generator, det: np.ndarray, feature: np.ndarray, 
     if P < 2 or not eligible.any():
         return root
     iu, ju = np.triu_indices(P, 1)
-    z = correlated_normals(rng, eligible.shape, m.merge_rho)  # drawn whole: the random stream as before
     merge = eligible & det[:, iu] & det[:, ju]
-    # the copula's uniforms (correlated_uniforms: ndtr of z) and the table only where they decide
-    merge[merge] = ndtr(z[merge]) < m.merge(feature[merge])
+    if m.merge_stay is not None:  # a held uniform per pair: merges last while the pair stays as close
+        p = np.zeros(merge.shape)
+        p[merge] = m.merge(feature[merge])
+        merge = run_events(rng, p, m.merge_stay, merge)
+    else:
+        z = correlated_normals(rng, eligible.shape, m.merge_rho)  # drawn whole: the random stream as before
+        # the copula's uniforms (correlated_uniforms: ndtr of z) and the table only where they decide
+        merge[merge] = ndtr(z[merge]) < m.merge(feature[merge])
     # each group's root is its lowest index (merging two groups keeps the lower root), so a
     # minimum passed along the merged pairs until nothing changes gives every frame's groups at once
     f, k = np.nonzero(merge)
@@ -178,7 +187,7 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
           colours: list[str], palette: list[str]) -> pd.DataFrame | None:
     """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
     a, b, clip, cand = blob_candidates(g, cam.width)
-    det = detected(rng, cand, m.detect(frac, clip), m.rho)
+    det = detected(rng, cand, m.detect(frac, clip), m)
     o, ok = span_pairs(a, b)
     root = merge_roots(rng, det, o, ok, m)
     F, P = det.shape
@@ -230,7 +239,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
-    det = detected(rng, cand, m.detect(frac, speed), m.rho)
+    det = detected(rng, cand, m.detect(frac, speed), m)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])
     root = merge_roots(rng, det, o, ok & vok, m)
@@ -518,7 +527,7 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
     xy, speed, clip = floor_state(cam, g, traj)
-    det = detected(rng, g.near, m.detect(frac, speed, clip), m.rho)
+    det = detected(rng, g.near, m.detect(frac, speed, clip), m)
     F, P = det.shape
     edges = m.merge.edges[0]
     reach = edges[-2] if len(edges) > 2 else 0.0

@@ -20,17 +20,22 @@ Features, per camera frame and person in the field of view (``sim.analytic``):
 Per detector (``DetectorModel``; bearing blobs of horizontal cameras, bearing blobs of oblique
 cameras, oblique flow windows, overhead regular and privacy floor detections):
   detect   P(reported | features): a ``Table`` over bins, fitted as counts with shrinkage towards
-           the pooled rate. Misses come in runs as the rendered ones do: the uniforms compared with
-           P are a Gaussian AR(1) copula per person and camera with frame correlation ``rho``,
-           fitted so the mean run of misses matches the rendered one.
+           the pooled rate. Misses come in runs as the rendered ones do: per person and camera
+           the uniform compared with 1 - P is held from frame to frame with probability
+           ``miss_stay`` (``run_events``), fitted so the mean run of misses matches the rendered
+           one (models without ``miss_stay``: the uniforms compared with P are a Gaussian AR(1)
+           copula with frame correlation ``rho``).
   merge    P(two people give one detection | overlap or gap): the merged detection spans both
            (union of their image spans / windows) or, on the floor, lies on the one the rendered
            overhead detector places it on (the member reaching farthest out from the point below
            the camera, ``analytic_detectors.merged_blob_member``), and carries the measurement
-           error once. Merges
-           come in runs (two people walking together stay merged): the uniforms compared with
-           P are an AR(1) copula per pair and camera with frame correlation ``merge_rho``, fitted
-           so the mean run of merges matches the rendered one.
+           error once. Merges come in runs (two people walking together stay merged): per pair
+           and camera the uniform compared with P is held from frame to frame with probability
+           ``merge_stay`` (``run_events``), fitted so the mean run of merges matches the rendered
+           one; for floor detectors P(merge) is fitted non-increasing with the silhouette gap, so
+           a merge lasts while the two stay as close as they were when it began (models without
+           ``merge_stay``: the uniforms compared with P are an AR(1) copula with frame correlation
+           ``merge_rho``).
   errors   ``Quantiles`` of the measurement error against the analytic reference (the centre of
            the visible part of the person's image span; the clipped window edges; the projected
            flow; the floor position): bias, scatter and tails in one inverse-CDF table. A person's
@@ -194,6 +199,10 @@ class DetectorModel:
     err_rho: float = 0.0  # frame correlation of a person's measurement errors (Gaussian copula)
     merge: Table = field(default_factory=lambda: constant(0.0))
     merge_rho: float = 0.0  # frame correlation of a pair's merge copula (merges come in runs)
+    # per frame, the uniform behind a miss (a merge) is kept with this probability
+    # (``run_events``); None: the AR(1) copulas of rho and merge_rho instead (older models)
+    miss_stay: float | None = None
+    merge_stay: float | None = None
     errors: dict[str, Quantiles] = field(default_factory=dict)
     label: float = 1.0
     clutter: float = 0.0  # false detections per camera frame
@@ -216,6 +225,7 @@ class DetectorModel:
         return {
             "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "err_rho": round(self.err_rho, 4), "merge": self.merge.to_dict(),
             "merge_rho": round(self.merge_rho, 4),
+            **{k: round(v, 5) for k, v in (("miss_stay", self.miss_stay), ("merge_stay", self.merge_stay)) if v is not None},
             "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
             "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
@@ -228,6 +238,8 @@ class DetectorModel:
     def from_dict(cls, d) -> "DetectorModel":
         m = cls(detect=Table.from_dict(d["detect"]), rho=float(d["rho"]), err_rho=float(d["err_rho"]), merge=Table.from_dict(d["merge"]),
                 merge_rho=float(d["merge_rho"]),
+                miss_stay=float(d["miss_stay"]) if "miss_stay" in d else None,
+                merge_stay=float(d["merge_stay"]) if "merge_stay" in d else None,
                 errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
                 clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
@@ -237,6 +249,10 @@ class DetectorModel:
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
+        for name in ("miss_stay", "merge_stay"):
+            v = getattr(m, name)
+            if v is not None and not 0.0 <= v < 1.0:
+                raise ValueError(f"{name} must lie in [0, 1), got {v}")
         if not all(np.isfinite(v) for v in m.head_gain.values()):
             raise ValueError("head_gain values must be finite")
         if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
@@ -348,6 +364,27 @@ def correlated_uniforms(rng: np.random.Generator, shape: tuple[int, int], rho: f
     """(F, P) uniforms, each column a Gaussian AR(1) with lag-one correlation ``rho`` pushed
     through the normal CDF: a miss (u > P(detect)) tends to last as long as rho makes it."""
     return ndtr(correlated_normals(rng, shape, rho))
+
+
+def run_events(rng: np.random.Generator, p: np.ndarray, stay: float, eligible: np.ndarray) -> np.ndarray:
+    """(F, P) bool events that come in runs: per column a uniform held from frame to frame,
+
+        X[t] = eligible[t] and U[t] < p[t],
+        U[t] = U[t-1] with probability ``stay``, else a fresh uniform,
+
+    so the events take a share p[t] of the frames whatever ``stay`` is (U[t] is uniform), and with
+    p constant a run lasts 1 / ((1 - stay)(1 - p)) frames on average. A run lasts while the
+    uniform is held and p stays above it: a merge begun where two silhouettes touch lasts while
+    they stay close (P(merge) non-increasing with their distance, ``perception_fit.fit``) and
+    ends as they part. Computed without a loop over frames: each frame takes the uniform drawn
+    at the last redraw."""
+    F, P = p.shape
+    redraw = rng.random((F, P)) >= stay
+    redraw[0] = True
+    frame = np.arange(F)[:, None]
+    last = np.maximum.accumulate(np.where(redraw, frame, 0), axis=0)
+    u = np.take_along_axis(rng.random((F, P)), last, axis=0)
+    return eligible & (u < p)
 
 
 def correlated_normals(rng: np.random.Generator, shape: tuple[int, int], rho: float) -> np.ndarray:

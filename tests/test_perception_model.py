@@ -41,13 +41,15 @@ def _model_file(tmp_path, edit) -> str:
     return str(path)
 
 
-def test_fitted_sensing_is_deterministic_and_keeps_the_detector_columns():
-    scene = load_scene("occlusion_lab")
+@pytest.mark.parametrize("name", ["occlusion_lab", "overhead_lab"])  # overhead: the held merge and miss uniforms
+def test_fitted_sensing_is_deterministic_and_keeps_the_detector_columns(name):
+    scene = load_scene(name)
     a, b, c = (simulate(scene, seed=s, duration=4.0) for s in (5, 5, 6))
     for kind, df in a.observations.tables.items():
         pd.testing.assert_frame_equal(df, b.observations.tables[kind], check_exact=True)
         assert list(df.columns) == OBSERVATION_COLUMNS[kind]  # nothing but what the detector outputs
-    assert not a.observations["boxes"].equals(c.observations["boxes"])
+    kind = "boxes" if name == "occlusion_lab" else "floor_detections"
+    assert not a.observations[kind].equals(c.observations[kind])
 
 
 def test_oblique_windows_merge_when_two_people_overlap_in_the_image():
@@ -80,6 +82,7 @@ def test_merged_groups_take_their_lowest_index_as_one_pair_after_another_would()
 
     class Half:  # merges an eligible detected pair when its uniform falls below 1/2
         merge_rho = 0.5
+        merge_stay = None  # the AR(1) copula's uniforms (a model without held merge uniforms)
 
         def merge(self, feature):
             return np.full(feature.shape, 0.5)
@@ -338,6 +341,113 @@ def test_merges_come_in_runs_and_the_fit_recovers_their_correlation(tmp_path, me
     grid = list(pf.RHO_GRID)
     fitted = pf.fit_merge_rho(s, constant(0.5))
     assert abs(grid.index(fitted) - grid.index(merge_rho)) <= 1
+
+
+def test_run_events_keep_the_share_and_last_as_long_as_the_stay_makes_them():
+    """The held uniforms behind merges and misses: with P = 0.2 and stay 0.9 the events take 0.2
+    of the frames and a run lasts 1 / ((1 - 0.9)(1 - 0.2)) = 12.5 frames (hand-computed); with
+    stay 0 they are independent draws (runs of 1 / (1 - 0.2) = 1.25); an ineligible frame holds no
+    event; where P changes the events follow it (P = 0.9, then 0.1: a run begun at 0.9 lasts into
+    the 0.1 stretch only where the held uniform lies below 0.1)."""
+    from trackroom.sim.perception_model import run_events
+
+    rng = np.random.default_rng(0)
+    F = 100_000
+    for stay, run in ((0.9, 12.5), (0.0, 1.25)):
+        ev = run_events(rng, np.full((F, 4), 0.2), stay, np.ones((F, 4), bool))
+        assert abs(ev.mean() - 0.2) < 0.01
+        assert abs(np.mean([pf.mean_run([np.arange(F)], ev[:, c]) for c in range(4)]) - run) < 0.05 * run
+    eligible = np.ones((F, 1), bool)
+    eligible[::20] = False  # every 20th frame ineligible: runs of at most 19 frames
+    ev = run_events(rng, np.full((F, 1), 0.9), 0.99, eligible)[:, 0]
+    edges = np.diff(np.r_[0, ev.astype(int), 0])
+    runs = np.nonzero(edges == -1)[0] - np.nonzero(edges == 1)[0]
+    assert not ev[::20].any() and runs.max() == 19 and len(runs) > 1000
+    p = np.where(np.arange(F) % 100 < 50, 0.9, 0.1)[:, None]  # 50 frames at 0.9, 50 at 0.1, ...
+    ev = run_events(rng, p, 0.99, np.ones((F, 1), bool))[:, 0]
+    assert abs(ev[p[:, 0] > 0.5].mean() - 0.9) < 0.03 and abs(ev[p[:, 0] < 0.5].mean() - 0.1) < 0.03
+
+
+# one ceiling camera over the middle of the room; "left" and "right" walk side by side 0.5 m apart,
+# back and forth under it, so their blobs touch (silhouettes within reach of merging) all along
+OVERHEAD_ROOM = {
+    "scene": {"name": "overhead_merge_test"},
+    "room": {"outline": [[0, 0], [10, 0], [10, 8], [0, 8]]},
+    "cameras": [{"name": "top", "kind": "overhead", "position": [5.0, 4.0, 2.95], "yaw_deg": 0, "fovy_deg": 120,
+                 "resolution": [320, 240], "fps": 20}],
+    "walkers": {"count": 2, "vary": False, "people": [
+        {"name": "left", "motion": "waypoints", "waypoints": [[2.0, 3.95], [8.0, 3.95]], "loop": True, "speed": [0.8, 0.8], "pause": [0, 0],
+         "color": "red"},
+        {"name": "right", "motion": "waypoints", "waypoints": [[2.0, 4.45], [8.0, 4.45]], "loop": True, "speed": [0.8, 0.8], "pause": [0, 0],
+         "color": "red"},
+    ]},
+}
+
+
+@pytest.mark.parametrize("stay", [0.0, 0.9])
+def test_overhead_merges_last_as_long_as_the_fitted_stay_makes_them(tmp_path, stay):
+    """Two people whose blobs touch in a ceiling camera for a minute, merged with P = 0.5 a frame,
+    the uniform behind it held with probability ``stay`` a frame: the measured merges take half the
+    pair-frames and come in runs as long as the held uniform makes them (stay 0.9: 1 / (0.1 x 0.5)
+    = 20 frames; stay 0: 2 frames), and the fit finds the stay back from the measured runs (the
+    mean run it implies within 15 %)."""
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.miss_stay, o.merge, o.merge_stay, o.clutter = constant(1.0), 0.0, Table([[-np.inf, 1.5, np.inf]], np.array([0.5, 0.0])), stay, 0.0
+    scene = parse_scene({**OVERHEAD_ROOM, "sensors": {"perception": _model_file(tmp_path, edit)}})
+    s = pf.measure(simulate(scene, seed=0, duration=60.0), scene)["overhead"]
+    assert len(s.pair_merged) > 600 and 0.4 < np.mean(s.pair_merged) < 0.6
+    run = pf.merge_runs(s)
+    assert (15.0 < run < 25.0) if stay else (run < 2.5)
+    fitted = pf.fit_merge_stay(s, Table([[-np.inf, 1.5, np.inf]], np.array([0.5, 0.0])))
+
+    def mean_run(stay):  # at P = 0.5
+        return 1.0 / ((1.0 - stay) * 0.5)
+    assert abs(mean_run(fitted) / mean_run(stay) - 1.0) < 0.15
+
+
+def test_the_fit_finds_the_miss_stay_back(tmp_path):
+    """Overhead misses of P = 0.1 a frame in runs (stay 0.8: 1 / (0.2 x 0.9) = 5.6 frames): the
+    measured miss runs are that long and the fit finds the stay back."""
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.miss_stay, o.merge, o.clutter = constant(0.9), 0.8, constant(0.0), 0.0
+    # three walkers (with more, misses beside another reported person count as merges), four seeds
+    scene = load_scene("overhead_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=3"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=60.0), scene) for seed in range(4)])["overhead"]
+    assert abs(np.mean(s.hit) - 0.9) < 0.02
+    assert 4.5 < pf.miss_runs(s) < 6.5
+    X, _ = s.arrays(len(pf.DETECT_EDGES["overhead"]))
+    fitted = pf.fit_miss_stay(s, np.full(len(X), 0.9))
+    assert abs((1.0 - 0.8) / (1.0 - fitted) - 1.0) < 0.15  # the mean run, 1 / (1 - stay)(1 - P), within 15 %
+
+
+def test_a_merge_in_file_away_from_the_camera_is_counted_as_a_merge_not_a_miss(tmp_path):
+    """Two people standing in file 0.9 m apart on a line from the point below a ceiling camera:
+    their blobs touch, and a merged blob lies on the one farther out (``merged_blob_member``), 0.9
+    m from the inner one, beyond the gate that matches detections to people. Simulated with a
+    model that always merges them, the measurement counts every frame as a merge and none as a miss
+    of the inner person (the rendered merges of this kind were counted as misses before)."""
+    def edit(m):
+        o = m["overhead"]
+        o.detect, o.miss_stay, o.merge_stay, o.clutter = constant(1.0), 0.0, 0.0, 0.0
+        o.merge = Table([[-np.inf, 1.5, np.inf]], np.array([1.0, 0.0]))  # silhouettes within 1.5 body widths merge
+    raw = {
+        "scene": {"name": "file"},
+        "room": {"outline": [[0, 0], [6, 0], [6, 5], [0, 5]]},
+        "cameras": [{"name": "top", "kind": "overhead", "position": [2.5, 2.5, 2.95], "fovy_deg": 120,
+                     "resolution": [320, 240], "fps": 10}],
+        "sensors": {"perception": _model_file(tmp_path, edit)},
+        "walkers": {"count": 2, "people": [{"motion": "standing", "start": [3.4, 2.5], "vary": False},
+                                           {"motion": "standing", "start": [4.3, 2.5], "vary": False}]},
+    }
+    scene = parse_scene(raw)
+    rec = simulate(scene, seed=0, duration=3.0)
+    fd = rec.observations["floor_detections"]
+    assert (fd.groupby("t").size() == 1).all() and (fd["x"] > 4.0).all()  # one blob a frame, on the outer person
+    s = pf.measure(rec, scene)["overhead"]
+    assert len(s.pair_merged) >= 25 and all(s.pair_merged)
+    assert all(s.hit)
 
 
 def test_someone_across_a_tile_edge_is_not_counted_as_merged():

@@ -189,8 +189,10 @@ def parameter_text(model) -> str:
             continue
         errs = ", ".join(f"{k} {q.bias:+.3g}/{q.sigma:.3g}" for k, q in m.errors.items())
         lines.append(f"  {name}: detect {float(m.detect.p.min()):.2f}-{float(m.detect.p.max()):.2f} over "
-                     f"{int(m.detect.n.sum()) if m.detect.n is not None else 0} candidates, miss correlation {m.rho:.3f}, "
-                     f"merge {float(m.merge.p.min()):.2f}-{float(m.merge.p.max()):.2f}, label {m.label:.3f}, "
+                     f"{int(m.detect.n.sum()) if m.detect.n is not None else 0} candidates, "
+                     + (f"miss stay {m.miss_stay:.3f}" if m.miss_stay is not None else f"miss correlation {m.rho:.3f}") + ", "
+                     f"merge {float(m.merge.p.min()):.2f}-{float(m.merge.p.max()):.2f}"
+                     + (f" (stay {m.merge_stay:.3f})" if m.merge_stay is not None else "") + f", label {m.label:.3f}, "
                      f"clutter {m.clutter:.3f}/frame" + (f" (lives {m.clutter_frames:.1f} frames), id restart {m.restart:.4f}/frame, "
                                                           f"swap at split {m.swap:.2f}" if name == "windows" else ""))
         lines.append(f"      errors (bias/sigma): {errs}")
