@@ -59,21 +59,12 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.camera import Camera
 
+from .perception_model import RENDERED_WINDOW_NOISE  # noqa: F401  (re-exported)
 
-# This detector's window errors against the projected truth on rendered ``occlusion_lab`` (320x240,
-# 10 fps; seed 0, 35 s; windows on walking people; robust standard deviations 1.4826 MAD), in the
-# calibration's terms (``SensorSpec`` plus two keys of its own): window edges ``box_sigma_px``
-# (top 1.3, bottom 1.5 px); window centroid u against the body axis ``box_u_sigma_px`` (3.4 px; a
-# key of its own: ``bearing_sigma_px`` stays the horizontal cameras' bearing noise, which the QP
-# smoother and EKF read, ~0.2 px rendered); region flow against the body centre's image velocity
-# ``flow_sigma_px_s`` (u 2.6, v 5.1 px/s per axis; standard deviations 13 and 12 px/s: heavy tails).
-# Measured with ``python scripts/experiment_tsutsui.py --recording DIR --window-errors``.
-# ``sim.simulate.simulate(..., sensing="rendered")`` merges these into ``calibration.noise``: noise
-# levels only. (The eq. 8 width ratio (w - w_c) / w_c of these windows - isolated, fully visible
-# walkers <= 0.10 in 99 % of frames and never above 0.5, two people merged side by side 0.7-1.3 -
-# informs an estimator's decision threshold, ``target_planes``' ``width_ratio_threshold``, which
-# lives in its Config, not in the calibration.)
-RENDERED_WINDOW_NOISE = {"box_sigma_px": 1.5, "box_u_sigma_px": 3.5, "flow_sigma_px_s": 5.0}
+
+# This detector's measured window noise, ``RENDERED_WINDOW_NOISE``, is defined in ``sim.perception_model``
+# (with the other measured noise figures; importing this module costs OpenCV and scipy.optimize,
+# which every analytic recording's calibration would otherwise pay for one dict).
 
 
 @dataclass(frozen=True)

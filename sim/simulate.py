@@ -13,7 +13,7 @@
 5. Calibration noise: the scene's ``sensors`` figures a user would have measured (rates, noise
    levels, the field) - not ``SIMULATOR_ONLY``, which describe how the simulated detectors behave;
    a rendered recording's ``boxes`` come from the flow detector, so its measured window noise
-   (``sim.perception_flow.RENDERED_WINDOW_NOISE``: ``box_sigma_px``, ``box_u_sigma_px``,
+   (``sim.perception_model.RENDERED_WINDOW_NOISE``: ``box_sigma_px``, ``box_u_sigma_px``,
    ``flow_sigma_px_s``) replaces / adds to them.
 
 Randomness: one ``numpy.random.default_rng(seed)`` spawns independent streams, in this fixed
@@ -79,7 +79,9 @@ def calibration_noise(scene: Scene, sensing: str = "analytic", model=None) -> di
         noise.update(figures)
     if not model.ideal or sensing == "rendered":
         # the rendered boxes come from the flow detector: declare its measured window noise
-        noise.update(importlib.import_module("trackroom.sim.perception_flow").RENDERED_WINDOW_NOISE)
+        from .perception_model import RENDERED_WINDOW_NOISE
+
+        noise.update(RENDERED_WINDOW_NOISE)
     return noise
 
 
