@@ -128,6 +128,9 @@ class TargetPlanes(Estimator):
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "
                                                 "target area, m")
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
+        split_births: bool = param(True, "start a track at the far side of a window too wide for the one track it holds "
+                                   "(eq. 8) when one other camera's window holds both people (issue 12: a look-alike walking "
+                                   "beside the target, merged with it in every view)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
@@ -227,6 +230,13 @@ class TargetPlanes(Estimator):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
                 next_id += 1
+            if cfg.split_births:
+                # a too-wide window's far side that one other camera's window confirms (tp_joint.JointTracker.split)
+                used = {(c, j) for _, support in proposals for c, j in support.items()}
+                for new in jt.split(tracks, frame, used, inside_room):
+                    new.tid = next_id
+                    tracks.append(new)
+                    next_id += 1
             tracks = jt.prune(tracks, keep, inside_room)
             if idl is not None:
                 idl.update(t, tracks)

@@ -118,6 +118,7 @@ class JointTrack:
     mu: float = 0.0  # probability that the person stands (the standing mode), given the windows so far
     xs: np.ndarray | None = None  # the standing mode's floor position (m) and its covariance Ps (2, 2)
     Ps: np.ndarray | None = None
+    split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
 
     def estimate(self) -> np.ndarray:
@@ -335,7 +336,18 @@ class JointTracker:
         df = boxes.flow[j] - f_pred
         Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
-        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
+        cost = 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
+        if len(projs) == 1 and cfg.split_births and dw > cfg.width_ratio_threshold * w_pred:
+            # wider than one person (eq. 8): also the track at the edge on its side and someone
+            # untracked in the rest - the edge as ``step`` uses it (doubled sigma), the flow with
+            # its noise doubled, and the untracked person as dear as a clutter window
+            p = projs[0]
+            left = abs(ul - p.win[0]) <= abs(ur - p.win[1])
+            de = (ul - p.win[0]) if left else (ur - p.win[1])
+            Sf2 = Sf + self.flow_sigma[c] ** 2 * np.eye(2)
+            d2f2 = min(float(df @ np.linalg.solve(Sf2, df)), FLOW_CAP)
+            cost = min(cost, 0.5 * (de**2 / ((2.0 * self.edge_sigma(p)) ** 2 + p.var_u) + d2f2) + C_CLUTTER)
+        return cost
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -543,6 +555,7 @@ class JointTracker:
         camera, indices into ``frame[c]`` (extended in place with the far sides of too-wide
         windows) of windows no track explains."""
         cfg = self.cfg
+        self.wide = []  # too-wide windows explained by one track: (camera, track index, window, far side's window, near side's centre u)
         for tr in tracks:
             self.predict(tr, dt)
         active = [tr for tr in tracks if tr.located]
@@ -605,7 +618,8 @@ class JointTracker:
                     self.update_plane(tr, c, p, float(edge), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
                     self.update_flow(tr, c, p, boxes.flow[j], extra_var=self.flow_sigma[c] ** 2)
                     far = np.array([boxes.win[j, 1] - p.width, boxes.win[j, 1]] if left else [boxes.win[j, 0], boxes.win[j, 0] + p.width])
-                    extra.append(((tid_j, "far"), np.r_[far, boxes.win[j, 2:]], boxes.flow[j]))
+                    near_u = float(edge + 0.5 * p.width if left else edge - 0.5 * p.width)
+                    extra.append(((tid_j, "far"), np.r_[far, boxes.win[j, 2:]], boxes.flow[j], (i, j, near_u)))
                     tr.status[c] = (UNRELIABLE, "width", None)
                     continue
                 ps = [projs[i] for i in mem]
@@ -627,9 +641,10 @@ class JointTracker:
                         self.update_flow(tr, c, p, boxes.flow[j], extra_var=spread + self.flow_sigma[c] ** 2)
                     others = ",".join(str(tracks[o].tid) for o in mem if o != i)
                     tr.status[c] = (MERGED, others, None)
-            for track, win, flow in extra:
+            for track, win, flow, (i, j, near_u) in extra:
                 boxes, k = boxes.with_box(track, win, flow)
                 free[c].append(k)
+                self.wide.append((c, i, j, k, near_u))
             frame[c] = boxes
         for i, tr in enumerate(tracks):
             speed = float(np.linalg.norm(tr.s[2:]))
@@ -645,8 +660,8 @@ class JointTracker:
                 tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
-            if used[i]:  # a hit: a window that is this track alone
-                tr.hits += 1
+            if used[i] or (tr.split and seen[i]):  # a hit: a window that is this track alone (or a share of
+                tr.hits += 1                         # a merged one, for a track split off a too-wide window)
             if tr.hits >= cfg.confirm_frames:
                 tr.confirmed = True
         return free
@@ -683,6 +698,82 @@ class JointTracker:
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
         return {best}
 
+    def split(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], taken: set, inside_room) -> list[JointTrack]:
+        """Births from too-wide windows confirmed by one other camera (issue 12: a look-alike
+        walking beside a track, merged with it in every view, never has a window of its own).
+
+        A window of camera c explained by one confirmed track but wider than that person
+        (eq. 8, recorded by ``step`` in ``self.wide``) holds a second person at its far side. The
+        far side's centre column (the far edge moved half a person's projected width inwards)
+        and the near side's give two target planes (eqs. 3-5); another camera c2's window whose
+        plane crosses both at ``min_plane_angle_deg`` or more places the two people: the
+        crossings xy_far, xy_near (eq. 6). It confirms two people when both crossings lie in
+        c2's window's target area and the far side's (section 3.2), both projected cylinders
+        lie within c2's window (widened by ``window_margin_px`` plus 3 sigma of the window
+        noise: one window there holds both, side by side along its line of sight or merged), and
+        xy_far is at least 2 ``radius`` from xy_near (two bodies) and from every other track.
+        Then the track moves to xy_near (position spread ``radius``) and a new track starts at
+        xy_far, its velocity from the windows' flows (eq. 7). Of several confirming windows the
+        one whose plane crosses at the largest angle is used. ``taken``: far-side windows
+        (camera, index) a crossing of free windows (``tp_initiate.propose``) already used.
+        Returns the new tracks (ids not yet set)."""
+        cfg = self.cfg
+        min_angle = np.radians(cfg.min_plane_angle_deg)
+        out = []
+        for c, i, j, k, near_u in self.wide:
+            tr = tracks[i]
+            if (c, k) in taken or not tr.confirmed or not tr.located:
+                continue
+            b = frame[c]
+            if np.linalg.norm(b.flow[k]) < cfg.mover_flow_px:
+                continue
+            vmid = 0.5 * (b.win[j, 2] + b.win[j, 3])
+            a_f, b_f = geo.target_plane(self.Ps[c], b.u[k], vmid)
+            a_n, b_n = geo.target_plane(self.Ps[c], near_u, vmid)
+            area_f = geo.target_area(self.Ps[c], b.box(k), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=self.margin_px)
+            best = None
+            for c2, b2 in frame.items():
+                if c2 == c:
+                    continue
+                for j2 in range(len(b2)):
+                    if isinstance(b2.track[j2], tuple):  # a far side added by step, not a window
+                        continue
+                    a2, bb2 = geo.target_plane(self.Ps[c2], b2.u[j2], 0.5 * (b2.win[j2, 2] + b2.win[j2, 3]))
+                    try:
+                        xy_f, _ = geo.intersect_planes(np.array([a_f, a2]), np.array([b_f, bb2]), min_angle)
+                        xy_n, _ = geo.intersect_planes(np.array([a_n, a2]), np.array([b_n, bb2]), min_angle)
+                    except geo.IllConditioned:
+                        continue
+                    if float(np.linalg.norm(xy_f - xy_n)) < 2 * cfg.radius or not inside_room(xy_f[None])[0]:
+                        continue
+                    if not area_f.contains(xy_f, cfg.consistency_margin):
+                        continue
+                    # c2's window holds both: their projected cylinders lie within it (its rows
+                    # are the nearer one's, so its target area need not hold the farther one)
+                    wins = [geo.cylinder_window(self.Ps[c2], xy, cfg.height, cfg.radius) for xy in (xy_f, xy_n)]
+                    lo, hi = b2.win[j2] - self.margin_px, b2.win[j2] + self.margin_px
+                    if not all(np.isfinite(w).all() and w[0] >= lo[0] and w[1] <= hi[1] and w[2] >= lo[2] and w[3] <= hi[3] for w in wins):
+                        continue
+                    an = np.array([a_f, a2]) / np.linalg.norm(np.array([a_f, a2]), axis=1, keepdims=True)
+                    sin = abs(float(an[0, 0] * an[1, 1] - an[0, 1] * an[1, 0]))
+                    if best is None or sin > best[0]:
+                        best = (sin, xy_f, xy_n, c2, j2)
+            if best is None:
+                continue
+            _, xy_f, xy_n, c2, j2 = best
+            if any(self.covers(o, xy_f) for o in tracks if o is not tr and o.located) or any(
+                    float(np.linalg.norm(xy_f - n.xy)) < 2 * cfg.radius for n in out):
+                continue
+            tr.s[:2] = xy_n
+            tr.S[:2, 2:] = 0.0
+            tr.S[2:, :2] = 0.0
+            tr.S[:2, :2] = np.eye(2) * cfg.radius**2
+            new = self.birth(-1, xy_f, {c: k, c2: j2}, frame)
+            new.split = True
+            taken.add((c, k))
+            out.append(new)
+        return out
+
     def covers(self, tr: JointTrack, xy: np.ndarray) -> bool:
         """A crossing at xy is track ``tr`` itself: nearer than 2 ``radius`` (two bodies cannot
         be), or inside the 99 % gate of its position uncertainty (a track still being found,
@@ -699,7 +790,7 @@ class JointTracker:
         out = []
         for tr in tracks:
             if tr.tid != keep:
-                if not (tr.n_used if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
+                if not ((tr.n_used or (tr.split and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
                     continue
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
                     continue
