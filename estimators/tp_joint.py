@@ -118,6 +118,7 @@ class JointTrack:
     mu: float = 0.0  # probability that the person stands (the standing mode), given the windows so far
     xs: np.ndarray | None = None  # the standing mode's floor position (m) and its covariance Ps (2, 2)
     Ps: np.ndarray | None = None
+    wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
 
@@ -336,18 +337,7 @@ class JointTracker:
         df = boxes.flow[j] - f_pred
         Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
-        cost = 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
-        if len(projs) == 1 and cfg.split_births and dw > cfg.width_ratio_threshold * w_pred:
-            # wider than one person (eq. 8): also the track at the edge on its side and someone
-            # untracked in the rest - the edge as ``step`` uses it (doubled sigma), the flow with
-            # its noise doubled, and the untracked person as dear as a clutter window
-            p = projs[0]
-            left = abs(ul - p.win[0]) <= abs(ur - p.win[1])
-            de = (ul - p.win[0]) if left else (ur - p.win[1])
-            Sf2 = Sf + self.flow_sigma[c] ** 2 * np.eye(2)
-            d2f2 = min(float(df @ np.linalg.solve(Sf2, df)), FLOW_CAP)
-            cost = min(cost, 0.5 * (de**2 / ((2.0 * self.edge_sigma(p)) ** 2 + p.var_u) + d2f2) + C_CLUTTER)
-        return cost
+        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -641,12 +631,16 @@ class JointTracker:
                         self.update_flow(tr, c, p, boxes.flow[j], extra_var=spread + self.flow_sigma[c] ** 2)
                     others = ",".join(str(tracks[o].tid) for o in mem if o != i)
                     tr.status[c] = (MERGED, others, None)
+            if cfg.split_births:
+                extra += self.wide_clutter(c, tracks, projs, boxes, free[c])
             for track, win, flow, (i, j, near_u) in extra:
                 boxes, k = boxes.with_box(track, win, flow)
                 free[c].append(k)
                 self.wide.append((c, i, j, k, near_u))
             frame[c] = boxes
+        wide = {i for _, i, _, _, _ in self.wide}
         for i, tr in enumerate(tracks):
+            tr.wide_run = tr.wide_run + 1 if i in wide else 0
             speed = float(np.linalg.norm(tr.s[2:]))
             if speed > cfg.max_speed:
                 tr.s[2:] *= cfg.max_speed / speed
@@ -698,6 +692,49 @@ class JointTracker:
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
         return {best}
 
+    def wide_clutter(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, free: list[int]) -> list:
+        """Windows of camera c explained as clutter that hold one confirmed track's projected
+        cylinder (within ``margin_px``) and are wider than it (eq. 8 ratio above
+        ``width_ratio_threshold``), their flow within the track's 99 % gate: the track and
+        someone walking beside it, one flow region (the explanation leaves such a window as
+        clutter: its width is far from one person's). The track is on the side whose edge is
+        nearer its prediction; the far side is returned as ``step``'s too-wide windows are:
+        (id, window, flow, (track index, window index, near side's centre u))."""
+        out = []
+        for j in free:
+            ul, ur = boxes.win[j, 0], boxes.win[j, 1]
+            inside = [i for i, p in projs.items() if tracks[i].confirmed and tracks[i].located
+                      and p.win[0] >= ul - self.margin_px and p.win[1] <= ur + self.margin_px]
+            if len(inside) != 1:
+                continue
+            i = inside[0]
+            p = projs[i]
+            if (ur - ul - p.width) <= self.cfg.width_ratio_threshold * p.width:
+                continue
+            df = boxes.flow[j] - p.flow
+            Sf = p.var_f + (2.0 * self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2) * np.eye(2)
+            if float(df @ np.linalg.solve(Sf, df)) > FLOW_CAP:
+                continue
+            left = abs(ul - p.win[0]) <= abs(ur - p.win[1])
+            far = np.array([ur - p.width, ur] if left else [ul, ul + p.width])
+            near_u = float(ul + 0.5 * p.width if left else ur - 0.5 * p.width)
+            out.append(((boxes.track[j], "far"), np.r_[far, boxes.win[j, 2:]], boxes.flow[j], (i, j, near_u)))
+        return out
+
+    def contradicts(self, c: str, xy_f: np.ndarray, xy_n: np.ndarray, boxes: CameraBoxes) -> bool:
+        """Camera c has a window holding the projected cylinder at xy_n (the track) and none
+        holding the one at xy_f (the second person), though xy_f is in its view and not hidden
+        by the floor plan's boxes: it sees the track and no one where the second person would be."""
+        cfg = self.cfg
+        wins = [geo.cylinder_window(self.Ps[c], xy, cfg.height, cfg.radius) for xy in (xy_f, xy_n)]
+        if not all(np.isfinite(w).all() for w in wins) or wins[0][1] < 0 or wins[0][0] > self.widths[c]:
+            return False
+        if self.occluders is not None and not self.occluders.visible(c, xy_f):
+            return False
+        u = [0.5 * (w[0] + w[1]) for w in wins]
+        holds = [bool(((boxes.win[:, 0] - self.margin_px <= x) & (x <= boxes.win[:, 1] + self.margin_px)).any()) for x in u] if len(boxes) else [False, False]
+        return holds[1] and not holds[0]
+
     def split(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], taken: set, inside_room) -> list[JointTrack]:
         """Births from too-wide windows confirmed by one other camera (issue 12: a look-alike
         walking beside a track, merged with it in every view, never has a window of its own).
@@ -722,8 +759,8 @@ class JointTracker:
         out = []
         for c, i, j, k, near_u in self.wide:
             tr = tracks[i]
-            if (c, k) in taken or not tr.confirmed or not tr.located:
-                continue
+            if (c, k) in taken or not tr.confirmed or not tr.located or tr.wide_run < cfg.confirm_frames:
+                continue  # a too-wide window for confirm_frames frames, as a new track's own windows
             b = frame[c]
             if np.linalg.norm(b.flow[k]) < cfg.mover_flow_px:
                 continue
@@ -761,6 +798,8 @@ class JointTracker:
             if best is None:
                 continue
             _, xy_f, xy_n, c2, j2 = best
+            if any(self.contradicts(c3, xy_f, xy_n, frame[c3]) for c3 in frame if c3 != c):
+                continue
             if any(self.covers(o, xy_f) for o in tracks if o is not tr and o.located) or any(
                     float(np.linalg.norm(xy_f - n.xy)) < 2 * cfg.radius for n in out):
                 continue

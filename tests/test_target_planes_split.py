@@ -25,15 +25,16 @@ TIMES = np.round(np.arange(0.0, 9.0, DT), 6)
 
 
 def _paths():
-    """The target A walks +y at 0.55 m/s along x = 2.6 from y = 1. The look-alike B stands at
-    (3.1, 2.1) - a flow tracker sees no one standing - until A comes level with it (t = 2 s),
-    then walks beside it, 0.5 m to its right, at its speed; from t = 6.5 s A bears left and B
+    """The target A walks at 0.54 m/s, (0.2, 0.5) m/s from (1.8, 1.0). The look-alike B stands
+    0.5 m to the right of where A is at t = 2 s - a flow tracker sees no one standing - and from
+    then walks beside it, 0.5 m to its right, at its velocity; from t = 6.5 s A bears left and B
     right, 0.9 m each by t = 9 s."""
     t = TIMES
-    y = 1.0 + 0.55 * t
-    ax = 2.6 - 0.9 * np.clip((t - 6.5) / 2.5, 0.0, 1.0)
-    bx = 3.1 + 0.9 * np.clip((t - 6.5) / 2.5, 0.0, 1.0)
-    return {"A": np.c_[ax, y], "B": np.c_[bx, np.maximum(y, 2.1)]}
+    y = 1.0 + 0.5 * t
+    apart = 0.9 * np.clip((t - 6.5) / 2.5, 0.0, 1.0)
+    ax = 1.8 + 0.2 * t
+    bx = 1.8 + 0.2 * np.maximum(t, 2.0) + 0.5
+    return {"A": np.c_[ax - apart, y], "B": np.c_[bx + apart, np.maximum(y, 2.0)]}
 
 
 def _boxes(cams, paths, drop=None):
@@ -78,7 +79,7 @@ def test_the_scene_is_a_side_by_side_merge_in_every_view():
     assert (west.loc[:8.0] == 1).all()  # west never sees B on its own before the separation
     assert (south.loc[8.0:] == 2).all()  # apart after it in south
     s = boxes[(boxes.camera == "south") & (boxes.t >= 2.0) & (boxes.t < 6.5)]
-    wa = np.array([np.diff(window_row(cams[0], _paths()["A"][k], (0.0, 0.55))[1:3])[0] for k in np.round(s.t.to_numpy() / DT).astype(int)])
+    wa = np.array([np.diff(window_row(cams[0], _paths()["A"][k], (0.2, 0.5))[1:3])[0] for k in np.round(s.t.to_numpy() / DT).astype(int)])
     ratio = (s.u_right - s.u_left - wa) / wa  # against A's own projected width
     assert ratio.between(0.7, 1.6).all()  # eq. 8: two people's width (0.5 threshold)
 
