@@ -40,7 +40,13 @@ Per frame:
 4. **Births** (``tp_initiate.propose``): windows explained as clutter, and the far side of a
    too-wide single window, start a track only where two cameras' target planes cross inside
    both windows' target areas, at least 2 ``radius`` from every track and outside its 99 %
-   position gate. A track is reported after
+   position gate. **Split births** (``split``, when ``split_births``): a window too wide for the
+   one confirmed track it holds (explained as it, or clutter holding its projected cylinder with
+   its flow within the track's gate: ``wide_clutter``) for ``confirm_frames`` frames running,
+   whose far and near sides' target planes another camera's window (holding both projected
+   cylinders) crosses 2 ``radius`` apart, and that no camera contradicts (``contradicts``):
+   the track moves to the near crossing, a new one starts at the far one and counts its merged
+   windows as hits. A track is reported after
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
    of two tracks nearer than ``radius`` the younger is dropped (one person seen twice).

@@ -1,4 +1,4 @@
-"""target_planes: births from too-wide windows (``JointTracker.split``, issue 12).
+"""target_planes: births from too-wide windows (``JointTracker.split``, ``split_births``, off by default; issue 12).
 
 A look-alike walks beside the target, merged with it in every view: south (looking +y) sees the
 two side by side in one window about twice one person's width (eq. 8 ratio near 1), west
@@ -88,7 +88,7 @@ def test_a_too_wide_window_confirmed_by_a_second_camera_starts_the_look_alike_an
     cams = right_angle_pair()
     paths = _paths()
     obs = Observations({"boxes": _boxes(cams, paths)}, float(TIMES[-1]) + DT)
-    multi = TargetPlanes(multi_person=True).run(obs, calib(cams)).tracks
+    multi = TargetPlanes(multi_person=True, split_births=True).run(obs, calib(cams)).tracks
     walk = multi[(multi.t >= 3.0) & (multi.t < 6.5)]
     d = _nearest(walk, paths)
     # during the side-by-side walk the look-alike has a track of its own, within 0.2 m
@@ -96,13 +96,13 @@ def test_a_too_wide_window_confirmed_by_a_second_camera_starts_the_look_alike_an
     assert on_b.t.nunique() >= 0.9 * walk.t.nunique()
     assert pd.Series(d["A"] < 0.2).groupby(walk.t.to_numpy()).any().mean() >= 0.9  # and A one too
     # the hand-chosen target keeps its identity through the walk and the separation
-    tgt = TargetPlanes(initial_xy=list(paths["A"][0])).run(obs, calib(cams))
+    tgt = TargetPlanes(initial_xy=list(paths["A"][0]), split_births=True).run(obs, calib(cams))
     d = _nearest(tgt.tracks, paths)
     assert len(tgt.tracks) == len(TIMES)
     assert (d["A"] < d["B"]).all() and d["A"][TIMES >= 7.5].max() < 0.15
     assert (tgt.status[tgt.status.t.between(3.0, 6.4)].status == MERGED).any()  # it was merged with the new track
-    # without the split births the look-alike has no track while merged (the case it is for)
-    off = TargetPlanes(multi_person=True, split_births=False).run(obs, calib(cams)).tracks
+    # without the split births (the default) the look-alike has no track while merged (the case it is for)
+    off = TargetPlanes(multi_person=True).run(obs, calib(cams)).tracks
     off = off[(off.t >= 3.0) & (off.t < 6.5)]
     d = _nearest(off, paths)
     assert ((d["B"] < 0.2) & (d["B"] < d["A"])).sum() < 0.5 * off.t.nunique()
@@ -114,7 +114,7 @@ def test_a_too_wide_window_no_other_camera_confirms_starts_nothing():
     cams = right_angle_pair()
     paths = _paths()
     obs = Observations({"boxes": _boxes(cams, paths, drop=("west", 1.5))}, float(TIMES[-1]) + DT)
-    for est in (TargetPlanes(multi_person=True), TargetPlanes(initial_xy=list(paths["A"][0]))):
+    for est in (TargetPlanes(multi_person=True, split_births=True), TargetPlanes(initial_xy=list(paths["A"][0]), split_births=True)):
         tr = est.run(obs, calib(cams)).tracks
         walk = tr[(tr.t >= 2.0) & (tr.t < 6.5)]
         d = _nearest(walk, paths)
