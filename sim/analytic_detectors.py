@@ -15,7 +15,7 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import NEAR_GAP, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events
+from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events
 
 
 def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, m: DetectorModel) -> np.ndarray:
@@ -523,6 +523,48 @@ def floor_errors(m: DetectorModel, cam: Camera, pos: np.ndarray, ux: np.ndarray,
     return e
 
 
+def drift_episodes(rng: np.random.Generator, m: DetectorModel, cam: Camera, f: np.ndarray, p: np.ndarray, pos: np.ndarray,
+                   own: np.ndarray, cut: np.ndarray, near: np.ndarray, F: int, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """The tail of floor errors (``perception_model.Tail``): (n, 2) extra errors of the detections
+    (frame f, person p, at pos) and which of them are missed (the frame after an episode). An
+    episode starts at an unmerged detection (``own``) with P(start | head cut, near), lasts a
+    geometric number of frames while the person stays detected and unmerged, grows linearly from
+    TAIL_M towards its peak (TAIL_M + (peak - TAIL_M) k / L at its k-th frame, k = 1..L), and points at a fitted angle from the camera's radial direction. Episodes
+    are rare (about one in a thousand person-frames): the loop is over episodes, not frames."""
+    t = m.tail
+    n = len(f)
+    extra, drop = np.zeros((n, 2)), np.zeros(n, bool)
+    start = own & (rng.random(n) < t.start(cut.astype(float), near.astype(float)))
+    if not start.any():
+        return extra, drop
+    rows = np.full((F, P), -1)
+    rows[f[own], p[own]] = np.nonzero(own)[0]
+    first = np.nonzero(start)[0]
+    first = first[np.argsort(f[first], kind="stable")]
+    k = len(first)
+    length = rng.geometric(1.0 / t.frames, k)
+    peak = np.maximum(t.size.at(rng.random(k)), TAIL_M)
+    angle = t.angle.at(rng.random(k))
+    missed = rng.random(k) < t.miss
+    busy = np.full(P, -1)  # each person's episode ends before this frame
+    for i, r0 in enumerate(first):
+        f0, q = int(f[r0]), int(p[r0])
+        if f0 < busy[q]:
+            continue
+        run = rows[f0:f0 + length[i], q]
+        stop = np.nonzero(run < 0)[0]
+        run = run[:stop[0]] if len(stop) else run
+        L = len(run)
+        size = TAIL_M + (peak[i] - TAIL_M) * np.arange(1, L + 1) / L  # above TAIL_M from its first frame
+        er, et = radial_frame(cam, pos[run])
+        extra[run] = size[:, None] * (np.cos(angle[i]) * er + np.sin(angle[i]) * et)
+        busy[q] = f0 + L
+        if missed[i] and L == length[i] and f0 + L < F and rows[f0 + L, q] >= 0:
+            drop[rows[f0 + L, q]] = True
+            busy[q] += 1
+    return extra, drop
+
+
 def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
           bounds: tuple[float, float, float, float]) -> pd.DataFrame | None:
     """``floor_detections`` rows (t, camera, x, y) of an overhead camera (regular or privacy)."""
@@ -559,6 +601,9 @@ def floor(cam: Camera, g, frac: np.ndarray, traj, t: np.ndarray, m: DetectorMode
     e = floor_errors(m, cam, pos, gx[f, p], gy[f, p], clip[f, p] < 0.999, near,
                      g.head_shift[f, member] if g.head_shift is not None else None)
     pos = pos + e
+    if m.tail is not None:
+        extra, drop = drift_episodes(rng, m, cam, f, p, pos, cnt == 1, clip[f, p] < 0.999, near, F, P)
+        pos, f = (pos + extra)[~drop], f[~drop]
     k = rng.poisson(m.clutter, F) if m.clutter > 0 else np.zeros(F, int)
     fc = np.repeat(np.arange(F), k)
     x0, y0, x1, y1 = cam.region if cam.region is not None else bounds

@@ -31,7 +31,7 @@ from trackroom.scenes.spec import Scene
 
 from .analytic_detectors import (FLOOR_TABLES, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
-from .perception_model import DETECTORS, NEAR_GAP, DetectorModel, PerceptionModel, Quantiles, Table, correlated_uniforms, run_events
+from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
@@ -87,6 +87,13 @@ class DetectorStats:
     restarts: int = 0
     splits: int = 0
     swaps: int = 0
+    # floor detectors: |error| of every unmerged detection; drift episodes (runs of |error| >
+    # TAIL_M) as (head cut, near, frames, peak, angle from radial, missed after); per unmerged
+    # detection outside an episode, its state and whether an episode starts there
+    floor_abs: list = field(default_factory=list)
+    tail_eps: list = field(default_factory=list)
+    tail_feat: list = field(default_factory=list)
+    tail_hit: list = field(default_factory=list)
 
     def arrays(self, n_features: int):
         """(features (candidates, n_features), hit (candidates,))."""
@@ -171,6 +178,8 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
     o_all, ok_all = span_pairs(a, b)
     iu, ju = np.triu_indices(P, 1)
     s.frames += F
+    E = np.full((F, P, 2), np.nan)  # error of each unmerged detection
+    state = np.zeros((F, P, 2), bool)  # its (head cut, near)
     for f in range(F):
         d = by_frame.get(f)
         u = d["u"].to_numpy() if d is not None else np.zeros(0)
@@ -356,6 +365,8 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
     # nearness among people in the camera's view (the sampler: among those it detected)
     nearest = nearest_gap(np.where(cand[:, iu] & cand[:, ju], gap, INF), P) if P > 1 else np.full((F, P), INF)
     s.frames += F
+    E = np.full((F, P, 2), np.nan)  # error of each unmerged detection
+    state = np.zeros((F, P, 2), bool)  # its (head cut, near)
     for f in range(F):
         d = by_frame.get(f)
         D = d[["x", "y"]].to_numpy(float) if d is not None else np.zeros((0, 2))
@@ -396,12 +407,47 @@ def _measure_floor(s: DetectorStats, cam, g, frac, traj, det):
                 s.errors[name + "_t"].append(float(e @ et))
                 s.errors[name + "_h"].append(float(g.head_shift[f, p]))  # the head-height shift (fit: head_gain)
                 s.err_seq.append((cam.name, p, f, (float(e @ er), float(g.head_shift[f, p]), name)))
+                E[f, p] = e
+                state[f, p] = (clip[f, p] < 0.999, near)
         s.clutter += len(D) - len(match)
         both = hit[f, iu] & hit[f, ju] & reportable[f, iu] & reportable[f, ju]
         for k in np.nonzero(both)[0]:
             if gap[f, k] < reach:
                 _pair(s, cam.name, int(iu[k]), int(ju[k]), f, gap[f, k], merged_with)
     _candidates(s, cam.name, cand & inside, lambda f, p: (frac[f, p], speed[f, p], clip[f, p]), hit)
+    _measure_tail(s, cam, xy, E, state, hit, cand & reportable)
+
+
+def _measure_tail(s: DetectorStats, cam, xy: np.ndarray, E: np.ndarray, state: np.ndarray, hit: np.ndarray, present: np.ndarray) -> None:
+    """Drift episodes of a floor detector (``perception_model.Tail``): runs of consecutive frames
+    in which a person's unmerged detection errs by more than TAIL_M. ``E`` (F, P, 2) errors (NaN:
+    no unmerged detection) of people at ``xy`` (F, P, 2), ``state`` (F, P, 2) head cut and near, ``hit`` detected (or merged),
+    ``present`` in the camera's view and tile."""
+    F, P = E.shape[:2]
+    size = np.linalg.norm(E, axis=-1)
+    own = np.isfinite(size)
+    s.floor_abs.extend(size[own].tolist())
+    big = own & (size > TAIL_M)
+    for p in range(P):
+        f = 0
+        while f < F:
+            if not own[f, p]:
+                f += 1
+                continue
+            s.tail_feat.append(tuple(float(v) for v in state[f, p]))
+            s.tail_hit.append(bool(big[f, p]))
+            if not big[f, p]:
+                f += 1
+                continue
+            end = f
+            while end + 1 < F and big[end + 1, p]:
+                end += 1
+            k = f + int(np.argmax(size[f:end + 1, p]))
+            er, et = radial_frame(cam, xy[k, p])  # the peak's direction from the camera's radial one
+            angle = float(np.arctan2(E[k, p] @ et, E[k, p] @ er))
+            missed = bool(end + 1 < F and present[end + 1, p] and not hit[end + 1, p])
+            s.tail_eps.append((*(bool(v) for v in state[f, p]), end - f + 1, float(size[k, p]), angle, missed))
+            f = end + 1
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -422,6 +468,10 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             for name, v in s.errors.items():
                 o.errors[name] += v
             o.label_ok += s.label_ok
+            o.floor_abs += s.floor_abs
+            o.tail_eps += s.tail_eps
+            o.tail_feat += s.tail_feat
+            o.tail_hit += s.tail_hit
             o.clutter_ids |= {(i, *c) for c in s.clutter_ids}
             o.fragment_ids |= {(i, *c) for c in s.fragment_ids}
             for a in ("frames", "clutter", "clutter_unlabelled", "fragments", "fragment_labelled", "continuing", "restarts", "splits", "swaps"):
@@ -583,6 +633,29 @@ def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     return float(np.clip(r, 0.0, 0.999)) if np.isfinite(r) else 0.0
 
 
+TAIL_EDGES = [[-INF, 0.5, INF], [-INF, 0.5, INF]]  # head cut, near (0 or 1)
+MIN_TAIL_EPISODES = 5
+
+
+def fit_tail(s: DetectorStats) -> Tail | None:
+    """The drift episodes of a floor detector (``perception_model.Tail``) from the measured ones
+    (``_measure_tail``): P(start | head cut, near) per unmerged detection outside an episode
+    (shrunk towards the pooled rate), the mean length, the peaks' and angles' quantiles, the
+    share followed by a miss. None with fewer than MIN_TAIL_EPISODES episodes."""
+    if len(s.tail_eps) < MIN_TAIL_EPISODES:
+        return None
+    X = np.asarray(s.tail_feat, float).reshape(-1, 2)
+    start = Table.fit(TAIL_EDGES, list(X.T), np.asarray(s.tail_hit, bool))
+    eps = np.asarray([e[2:] for e in s.tail_eps], float)  # frames, peak, angle, missed
+    return Tail(start, frames=float(eps[:, 0].mean()), size=Quantiles(np.quantile(eps[:, 1], LEVELS)),
+                angle=Quantiles(np.quantile(eps[:, 2], LEVELS)), miss=float(eps[:, 3].mean()))
+
+
+def tail_share(s: DetectorStats) -> float:
+    """Share of a floor detector's unmerged detections off by more than TAIL_M (NaN: none)."""
+    return float(np.mean(np.asarray(s.floor_abs) > TAIL_M)) if s.floor_abs else np.nan
+
+
 def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings)."""
     from .perception_flow import FlowParams
@@ -628,6 +701,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             restart=s.restarts / s.continuing if s.continuing else 0.0,
             swap=(s.swaps + 1) / (s.splits + 2),
             max_gap=FlowParams().max_missed if k == "windows" else 0,
+            tail=fit_tail(s) if k in ("overhead", "privacy") else None,
         )
     return PerceptionModel(out, list(fitted_on))
 
@@ -686,6 +760,8 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
         run_r, run_a = miss_runs(r), miss_runs(a)
         if m.miss_stay is not None and run_r > 0 and run_a > 0:
             m.miss_stay = float(np.clip(1.0 - (1.0 - m.miss_stay) * ratio(run_a, run_r), 0.0, MAX_STAY))
+        if m.tail is not None:  # episodes cut short by misses and merges, or added by the tables' own tails
+            m.tail.start.p = np.clip(m.tail.start.p * ratio(tail_share(r), tail_share(a)), 0.0, 1.0)
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
         m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))
@@ -696,7 +772,7 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
 
 
 # ----------------------------------------------------------------------------- summaries
-SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "merge_rate", "merge_run", "fragment_rate",
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "tail_share", "err_p999", "merge_rate", "merge_run", "fragment_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
 
 
@@ -714,6 +790,9 @@ def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
             "miss_run": miss_runs(s) if s.hit else np.nan,
             "err_median": np.median(e) if len(e) else np.nan,
             "err_p90": np.quantile(e, 0.9) if len(e) else np.nan,
+            # floor detectors: |error| of unmerged detections (m), share above TAIL_M and 99.9 % quantile
+            "tail_share": tail_share(s),
+            "err_p999": np.quantile(s.floor_abs, 0.999) if s.floor_abs else np.nan,
             "merge_rate": np.mean(s.pair_merged) if s.pair_merged else np.nan,
             "merge_run": merge_runs(s) if s.pair_merged else np.nan,
             "fragment_rate": s.fragments / max(int(np.sum(s.hit)), 1) if s.hit else np.nan,

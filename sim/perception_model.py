@@ -47,6 +47,13 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            ``analytic_detectors.FLOOR_TABLES``), and the radial one adds ``head_gain`` times the
            head-height shift (``CameraGeometry.head_shift``): the detector places a person by the
            head, and a walking person's head bobs.
+  tail     (overhead, privacy; ``Tail``) drift episodes beyond the error tables: a blob that
+           drifts off its person over a few frames (a head cut by the tile's border, a blob partly
+           joined with a neighbour's) and often ends in a miss. Per detected, unmerged
+           person-frame an episode starts with P(start | head cut, near another person); it lasts
+           a geometric number of frames (mean ``frames``) with |error| above ``TAIL_M`` growing
+           linearly to a peak drawn from ``size``, in a direction (angle from the camera's radial
+           direction) drawn from ``angle``; with ``miss`` the frame after it is missed.
   label    P(the appearance label is the person's own colour); otherwise another colour of the
            scene's palette, drawn uniformly (the label is an appearance class, never an id).
   clutter  false detections per camera frame (Poisson), placed uniformly in the image (floor
@@ -103,6 +110,9 @@ DETECTORS = ("horizontal", "oblique", "windows", "overhead", "privacy")
 # overhead, privacy: a blob whose silhouette lies within this many body widths of another detected
 # person's in the image takes the "near" error tables (``analytic_detectors.FLOOR_TABLES``)
 NEAR_GAP = 1.5
+# floor errors above this (m) are the tail (``Tail``): the error tables, which stop at their 99.5 %
+# quantile (about 5 cm), do not make them
+TAIL_M = 0.08
 # quantile levels of an error table (the ends are the 0.5 % and 99.5 % quantiles)
 LEVELS = (0.005, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.995)
 
@@ -206,6 +216,32 @@ class Quantiles:
 
 
 @dataclass
+class Tail:
+    """Drift episodes of a floor detector (see the module docstring, ``tail``): an episode of L
+    frames (geometric, mean ``frames``) has |error| TAIL_M + (peak - TAIL_M) k / L at its k-th
+    frame (k = 1..L: above TAIL_M throughout, the peak last), added to the table error along the direction at
+    ``angle`` (rad) from the camera's radial direction."""
+
+    start: Table  # P(an episode starts | head cut (0, 1), near another person (0, 1)), per detected person-frame
+    frames: float = 1.0  # mean frames of an episode above TAIL_M
+    size: Quantiles = field(default_factory=lambda: Quantiles(np.full(len(LEVELS), TAIL_M)))  # peak |error| (m)
+    angle: Quantiles = field(default_factory=lambda: Quantiles(np.zeros(len(LEVELS))))  # from the radial direction (rad)
+    miss: float = 0.0  # share of episodes followed by a miss
+
+    def to_dict(self) -> dict:
+        return {"start": self.start.to_dict(), "frames": round(self.frames, 4), "size": self.size.to_dict(),
+                "angle": self.angle.to_dict(), "miss": round(self.miss, 4)}
+
+    @classmethod
+    def from_dict(cls, d) -> "Tail":
+        t = cls(Table.from_dict(d["start"]), float(d["frames"]), Quantiles.from_dict(d["size"]),
+                Quantiles.from_dict(d["angle"]), float(d["miss"]))
+        if not (t.frames >= 1 and 0.0 <= t.miss <= 1.0):
+            raise ValueError("tail: frames must be >= 1 and miss in [0, 1]")
+        return t
+
+
+@dataclass
 class DetectorModel:
     """One detector's fitted behaviour (see the module docstring; unused parts stay default)."""
 
@@ -232,6 +268,7 @@ class DetectorModel:
     # overhead, privacy: per floor error table (``analytic_detectors.FLOOR_TABLES``) the share of
     # the geometric head-height shift (``CameraGeometry.head_shift``) in the radial error
     head_gain: dict[str, float] = field(default_factory=dict)
+    tail: Tail | None = None  # overhead, privacy: drift episodes (None: models before them draw none)
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -247,6 +284,7 @@ class DetectorModel:
             "fragment_frames": round(self.fragment_frames, 3), "fragment_label": round(self.fragment_label, 6),
             "restart": round(self.restart, 6), "swap": round(self.swap, 6), "max_gap": int(self.max_gap),
             **({"head_gain": {k: round(v, 4) for k, v in self.head_gain.items()}} if self.head_gain else {}),
+            **({"tail": self.tail.to_dict()} if self.tail is not None else {}),
         }
 
     @classmethod
@@ -260,7 +298,8 @@ class DetectorModel:
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
                 fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
                 swap=float(d["swap"]), max_gap=int(d["max_gap"]),
-                head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()})
+                head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()},
+                tail=Tail.from_dict(d["tail"]) if "tail" in d else None)
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")

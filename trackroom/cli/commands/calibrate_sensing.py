@@ -196,4 +196,9 @@ def parameter_text(model) -> str:
                      f"clutter {m.clutter:.3f}/frame" + (f" (lives {m.clutter_frames:.1f} frames), id restart {m.restart:.4f}/frame, "
                                                           f"swap at split {m.swap:.2f}" if name == "windows" else ""))
         lines.append(f"      errors (bias/sigma): {errs}")
+        if m.tail is not None:
+            t = m.tail
+            starts = " ".join(f"{v:.2g}" for v in t.start.p.ravel())
+            lines.append(f"      drift episodes: start per detection (whole/cut x alone/near) {starts}, {t.frames:.2f} frames, "
+                         f"peak {t.size.bias:.3f} m median / {float(t.size.q[-1]):.3f} m max, followed by a miss {t.miss:.2f}")
     return "\n".join(lines)
