@@ -61,9 +61,10 @@ def strings(obj):
 # ----------------------------------------------------------------------------- manifest
 def test_manifest_records_command_override_and_resolved_scene(tmp_path):
     out = tmp_path / "rec"
-    commits = {git_commit()}  # and the one after: a commit may land in the working tree meanwhile
+    fresh = git_commit.__wrapped__  # uncached: a commit may land in the working tree mid-suite
+    commits = {fresh()}  # and the one after
     r = run_cli("generate", "overhead_lab", "--set", "walkers.count=3", "--duration", "2", "--out", str(out), "--quiet")
-    commits.add(git_commit())
+    commits.add(fresh())
     assert r.returncode == 0, r.stderr
     m = json.loads((out / "manifest.json").read_text())
     assert m["overrides"] == ["walkers.count=3"] and m["meta"]["overrides"] == ["walkers.count=3"]
