@@ -28,21 +28,26 @@ def window_row(c, xy, vel):
     return np.r_[0.5 * (win[0] + win[1]), win, flow]
 
 
-def boxes_table(cameras, paths, times, merged_in=()):
+def boxes_table(cameras, paths, times, merged_in=(), gap_px=0.0, movers_only=False, drop=None):
     """The boxes table of people walking ``paths`` (name -> (n, 2) positions at ``times``). In the
-    cameras named in ``merged_in``, overlapping windows are reported as one window: their union,
-    with the mean flow, under the id of the first (a flow tracker's merged region)."""
+    cameras named in ``merged_in``, windows that overlap or come within ``gap_px`` are reported as
+    one window: their union, with the mean flow, under the id of the first (a flow tracker's merged
+    region). ``movers_only``: a person standing still has no window (no flow); ``drop`` (camera
+    name, t0): that camera reports nothing from t0 on."""
     rows = []
     dt = times[1] - times[0]
     for c in cameras:
         for k, t in enumerate(times):
+            if drop is not None and c.name == drop[0] and t >= drop[1]:
+                continue
             cur = []
             for n, p in paths.items():
                 vel = (p[min(k + 1, len(times) - 1)] - p[max(k - 1, 0)]) / (dt * (min(k + 1, len(times) - 1) - max(k - 1, 0)))
-                cur.append([n, window_row(c, p[k], vel)])
+                if not movers_only or np.linalg.norm(vel) > 0.0:
+                    cur.append([n, window_row(c, p[k], vel)])
             if c.name in merged_in and len(cur) == 2:
                 (na, a), (nb, b) = cur
-                if a[2] >= b[1] and b[2] >= a[1]:  # the windows overlap: one region
+                if a[2] + gap_px >= b[1] and b[2] + gap_px >= a[1]:  # the windows overlap or nearly touch: one region
                     ul, ur = min(a[1], b[1]), max(a[2], b[2])
                     cur = [[na, np.r_[0.5 * (ul + ur), ul, ur, min(a[3], b[3]), max(a[4], b[4]), 0.5 * (a[5:] + b[5:])]]]
             for n, r in cur:

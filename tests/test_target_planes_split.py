@@ -17,7 +17,7 @@ from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import MERGED
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, right_angle_pair
-from tests.test_target_planes_joint import window_row
+from tests.test_target_planes_joint import boxes_table, window_row
 
 GAP_PX = 8.0  # windows this close are one flow region
 DT = 0.1
@@ -38,29 +38,9 @@ def _paths():
 
 
 def _boxes(cams, paths, drop=None):
-    """Windows of the people walking ``paths``, merged where they overlap or nearly touch;
-    ``drop`` (camera, t0): that camera reports nothing from t0 on."""
-    rows = []
-    for c in cams:
-        for k, t in enumerate(TIMES):
-            if drop is not None and c.name == drop[0] and t >= drop[1]:
-                continue
-            cur = []
-            for n, p in paths.items():
-                vel = (p[min(k + 1, len(TIMES) - 1)] - p[max(k - 1, 0)]) / (DT * (min(k + 1, len(TIMES) - 1) - max(k - 1, 0)))
-                if np.linalg.norm(vel) > 0.0:  # no flow, no window
-                    cur.append([n, window_row(c, p[k], vel)])
-            if len(cur) < 2:
-                rows.extend((t, c.name, n, *r) for n, r in cur)
-                continue
-            (na, a), (nb, b) = cur
-            if a[2] + GAP_PX >= b[1] and b[2] + GAP_PX >= a[1]:
-                ul, ur = min(a[1], b[1]), max(a[2], b[2])
-                cur = [[na, np.r_[0.5 * (ul + ur), ul, ur, min(a[3], b[3]), max(a[4], b[4]), 0.5 * (a[5:] + b[5:])]]]
-            for n, r in cur:
-                rows.append((t, c.name, n, *r))
-    cols = ["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"]
-    return pd.DataFrame(rows, columns=cols).sort_values(["t", "camera"], kind="stable").reset_index(drop=True)
+    """Windows of the people walking ``paths`` (movers only), merged in every camera where they
+    overlap or nearly touch; ``drop`` (camera, t0): that camera reports nothing from t0 on."""
+    return boxes_table(cams, paths, TIMES, merged_in={c.name for c in cams}, gap_px=GAP_PX, movers_only=True, drop=drop)
 
 
 def _nearest(tracks, paths):
