@@ -205,6 +205,7 @@ class TargetPlanes(Estimator):
         flow_sigma = {c: float(cfg.flow_sigma_px_s) if cfg.flow_sigma_px_s is not None else float(cfg.box_sigma_px) * calibration.cameras[c].fps for c in cams}
         jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px))
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
+        jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
         tracks: list[JointTrack] = []
         keep = None

@@ -52,7 +52,9 @@ Per frame:
    windows as hits. A track is reported after
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
-   of two tracks nearer than ``radius`` the younger is dropped (one person seen twice).
+   of two tracks nearer than ``radius`` the younger is dropped (one person seen twice); a track
+   off the floor plan is dropped, except the hand-chosen target's, which is put back on it
+   (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
@@ -250,6 +252,7 @@ class JointTracker:
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
+        self.outline: np.ndarray | None = None  # the floor plan's outline (k, 2), m (None: no floor plan)
         q = (1.0 - cfg.p_detect) / (cfg.p_detect * cfg.miss_run)  # P(a miss | seen the frame before)
         self.p_see_after_hit = 1.0 - min(q, 1.0)
         self.p_see_after_miss = 1.0 / cfg.miss_run
@@ -872,11 +875,46 @@ class JointTracker:
         d = np.asarray(xy, float) - tr.xy
         return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
 
+    def onto_floor(self, tr: JointTrack, inside_room) -> bool:
+        """A person is on the floor plan. A track that left it - the hand-chosen target, which is
+        never dropped, after running on along one camera's line of sight where one view cannot
+        tell depth - is put back at the outline's nearest point, ``radius`` inside the wall, with
+        no velocity and the largest spreads (``sigma_max``, ``max_speed`` / 2; its standing
+        position the same), for the windows to find it again. Returns whether it was moved."""
+        cfg = self.cfg
+        if self.outline is None or len(self.outline) < 3 or bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
+            return False
+        x = tr.xy.copy()
+        best = None
+        for a, b in zip(self.outline, np.roll(self.outline, -1, axis=0)):
+            e = b - a
+            L2 = float(e @ e)
+            if L2 <= 0.0:
+                continue
+            q = a + float(np.clip((x - a) @ e / L2, 0.0, 1.0)) * e
+            d = float(np.linalg.norm(x - q))
+            if best is None or d < best[0]:
+                n = np.array([-e[1], e[0]]) / np.sqrt(L2)  # a normal of the edge; inwards below
+                best = (d, q, n)
+        if best is None:
+            return False
+        _, q, n = best
+        if not bool(np.asarray(inside_room((q + 1e-3 * n)[None])).reshape(-1)[0]):
+            n = -n
+        xy = q + cfg.radius * n
+        if not bool(np.asarray(inside_room(xy[None])).reshape(-1)[0]):  # by a corner: towards the middle
+            m = self.outline.mean(axis=0) - q
+            xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
+        tr.s = np.r_[xy, 0.0, 0.0]
+        tr.S = np.diag([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
+        tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+        return True
+
     def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
         """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
         for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
         ``radius`` (two bodies cannot be: one person seen twice); never the track ``keep`` (the
-        hand-chosen target)."""
+        hand-chosen target), which is put back on the floor plan when it left it (``onto_floor``)."""
         cfg = self.cfg
         out = []
         for tr in tracks:
@@ -887,6 +925,8 @@ class JointTracker:
                     continue
                 if not bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
                     continue
+            else:
+                self.onto_floor(tr, inside_room)  # the target is kept, on the floor plan
             out.append(tr)
         drop = set()
         for a, b in itertools.combinations(out, 2):
