@@ -129,9 +129,9 @@ class TargetPlanes(Estimator):
                                                 "target area, m")
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
         split_births: bool = param(False, "start a track at the far side of a window too wide for the one track it "
-                                   "holds (eq. 8) when one other camera's window holds both people (issue 12: a look-alike "
-                                   "walking beside the target, merged with it in every view); off: on evaluation seeds "
-                                   "410-439 it changed no rendered identity and lost analytic 413 and head-on 420 "
+                                   "holds (eq. 8) when a second camera's window is too wide for one person as well "
+                                   "(both see two people side by side; issue 12: a look-alike walking beside the "
+                                   "target, merged with it in every view); off: on development seeds it never fired "
                                    "(docs/target_planes.md)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
@@ -205,6 +205,7 @@ class TargetPlanes(Estimator):
         flow_sigma = {c: float(cfg.flow_sigma_px_s) if cfg.flow_sigma_px_s is not None else float(cfg.box_sigma_px) * calibration.cameras[c].fps for c in cams}
         jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px))
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
+        jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
         tracks: list[JointTrack] = []
         keep = None

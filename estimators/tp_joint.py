@@ -42,14 +42,19 @@ Per frame:
    both windows' target areas, at least 2 ``radius`` from every track and outside its 99 %
    position gate. **Split births** (``split``, when ``split_births``): a window too wide for the
    one confirmed track it holds (explained as it, or clutter holding its projected cylinder with
-   its flow within the track's gate: ``wide_clutter``) for ``confirm_frames`` frames running,
-   whose far and near sides' target planes another camera's window (holding both projected
-   cylinders) crosses 2 ``radius`` apart, and that no camera contradicts (``contradicts``):
+   its flow within the track's gate: ``wide_clutter``, which then gives the track its near edge
+   and the region's flow and counts as a merged window for the existence test) for
+   ``confirm_frames`` frames running, and a second camera's window too wide for one person as
+   well (both cameras see two people side by side): the two sides' target planes of the one
+   camera cross the two sides' planes of the other at the two people, 2 ``radius`` apart, both
+   projected cylinders inside both windows, and no camera contradicts (``contradicts``):
    the track moves to the near crossing, a new one starts at the far one and counts its merged
    windows as hits. A track is reported after
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
-   of two tracks nearer than ``radius`` the younger is dropped (one person seen twice).
+   of two tracks nearer than ``radius`` the younger is dropped (one person seen twice); a track
+   off the floor plan is dropped, except the hand-chosen target's, which is put back on it
+   (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
@@ -247,6 +252,7 @@ class JointTracker:
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
+        self.outline: np.ndarray | None = None  # the floor plan's outline (k, 2), m (None: no floor plan)
         q = (1.0 - cfg.p_detect) / (cfg.p_detect * cfg.miss_run)  # P(a miss | seen the frame before)
         self.p_see_after_hit = 1.0 - min(q, 1.0)
         self.p_see_after_miss = 1.0 / cfg.miss_run
@@ -578,6 +584,8 @@ class JointTracker:
                 else:
                     tracks[i].status[c] = (LOST, "", None)
             holder = {i: (j, len(mem)) for j, mem in expl.items() for i in mem}
+            wide_c = self.wide_clutter(c, tracks, projs, boxes, free[c]) if cfg.split_births else []
+            in_wide = {e[3][0] for e in wide_c}  # tracks in a too-wide region left as clutter: merged with someone untracked
             for i, p in projs.items():  # the existence test's evidence, from the predictions
                 j, n = holder.get(i, (None, 0))
                 # its projected cylinder overlaps another track's: hidden by it, or merged with it
@@ -590,7 +598,7 @@ class JointTracker:
                     alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
                                              for k, q in projs.items() if k != i and k not in holder])
                     lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
-                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1, hidden)
+                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden)
                 hit[i] |= n == 1
             extra = []
             for j, mem in expl.items():
@@ -638,7 +646,18 @@ class JointTracker:
                     others = ",".join(str(tracks[o].tid) for o in mem if o != i)
                     tr.status[c] = (MERGED, others, None)
             if cfg.split_births:
-                extra += self.wide_clutter(c, tracks, projs, boxes, free[c])
+                for e in wide_c:
+                    # the track's own side of the region: its near edge and the region's flow, as
+                    # for a too-wide window explained as it (above); without them a track merged
+                    # side by side in every view has no update and lags out of the region
+                    i, j = e[3][0], e[3][1]
+                    tr, p = tracks[i], projs[i]
+                    left = abs(boxes.win[j, 0] - p.win[0]) <= abs(boxes.win[j, 1] - p.win[1])
+                    self.update_plane(tr, c, p, float(boxes.win[j, 0] if left else boxes.win[j, 1]), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+                    self.update_flow(tr, c, p, boxes.flow[j], extra_var=self.flow_sigma[c] ** 2)
+                    seen[i] = True
+                    tr.status[c] = (UNRELIABLE, "width", None)
+                    extra.append(e)
             for track, win, flow, (i, j, near_u) in extra:
                 boxes, k = boxes.with_box(track, win, flow)
                 free[c].append(k)
@@ -710,7 +729,8 @@ class JointTracker:
         for j in free:
             ul, ur = boxes.win[j, 0], boxes.win[j, 1]
             inside = [i for i, p in projs.items() if tracks[i].confirmed and tracks[i].located
-                      and p.win[0] >= ul - self.margin_px and p.win[1] <= ur + self.margin_px]
+                      and p.win[0] >= ul - self.margin_px - 3.0 * np.sqrt(p.var_u + self.u_sigma**2)
+                      and p.win[1] <= ur + self.margin_px + 3.0 * np.sqrt(p.var_u + self.u_sigma**2)]
             if len(inside) != 1:
                 continue
             i = inside[0]
@@ -727,6 +747,16 @@ class JointTracker:
             out.append(((boxes.track[j], "far"), np.r_[far, boxes.win[j, 2:]], boxes.flow[j], (i, j, near_u)))
         return out
 
+    def holds(self, P: np.ndarray, win: np.ndarray, *xys: np.ndarray) -> bool:
+        """The window ``win`` [u_l, u_r, v_t, v_b] holds the projected cylinders at every xy
+        (within ``margin_px``): one flow region of those people."""
+        lo, hi = np.asarray(win, float) - self.margin_px, np.asarray(win, float) + self.margin_px
+        for xy in xys:
+            w = geo.cylinder_window(P, xy, self.cfg.height, self.cfg.radius)
+            if not (np.isfinite(w).all() and w[0] >= lo[0] and w[1] <= hi[1] and w[2] >= lo[2] and w[3] <= hi[3]):
+                return False
+        return True
+
     def contradicts(self, c: str, xy_f: np.ndarray, xy_n: np.ndarray, boxes: CameraBoxes) -> bool:
         """Camera c has a window holding the projected cylinder at xy_n (the track) and none
         holding the one at xy_f (the second person), though xy_f is in its view and not hidden
@@ -742,23 +772,29 @@ class JointTracker:
         return holds[1] and not holds[0]
 
     def split(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], taken: set, inside_room) -> list[JointTrack]:
-        """Births from too-wide windows confirmed by one other camera (issue 12: a look-alike
-        walking beside a track, merged with it in every view, never has a window of its own).
+        """Births from too-wide windows that a second camera sees side by side too (issue 12: a
+        look-alike walking beside a track, merged with it in every view, never has a window of
+        its own).
 
-        A window of camera c explained by one confirmed track but wider than that person
-        (eq. 8, recorded by ``step`` in ``self.wide``) holds a second person at its far side. The
-        far side's centre column (the far edge moved half a person's projected width inwards)
-        and the near side's give two target planes (eqs. 3-5); another camera c2's window whose
-        plane crosses both at ``min_plane_angle_deg`` or more places the two people: the
-        crossings xy_far, xy_near (eq. 6). It confirms two people when both crossings lie in
-        c2's window's target area and the far side's (section 3.2), both projected cylinders
-        lie within c2's window (widened by ``window_margin_px`` plus 3 sigma of the window
-        noise: one window there holds both, side by side along its line of sight or merged), and
-        xy_far is at least 2 ``radius`` from xy_near (two bodies) and from every other track.
-        Then the track moves to xy_near (position spread ``radius``) and a new track starts at
-        xy_far, its velocity from the windows' flows (eq. 7). Of several confirming windows the
-        one whose plane crosses at the largest angle is used. ``taken``: far-side windows
-        (camera, index) a crossing of free windows (``tp_initiate.propose``) already used.
+        A window of camera c holding one confirmed track but wider than that person (eq. 8,
+        recorded by ``step`` in ``self.wide``) for ``confirm_frames`` frames running holds a
+        second person at its far side. The far side's centre column (the far edge moved half a
+        person's projected width inwards) and the near side's give two target planes (eqs.
+        3-5). Another camera c2 confirms it only with a window that is itself too wide for one
+        person (eq. 8 against the track's projected width there: c2 sees the two side by side
+        too); its two sides' centre columns give two more planes, and the far and near planes
+        of c crossed with them (either pairing, the one whose near crossing is nearer the track)
+        place the two people, xy_far and xy_near (eq. 6). They must be at least 2 ``radius``
+        apart (two bodies), xy_far on the floor plan and away from every other track, and both
+        projected cylinders must lie within both windows (``holds``; section 3.2's target area
+        is not used: a merged window's top row is the farther person's head, its bottom row the
+        nearer one's feet). A window of c2 one person wide (the two one behind the other on its
+        line of sight) is no evidence of a second person: accepting it as confirmation made
+        false splits on analytic recordings (issue 12, third session). Then the track moves to
+        xy_near (position spread ``radius``) and a new track starts at xy_far, its velocity
+        from the windows' flows (eq. 7). Of several confirming windows the one whose planes
+        cross at the largest angle is used. ``taken``: far-side windows (camera, index) a
+        crossing of free windows (``tp_initiate.propose``) already used.
         Returns the new tracks (ids not yet set)."""
         cfg = self.cfg
         min_angle = np.radians(cfg.min_plane_angle_deg)
@@ -773,34 +809,47 @@ class JointTracker:
             vmid = 0.5 * (b.win[j, 2] + b.win[j, 3])
             a_f, b_f = geo.target_plane(self.Ps[c], b.u[k], vmid)
             a_n, b_n = geo.target_plane(self.Ps[c], near_u, vmid)
-            area_f = geo.target_area(self.Ps[c], b.box(k), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=self.margin_px)
             best = None
             for c2, b2 in frame.items():
                 if c2 == c:
                     continue
+                P2 = self.Ps[c2]
+                w_one = geo.cylinder_window(P2, tr.xy, cfg.height, cfg.radius)
+                if not np.isfinite(w_one).all():
+                    continue
+                pw = max(float(w_one[1] - w_one[0]), 1.0)  # one person's width in c2, at the track
                 for j2 in range(len(b2)):
                     if isinstance(b2.track[j2], tuple):  # a far side added by step, not a window
                         continue
-                    a2, bb2 = geo.target_plane(self.Ps[c2], b2.u[j2], 0.5 * (b2.win[j2, 2] + b2.win[j2, 3]))
-                    try:
-                        xy_f, _ = geo.intersect_planes(np.array([a_f, a2]), np.array([b_f, bb2]), min_angle)
-                        xy_n, _ = geo.intersect_planes(np.array([a_n, a2]), np.array([b_n, bb2]), min_angle)
-                    except geo.IllConditioned:
+                    ul2, ur2 = float(b2.win[j2, 0]), float(b2.win[j2, 1])
+                    if (ur2 - ul2 - pw) <= cfg.width_ratio_threshold * pw:
+                        continue  # c2 does not see two people side by side (eq. 8 in c2 too)
+                    v2 = 0.5 * (b2.win[j2, 2] + b2.win[j2, 3])
+                    sides = [geo.target_plane(P2, ul2 + 0.5 * pw, v2), geo.target_plane(P2, ur2 - 0.5 * pw, v2)]
+                    pick = None
+                    for sf, sn in ((0, 1), (1, 0)):  # which of c2's sides is the far person
+                        try:
+                            xy_f, _ = geo.intersect_planes(np.array([a_f, sides[sf][0]]), np.array([b_f, sides[sf][1]]), min_angle)
+                            xy_n, _ = geo.intersect_planes(np.array([a_n, sides[sn][0]]), np.array([b_n, sides[sn][1]]), min_angle)
+                        except geo.IllConditioned:
+                            continue
+                        if float(np.linalg.norm(xy_f - xy_n)) < 2 * cfg.radius or not inside_room(xy_f[None])[0]:
+                            continue
+                        # each camera's window holds both: their projected cylinders lie within it
+                        # (not section 3.2's target area: the window's top row is the farther
+                        # person's head, its bottom row the nearer one's feet)
+                        if not all(self.holds(self.Ps[cc], win, xy_f, xy_n) for cc, win in ((c, b.win[j]), (c2, b2.win[j2]))):
+                            continue
+                        d_n = float(np.linalg.norm(xy_n - tr.xy))  # the track is the near person
+                        if pick is None or d_n < pick[0]:
+                            pick = (d_n, xy_f, xy_n)
+                    if pick is None:
                         continue
-                    if float(np.linalg.norm(xy_f - xy_n)) < 2 * cfg.radius or not inside_room(xy_f[None])[0]:
-                        continue
-                    if not area_f.contains(xy_f, cfg.consistency_margin):
-                        continue
-                    # c2's window holds both: their projected cylinders lie within it (its rows
-                    # are the nearer one's, so its target area need not hold the farther one)
-                    wins = [geo.cylinder_window(self.Ps[c2], xy, cfg.height, cfg.radius) for xy in (xy_f, xy_n)]
-                    lo, hi = b2.win[j2] - self.margin_px, b2.win[j2] + self.margin_px
-                    if not all(np.isfinite(w).all() and w[0] >= lo[0] and w[1] <= hi[1] and w[2] >= lo[2] and w[3] <= hi[3] for w in wins):
-                        continue
+                    a2 = sides[0][0]
                     an = np.array([a_f, a2]) / np.linalg.norm(np.array([a_f, a2]), axis=1, keepdims=True)
                     sin = abs(float(an[0, 0] * an[1, 1] - an[0, 1] * an[1, 0]))
                     if best is None or sin > best[0]:
-                        best = (sin, xy_f, xy_n, c2, j2)
+                        best = (sin, pick[1], pick[2], c2, j2)
             if best is None:
                 continue
             _, xy_f, xy_n, c2, j2 = best
@@ -826,11 +875,46 @@ class JointTracker:
         d = np.asarray(xy, float) - tr.xy
         return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
 
+    def onto_floor(self, tr: JointTrack, inside_room) -> bool:
+        """A person is on the floor plan. A track that left it - the hand-chosen target, which is
+        never dropped, after running on along one camera's line of sight where one view cannot
+        tell depth - is put back at the outline's nearest point, ``radius`` inside the wall, with
+        no velocity and the largest spreads (``sigma_max``, ``max_speed`` / 2; its standing
+        position the same), for the windows to find it again. Returns whether it was moved."""
+        cfg = self.cfg
+        if self.outline is None or len(self.outline) < 3 or bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
+            return False
+        x = tr.xy.copy()
+        best = None
+        for a, b in zip(self.outline, np.roll(self.outline, -1, axis=0)):
+            e = b - a
+            L2 = float(e @ e)
+            if L2 <= 0.0:
+                continue
+            q = a + float(np.clip((x - a) @ e / L2, 0.0, 1.0)) * e
+            d = float(np.linalg.norm(x - q))
+            if best is None or d < best[0]:
+                n = np.array([-e[1], e[0]]) / np.sqrt(L2)  # a normal of the edge; inwards below
+                best = (d, q, n)
+        if best is None:
+            return False
+        _, q, n = best
+        if not bool(np.asarray(inside_room((q + 1e-3 * n)[None])).reshape(-1)[0]):
+            n = -n
+        xy = q + cfg.radius * n
+        if not bool(np.asarray(inside_room(xy[None])).reshape(-1)[0]):  # by a corner: towards the middle
+            m = self.outline.mean(axis=0) - q
+            xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
+        tr.s = np.r_[xy, 0.0, 0.0]
+        tr.S = np.diag([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
+        tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+        return True
+
     def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
         """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
         for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
         ``radius`` (two bodies cannot be: one person seen twice); never the track ``keep`` (the
-        hand-chosen target)."""
+        hand-chosen target), which is put back on the floor plan when it left it (``onto_floor``)."""
         cfg = self.cfg
         out = []
         for tr in tracks:
@@ -841,6 +925,8 @@ class JointTracker:
                     continue
                 if not bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
                     continue
+            else:
+                self.onto_floor(tr, inside_room)  # the target is kept, on the floor plan
             out.append(tr)
         drop = set()
         for a, b in itertools.combinations(out, 2):
