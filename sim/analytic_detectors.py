@@ -107,6 +107,18 @@ def blob_candidates(g, width: float):
 MOVING_PX_S = 6.0
 
 
+def seen_share(frac: np.ndarray, frames: int) -> np.ndarray:
+    """The seen share of rays (F, P) as a flow tracker sees it: the mean over the last ``frames``
+    frames (fewer at the start). A flow region outlives a ray grazing an obstacle's edge for a
+    frame; 1: the frame's own share (models before it)."""
+    if frames <= 1:
+        return frac
+    c = np.cumsum(np.asarray(frac, float), axis=0)
+    out = c.copy()
+    out[frames:] -= c[:-frames]
+    return out / np.minimum(np.arange(1, len(c) + 1), frames)[:, None]
+
+
 def window_candidates(g, width: float):
     """(clip, image speed px/s, cand) of an oblique camera's windows: people partly in the image
     with a window of some size."""
@@ -245,6 +257,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
+    frac = seen_share(frac, m.seen_frames)
     det = detected(rng, cand, m.detect(frac, speed), m)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])

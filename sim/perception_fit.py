@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -51,6 +51,9 @@ SILHOUETTE_EDGES = [-INF, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, INF]
 GATE_PX = 10.0  # a blob explains a person when it lies within the person's span +- GATE_PX
 IOU_GATE = 0.1  # a window explains a person's projected window at this IoU
 FLOOR_GATE_M = 0.75
+# windows: detection and partial windows by the seen share of rays averaged over this many frames
+# (``analytic_detectors.seen_share``: a flow region outlives a ray grazing an obstacle for a frame)
+WINDOW_SEEN_FRAMES = 3
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
 DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],  # detection table bins
                 "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF], AXIS_CLIP_EDGES],
@@ -242,6 +245,7 @@ def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
 
 
 def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
+    frac = seen_share(frac, WINDOW_SEEN_FRAMES)
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
     F, P = cand.shape
@@ -716,6 +720,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             fragment_frames=max(1.0, s.fragments / max(len(s.fragment_ids), 1)) if k == "windows" else 1.0,
             partial=Table.fit([SEEN_EDGES], [np.asarray(s.partial_feat, float)], np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
             partial_frames=max(1.0, s.partials / max(len(s.partial_ids), 1)),
+            seen_frames=WINDOW_SEEN_FRAMES if k == "windows" else 1,
             fragment_label=s.fragment_labelled / s.fragments if s.fragments and k in ("horizontal", "oblique") else 1.0,
             restart=s.restarts / s.continuing if s.continuing else 0.0,
             swap=(s.swaps + 1) / (s.splits + 2),

@@ -774,3 +774,15 @@ def test_partial_windows_of_missed_walkers_are_simulated_and_the_fit_finds_them_
     again = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
     assert np.allclose(again.partial.p, fitted.partial.p, atol=1e-6)
     assert "partial" not in load_model("fitted")["oblique"].to_dict()
+
+
+def test_the_windows_seen_share_is_a_mean_over_the_last_frames():
+    """A ray grazing an obstacle's edge for one frame (1, 1, 1/3, 1, 1) moves the flow windows'
+    seen share by a third of that drop over three frames, not to 1/3 for one; one frame: as is."""
+    from trackroom.sim.analytic_detectors import seen_share
+
+    frac = np.array([[1.0], [1.0], [1 / 3], [1.0], [1.0], [1.0]])
+    assert np.allclose(seen_share(frac, 3)[:, 0], [1.0, 1.0, 7 / 9, 7 / 9, 7 / 9, 1.0])
+    assert seen_share(frac, 1) is frac
+    assert np.allclose(seen_share(np.array([[0.0], [1.0]]), 3)[:, 0], [0.0, 0.5])  # fewer frames at the start
+    assert "seen_frames" not in load_model("fitted")["oblique"].to_dict()
