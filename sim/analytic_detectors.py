@@ -101,6 +101,24 @@ def blob_candidates(g, width: float):
     return a, b, clip, g.near & (clip > 0)
 
 
+# windows: a person moving at least this fast in the image (px/s) can be in a flow region: merged
+# into another's window (a flow tracker gives someone standing still no window, merged or not:
+# their pixels inside a walker's window are not a merge), or, missed, in a partial window
+MOVING_PX_S = 6.0
+
+
+def seen_share(frac: np.ndarray, frames: int) -> np.ndarray:
+    """The seen share of rays (F, P) as a flow tracker sees it: the mean over the last ``frames``
+    frames (fewer at the start). A flow region outlives a ray grazing an obstacle's edge for a
+    frame; 1: the frame's own share (models before it)."""
+    if frames <= 1:
+        return frac
+    c = np.cumsum(np.asarray(frac, float), axis=0)
+    out = c.copy()
+    out[frames:] -= c[:-frames]
+    return out / np.minimum(np.arange(1, len(c) + 1), frames)[:, None]
+
+
 def window_candidates(g, width: float):
     """(clip, image speed px/s, cand) of an oblique camera's windows: people partly in the image
     with a window of some size."""
@@ -239,6 +257,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
+    frac = seen_share(frac, m.seen_frames)
     det = detected(rng, cand, m.detect(frac, speed), m)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])
@@ -274,7 +293,9 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             flow[:, j - 4] += e_j
     cf, ce, cfl, cid = ids.clutter(F, cam)
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
-    f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff), (edges, ce, fe), (flow, cfl, ffl), (tid, cid, fid)))
+    # drawn last: a model without partial windows samples the same stream as before
+    pf, pe, pfl, pid = ids.partials(cand & ~det & (speed >= MOVING_PX_S), frac, e, g.flow)
+    f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff, pf), (edges, ce, fe, pe), (flow, cfl, ffl, pfl), (tid, cid, fid, pid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
     edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
     keep = (edges[:, 1] > edges[:, 0]) & (edges[:, 3] > edges[:, 2])
@@ -368,21 +389,38 @@ class WindowIds:
         """Fragment windows: born on a detected person at rate fragment / fragment_frames per
         frame, each living a geometric number of frames (mean ``fragment_frames``) at a fixed
         place and size relative to the person's window, moving with the person's flow."""
+        return self._attached(det, e, flow, self.m.fragment, self.m.fragment_frames, "frag")
+
+    def partials(self, missed: np.ndarray, frac: np.ndarray, e: np.ndarray, flow: np.ndarray):
+        """Partial windows of missed moving people (``missed``: (F, P)), as fragments are of
+        detected ones: ``partial(frac)`` / ``partial_frames`` born per missed person-frame
+        (``frac``: the seen share of rays), placed by the ``part_*`` tables. A model without
+        them (``partial`` None) draws nothing."""
+        if self.m.partial is None:
+            return self._attached(missed, e, flow, 0.0, 1.0, "part")
+        return self._attached(missed, e, flow, self.m.partial(frac), self.m.partial_frames, "part")
+
+    def _attached(self, on: np.ndarray, e: np.ndarray, flow: np.ndarray, rate, frames: float, table: str):
+        """Windows born on the person-frames ``on`` at ``rate`` (a number, or (F, P)) / ``frames`` per frame, each living
+        a geometric number of frames (mean ``frames``) at a fixed place and size relative to the
+        person's window (tables ``{table}_du``, ``_dv``, ``_w``, ``_h``), moving with the
+        person's flow."""
         m, rng = self.m, self.rng
         empty = (np.zeros(0, int), np.zeros((0, 4)), np.zeros((0, 2)), np.zeros(0, np.int64))
-        f0, p0 = np.nonzero(det)
-        if m.fragment <= 0 or not len(f0):
+        f0, p0 = np.nonzero(on)
+        rate = np.broadcast_to(np.asarray(rate, float), on.shape)[f0, p0]
+        if not (rate > 0).any():
             return empty
-        births = rng.poisson(m.fragment / m.fragment_frames, len(f0))
+        births = rng.poisson(rate / frames)
         f0, p0 = np.repeat(f0, births), np.repeat(p0, births)
         if not len(f0):
             return empty
         n = len(f0)
-        life = rng.geometric(1.0 / m.fragment_frames, n)
-        du, dv = m.error("frag_du").sample(rng, n), m.error("frag_dv").sample(rng, n)
-        rw, rh = np.clip(m.error("frag_w").sample(rng, n), 0.05, None), np.clip(m.error("frag_h").sample(rng, n), 0.05, None)
+        life = rng.geometric(1.0 / frames, n)
+        du, dv = m.error(f"{table}_du").sample(rng, n), m.error(f"{table}_dv").sample(rng, n)
+        rw, rh = np.clip(m.error(f"{table}_w").sample(rng, n), 0.05, None), np.clip(m.error(f"{table}_h").sample(rng, n), 0.05, None)
         ids = np.array([self._new() for _ in range(n)], np.int64)
-        k, frame = _episode_frames(f0, life, det.shape[0])
+        k, frame = _episode_frames(f0, life, on.shape[0])
         pe = e[frame, p0[k]]
         pw, ph = pe[:, 1] - pe[:, 0], pe[:, 3] - pe[:, 2]
         cu = 0.5 * (pe[:, 0] + pe[:, 1]) + du[k] * pw

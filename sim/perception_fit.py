@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (FLOOR_TABLES, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -51,10 +51,9 @@ SILHOUETTE_EDGES = [-INF, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5, INF]
 GATE_PX = 10.0  # a blob explains a person when it lies within the person's span +- GATE_PX
 IOU_GATE = 0.1  # a window explains a person's projected window at this IoU
 FLOOR_GATE_M = 0.75
-# windows: a person is merged into another's window only when moving at least this fast in the
-# image (a flow tracker gives someone standing still no window, merged or not: their pixels inside
-# a walker's window are not a merge)
-MOVING_PX_S = 6.0
+# windows: detection and partial windows by the seen share of rays averaged over this many frames
+# (``analytic_detectors.seen_share``: a flow region outlives a ray grazing an obstacle for a frame)
+WINDOW_SEEN_FRAMES = 3
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
 DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],  # detection table bins
                 "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF], AXIS_CLIP_EDGES],
@@ -83,6 +82,12 @@ class DetectorStats:
     fragment_ids: set = field(default_factory=set)
     fragment_labelled: int = 0
     clutter_ids: set = field(default_factory=set)
+    # windows: unmatched windows on a missed moving person (a flow region on part of the body),
+    # and the missed moving person-frames they are counted against
+    partials: int = 0
+    partial_ids: set = field(default_factory=set)
+    partial_feat: list = field(default_factory=list)  # per missed moving person-frame: seen share
+    partial_hit: list = field(default_factory=list)  # and whether a partial window is on them
     continuing: int = 0
     restarts: int = 0
     splits: int = 0
@@ -240,11 +245,13 @@ def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
 
 
 def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
+    frac = seen_share(frac, WINDOW_SEEN_FRAMES)
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
     F, P = cand.shape
     by_frame = _frames(boxes, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
+    has_part = np.zeros((F, P), bool)  # a missed moving person with a partial window
     o_all, ok_all = span_pairs(e[..., 0], e[..., 1])
     iu, ju = np.triu_indices(P, 1)
     window_of = np.full((F, P), -1, np.int64)  # track id of the window each person is in
@@ -266,7 +273,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
         for pi, p in enumerate(people):
             if p in match:
                 continue
-            if speed[f, p] < MOVING_PX_S:  # someone standing has no window to merge
+            if speed[f, p] < MOVING_PX_S:  # someone standing has no window to merge (``MOVING_PX_S``)
                 continue
             for q, rr in match.items():
                 if cover[rr, pi] >= 0.5 and min(e[f, p, 1], e[f, q, 1]) > max(e[f, p, 0], e[f, q, 0]):
@@ -296,14 +303,21 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
             pw, ph = np.maximum(pe[:, 1] - pe[:, 0], 1.0), np.maximum(pe[:, 3] - pe[:, 2], 1.0)
             du, dv = (cu - 0.5 * (pe[:, 0] + pe[:, 1])) / pw, (cv - 0.5 * (pe[:, 2] + pe[:, 3])) / ph
             near = [p for p in people if hit[f, p] and abs(du[p]) <= 1.0 and abs(dv[p]) <= 1.0]
-            if near:  # a fragment of the nearest detected person
-                p = min(near, key=lambda q: du[q] ** 2 + dv[q] ** 2)
-                s.fragments += 1
-                s.fragment_ids.add((cam.name, int(tid[rr])))
-                s.errors["frag_du"].append(du[p])
-                s.errors["frag_dv"].append(dv[p])
-                s.errors["frag_w"].append((W[rr, 1] - W[rr, 0]) / pw[p])
-                s.errors["frag_h"].append((W[rr, 3] - W[rr, 2]) / ph[p])
+            part = [p for p in people if not hit[f, p] and speed[f, p] >= MOVING_PX_S and abs(du[p]) <= 1.0 and abs(dv[p]) <= 1.0]
+            if near or part:  # a fragment of the nearest detected person, else a partial window
+                p = min(near or part, key=lambda q: du[q] ** 2 + dv[q] ** 2)
+                name = "frag" if near else "part"
+                if near:
+                    s.fragments += 1
+                    s.fragment_ids.add((cam.name, int(tid[rr])))
+                else:
+                    s.partials += 1
+                    s.partial_ids.add((cam.name, int(tid[rr])))
+                    has_part[f, p] = True
+                s.errors[f"{name}_du"].append(du[p])
+                s.errors[f"{name}_dv"].append(dv[p])
+                s.errors[f"{name}_w"].append((W[rr, 1] - W[rr, 0]) / pw[p])
+                s.errors[f"{name}_h"].append((W[rr, 3] - W[rr, 2]) / ph[p])
             else:
                 s.clutter += 1
                 s.clutter_ids.add((cam.name, int(tid[rr])))
@@ -316,6 +330,9 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
         both = hit[f, iu] & hit[f, ju] & ok_all[f]
         for k in np.nonzero(both)[0]:
             _pair(s, cam.name, int(iu[k]), int(ju[k]), f, o_all[f, k], merged_with)
+    missed = cand & ~hit & (speed >= MOVING_PX_S)
+    s.partial_feat += frac[missed].tolist()
+    s.partial_hit += has_part[missed].tolist()
     _window_ids(s, window_of, members, own)
     _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit)
 
@@ -474,7 +491,11 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             o.tail_hit += s.tail_hit
             o.clutter_ids |= {(i, *c) for c in s.clutter_ids}
             o.fragment_ids |= {(i, *c) for c in s.fragment_ids}
-            for a in ("frames", "clutter", "clutter_unlabelled", "fragments", "fragment_labelled", "continuing", "restarts", "splits", "swaps"):
+            o.partial_ids |= {(i, *c) for c in s.partial_ids}
+            o.partial_feat += s.partial_feat
+            o.partial_hit += s.partial_hit
+            for a in ("frames", "clutter", "clutter_unlabelled", "fragments", "fragment_labelled", "continuing", "restarts", "splits", "swaps",
+                      "partials"):
                 setattr(o, a, getattr(o, a) + getattr(s, a))
     return out
 
@@ -697,6 +718,9 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             clutter_unlabelled=s.clutter_unlabelled / s.clutter if s.clutter else 0.0,
             fragment=s.fragments / max(int(np.sum(hit)), 1),
             fragment_frames=max(1.0, s.fragments / max(len(s.fragment_ids), 1)) if k == "windows" else 1.0,
+            partial=Table.fit([SEEN_EDGES], [np.asarray(s.partial_feat, float)], np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
+            partial_frames=max(1.0, s.partials / max(len(s.partial_ids), 1)),
+            seen_frames=WINDOW_SEEN_FRAMES if k == "windows" else 1,
             fragment_label=s.fragment_labelled / s.fragments if s.fragments and k in ("horizontal", "oblique") else 1.0,
             restart=s.restarts / s.continuing if s.continuing else 0.0,
             swap=(s.swaps + 1) / (s.splits + 2),
@@ -763,6 +787,11 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
         if m.tail is not None:  # episodes cut short by misses and merges, or added by the tables' own tails
             m.tail.start.p = np.clip(m.tail.start.p * ratio(tail_share(r), tail_share(a)), 0.0, 1.0)
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
+        if m.partial is not None and r.partial_hit and a.partial_hit:  # per seen-share bin, as detection
+            pr = Table.fit([SEEN_EDGES], [np.asarray(r.partial_feat, float)], np.asarray(r.partial_hit, bool), strength=1e-9)
+            pa = Table.fit([SEEN_EDGES], [np.asarray(a.partial_feat, float)], np.asarray(a.partial_hit, bool), strength=1e-9)
+            ok = (pr.n >= 20) & (pa.n >= 20) & (pa.p > 0)
+            m.partial.p = np.clip(m.partial.p * np.where(ok, np.clip(pr.p / np.where(ok, pa.p, 1.0), 1 / max_step, max_step), 1.0), 0.0, 1.0)
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
         m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))
         if r.splits >= 10 and a.splits >= 10:
@@ -772,7 +801,7 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
 
 
 # ----------------------------------------------------------------------------- summaries
-SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "tail_share", "err_p999", "merge_rate", "merge_run", "fragment_rate",
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "tail_share", "err_p999", "merge_rate", "merge_run", "fragment_rate", "partial_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
 
 
@@ -796,6 +825,7 @@ def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
             "merge_rate": np.mean(s.pair_merged) if s.pair_merged else np.nan,
             "merge_run": merge_runs(s) if s.pair_merged else np.nan,
             "fragment_rate": s.fragments / max(int(np.sum(s.hit)), 1) if s.hit else np.nan,
+            "partial_rate": np.mean(s.partial_hit) if s.partial_hit else np.nan,
             "id_restart_rate": s.restarts / s.continuing if s.continuing else np.nan,
             "split_swap_rate": s.swaps / s.splits if s.splits else np.nan,
             "label_accuracy": np.mean(s.label_ok) if s.label_ok else np.nan,

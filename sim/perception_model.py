@@ -63,6 +63,11 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
   fragment extra detections on a detected person (a blob split in two, a window on the legs):
            per detected person-frame, placed relative to the person's image span / window
            (``frag_*`` error tables); fragment windows live ``fragment_frames`` frames;
+  partial  (flow windows) a moving person the detector missed often still has a small window on
+           part of the body (IoU with the person's window below the match gate): windows per
+           missed moving person-frame by the seen share of rays (``partial``, a table), born at
+           that rate / ``partial_frames`` and living ``partial_frames`` frames, placed relative
+           to the person's window (``part_*`` error tables); models without ``partial`` draw none;
   ids      (flow windows) the camera tracker's id: kept while the person's window continues (gaps
            up to ``max_gap`` frames), a new id after a longer gap or spontaneously with
            ``restart`` per frame; a merged window keeps its oldest member's id, and when it splits
@@ -262,6 +267,14 @@ class DetectorModel:
     fragment: float = 0.0  # extra detections on a detected person, per detected person-frame
     fragment_frames: float = 1.0  # mean life of a fragment window, frames
     fragment_label: float = 1.0  # share of fragment blobs labelled with the person's colour (else "")
+    # (windows) partial windows of a moving person the detector missed (a flow region on part of
+    # the body): windows per missed person-frame by the seen share of rays; None: none and no
+    # random draws (models before them)
+    partial: Table | None = None
+    partial_frames: float = 1.0  # mean life of a partial window, frames
+    # (windows) the seen share of rays that detection and partial windows depend on is its mean
+    # over this many frames (``analytic_detectors.seen_share``); 1: the frame's own (models before it)
+    seen_frames: int = 1
     restart: float = 0.0  # per frame, an id that continues is replaced by a new one
     swap: float = 0.0  # at a split, the merged window's id goes to the other person
     max_gap: int = 2  # frames a window's id survives without a window
@@ -283,6 +296,8 @@ class DetectorModel:
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
             "fragment_frames": round(self.fragment_frames, 3), "fragment_label": round(self.fragment_label, 6),
             "restart": round(self.restart, 6), "swap": round(self.swap, 6), "max_gap": int(self.max_gap),
+            **({"partial": self.partial.to_dict(), "partial_frames": round(self.partial_frames, 3)} if self.partial is not None else {}),
+            **({"seen_frames": int(self.seen_frames)} if self.seen_frames > 1 else {}),
             **({"head_gain": {k: round(v, 4) for k, v in self.head_gain.items()}} if self.head_gain else {}),
             **({"tail": self.tail.to_dict()} if self.tail is not None else {}),
         }
@@ -298,6 +313,8 @@ class DetectorModel:
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
                 fragment_frames=float(d["fragment_frames"]), fragment_label=float(d["fragment_label"]), restart=float(d["restart"]),
                 swap=float(d["swap"]), max_gap=int(d["max_gap"]),
+                partial=Table.from_dict(d["partial"]) if "partial" in d else None, partial_frames=float(d.get("partial_frames", 1.0)),
+                seen_frames=int(d.get("seen_frames", 1)),
                 head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()},
                 tail=Tail.from_dict(d["tail"]) if "tail" in d else None)
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
@@ -311,6 +328,8 @@ class DetectorModel:
             raise ValueError("head_gain values must be finite")
         if m.clutter < 0 or m.fragment < 0 or m.clutter_frames < 1 or m.fragment_frames < 1 or m.max_gap < 0:
             raise ValueError("clutter and fragment must be >= 0, clutter_frames and fragment_frames >= 1, max_gap >= 0")
+        if m.partial_frames < 1 or m.seen_frames < 1:
+            raise ValueError("partial_frames and seen_frames must be >= 1")
         return m
 
 
