@@ -59,8 +59,9 @@ Per frame:
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
    walks (mu = 0); with ``stand_flow`` (off by default) windows of its own alone weigh the modes
-   by their flows instead (``stand_flow_llr``: no flow, a walker that just stopped, is likelier
-   standing); none anywhere makes standing likelier by ``p_miss`` per camera in view.
+   by their flows and centroid columns instead (``stand_flow_llr``: no flow, a walker that just
+   stopped, is likelier standing; ``stand_u_llr``: a window off the standing position, a walker
+   starting from rest, is likelier walking); none anywhere makes standing likelier by ``p_miss`` per camera in view.
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -561,6 +562,19 @@ class JointTracker:
         r = f - p.flow
         return float(-0.5 * (f @ np.linalg.solve(R, f) + np.linalg.slogdet(R)[1]) + 0.5 * (r @ np.linalg.solve(Cw, r) + np.linalg.slogdet(Cw)[1]))
 
+    def stand_u_llr(self, c: str, tr: JointTrack, p: Projection, u: float, width: float) -> float:
+        """log N(u; u(xs), Ju Ps Ju^T + var_c) - log N(u; p.u, p.var_u + var_c): how much likelier the
+        window's centroid column u is where the track would stand (its standing position xs, Ps)
+        than where it walks to (var_c: the centroid's noise, ``centroid_var``)."""
+        if tr.xs is None:
+            return 0.0
+        X = np.array([tr.xs[0], tr.xs[1], self.hc])
+        (us, _), _ = geo.project(self.Ps[c], X)
+        Ju = geo.flow_jacobian(self.Ps[c], X)[0, :2]
+        vc = self.centroid_var(p, width)
+        vs, vw = float(Ju @ tr.Ps @ Ju) + vc, p.var_u + vc
+        return float(-0.5 * ((u - us) ** 2 / vs + np.log(vs)) + 0.5 * ((u - p.u) ** 2 / vw + np.log(vw)))
+
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
 
@@ -625,7 +639,7 @@ class JointTracker:
                     ratio = (boxes.width[j] - p.width) / p.width
                     if ratio <= cfg.width_ratio_threshold:
                         if cfg.stand_flow:
-                            stand_llr[i] += self.stand_flow_llr(c, p, boxes.flow[j])
+                            stand_llr[i] += self.stand_flow_llr(c, p, boxes.flow[j]) + self.stand_u_llr(c, tr, p, float(boxes.u[j]), boxes.width[j])
                         self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
@@ -693,7 +707,7 @@ class JointTracker:
                 self.existence(tr, walk[i], hit[i])  # before the mode posterior: mu is still the prior
             if tr.located:
                 # mode posterior: a window of its own or a share of a merged one says it walks (with
-                # ``stand_flow``, windows of its own alone weigh the modes by their flows); none
+                # ``stand_flow``, windows of its own alone weigh the modes by their flows and columns); none
                 # anywhere is likelier standing, by P(no window | walking) over the cameras
                 if cfg.stand_flow and seen[i] and used[i] and not shared[i]:
                     e = float(np.exp(np.clip(stand_llr[i], -50.0, 50.0)))
