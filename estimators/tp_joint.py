@@ -58,7 +58,10 @@ Per frame:
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
-   walks (mu = 0), none anywhere makes standing likelier by ``p_miss`` per camera in view.
+   walks (mu = 0); with ``stand_flow`` (off by default) windows of its own alone weigh the modes
+   by their flows and centroid columns instead (``stand_flow_llr``: no flow, a walker that just
+   stopped, is likelier standing; ``stand_u_llr``: a window off the standing position, a walker
+   starting from rest, is likelier walking); none anywhere makes standing likelier by ``p_miss`` per camera in view.
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -548,6 +551,30 @@ class JointTracker:
         var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
         kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
+    def stand_flow_llr(self, c: str, p: Projection, flow: np.ndarray) -> float:
+        """log N(f; 0, R) - log N(f; J v, R + var_f): how much likelier a window's flow f is from
+        someone standing (the flow tracker's window of a walker that just stopped: its mean flow
+        over ``flow_window`` frames falling to 0) than from the track walking on as predicted. R:
+        the flow noise of ``update_flow``. No parameter."""
+        f = np.asarray(flow, float)
+        R = (self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2) * np.eye(2)
+        Cw = R + p.var_f
+        r = f - p.flow
+        return float(-0.5 * (f @ np.linalg.solve(R, f) + np.linalg.slogdet(R)[1]) + 0.5 * (r @ np.linalg.solve(Cw, r) + np.linalg.slogdet(Cw)[1]))
+
+    def stand_u_llr(self, c: str, tr: JointTrack, p: Projection, u: float, width: float) -> float:
+        """log N(u; u(xs), Ju Ps Ju^T + var_c) - log N(u; p.u, p.var_u + var_c): how much likelier the
+        window's centroid column u is where the track would stand (its standing position xs, Ps)
+        than where it walks to (var_c: the centroid's noise, ``centroid_var``)."""
+        if tr.xs is None:
+            return 0.0
+        X = np.array([tr.xs[0], tr.xs[1], self.hc])
+        (us, _), _ = geo.project(self.Ps[c], X)
+        Ju = geo.flow_jacobian(self.Ps[c], X)[0, :2]
+        vc = self.centroid_var(p, width)
+        vs, vw = float(Ju @ tr.Ps @ Ju) + vc, p.var_u + vc
+        return float(-0.5 * ((u - us) ** 2 / vs + np.log(vs)) + 0.5 * ((u - p.u) ** 2 / vw + np.log(vw)))
+
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
 
@@ -570,6 +597,8 @@ class JointTracker:
         seen = [False] * len(tracks)
         walk = [0.0] * len(tracks)
         hit = [False] * len(tracks)
+        stand_llr = [0.0] * len(tracks)  # log P(windows' flows | standing) - log P(... | walking), windows of its own
+        shared = [False] * len(tracks)  # a share of a merged window (its flow is the members' mixture: says walking)
         for tr in tracks:
             tr.status = {}
             tr.log_miss = 0.0
@@ -609,6 +638,8 @@ class JointTracker:
                     seen[i] = True
                     ratio = (boxes.width[j] - p.width) / p.width
                     if ratio <= cfg.width_ratio_threshold:
+                        if cfg.stand_flow:
+                            stand_llr[i] += self.stand_flow_llr(c, p, boxes.flow[j]) + self.stand_u_llr(c, tr, p, float(boxes.u[j]), boxes.width[j])
                         self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
@@ -634,6 +665,7 @@ class JointTracker:
                 for k, i in enumerate(mem):
                     tr, p = tracks[i], ps[k]
                     seen[i] = True
+                    shared[i] = True
                     if k == lo:
                         self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0)
                     if k == hi:
@@ -674,9 +706,14 @@ class JointTracker:
             if tr.located:
                 self.existence(tr, walk[i], hit[i])  # before the mode posterior: mu is still the prior
             if tr.located:
-                # mode posterior: a window of its own (or a share of a merged one) says it walks;
-                # none anywhere is likelier standing, by P(no window | walking) over the cameras
-                tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
+                # mode posterior: a window of its own or a share of a merged one says it walks (with
+                # ``stand_flow``, windows of its own alone weigh the modes by their flows and columns); none
+                # anywhere is likelier standing, by P(no window | walking) over the cameras
+                if cfg.stand_flow and seen[i] and used[i] and not shared[i]:
+                    e = float(np.exp(np.clip(stand_llr[i], -50.0, 50.0)))
+                    tr.mu = tr.mu * e / (tr.mu * e + 1.0 - tr.mu)
+                else:
+                    tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
             if used[i] or (tr.split and seen[i]):  # a hit: a window that is this track alone (or a share of
