@@ -396,9 +396,8 @@ class WindowIds:
         detected ones: ``partial(frac)`` / ``partial_frames`` born per missed person-frame
         (``frac``: the seen share of rays), placed by the ``part_*`` tables. A model without
         them (``partial`` None) draws nothing."""
-        if self.m.partial is None:
-            return self._attached(missed, e, flow, 0.0, 1.0, "part")
-        return self._attached(missed, e, flow, self.m.partial(frac), self.m.partial_frames, "part")
+        rate = 0.0 if self.m.partial is None else self.m.partial(frac)
+        return self._attached(missed, e, flow, rate, self.m.partial_frames, "part")
 
     def _attached(self, on: np.ndarray, e: np.ndarray, flow: np.ndarray, rate, frames: float, table: str):
         """Windows born on the person-frames ``on`` at ``rate`` (a number, or (F, P)) / ``frames`` per frame, each living

@@ -751,23 +751,26 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
     def rate(n: float, d: float) -> float:
         return n / d if d else np.nan
 
+    def bin_scale(edges, xr, hr, xa, ha):
+        """Per-bin rendered / analytic rate of a table over ``edges`` (features xr, xa; events hr,
+        ha), limited to ``max_step``; 1 where either side has fewer than 20 samples or the
+        analytic rate is 0. Also returns the rendered table (its counts per bin)."""
+        tr = Table.fit(edges, xr, np.asarray(hr, bool), strength=1e-9)
+        ta = Table.fit(edges, xa, np.asarray(ha, bool), strength=1e-9)
+        ok = (tr.n >= 20) & (ta.n >= 20) & (ta.p > 0)
+        return np.where(ok, np.clip(tr.p / np.where(ok, ta.p, 1.0), 1 / max_step, max_step), 1.0), tr
+
     for k in DETECTORS:
         r, a, m = rendered[k], analytic[k], out[k]
         if not r.hit or not a.hit:
             continue
         edges = DETECT_EDGES[k]
         (Xr, hr), (Xa, ha) = r.arrays(len(edges)), a.arrays(len(edges))
-        tr = Table.fit(edges, list(Xr.T), hr, strength=1e-9)
-        ta = Table.fit(edges, list(Xa.T), ha, strength=1e-9)
-        ok = (tr.n >= 20) & (ta.n >= 20) & (ta.p > 0)
-        scale = np.where(ok, np.clip(tr.p / np.where(ok, ta.p, 1.0), 1 / max_step, max_step), 1.0)
+        scale, _ = bin_scale(edges, list(Xr.T), hr, list(Xa.T), ha)
         m.detect.p = np.clip(m.detect.p * scale, 0.0, 1.0)
         pair_edges = m.merge.edges
         if r.pair_feat and a.pair_feat:
-            mr = Table.fit(pair_edges, [np.asarray(r.pair_feat, float)], np.asarray(r.pair_merged, bool), strength=1e-9)
-            ma = Table.fit(pair_edges, [np.asarray(a.pair_feat, float)], np.asarray(a.pair_merged, bool), strength=1e-9)
-            ok = (mr.n >= 20) & (ma.n >= 20) & (ma.p > 0)
-            scale = np.where(ok, np.clip(mr.p / np.where(ok, ma.p, 1.0), 1 / max_step, max_step), 1.0)
+            scale, mr = bin_scale(pair_edges, [np.asarray(r.pair_feat, float)], r.pair_merged, [np.asarray(a.pair_feat, float)], a.pair_merged)
             m.merge.p = np.clip(m.merge.p * scale, 0.0, 1.0)
             if k in ("overhead", "privacy") and m.merge_stay is not None:
                 m.merge.p = non_increasing(m.merge.p, mr.n)  # weighted by the rendered pair-frames per bin
@@ -788,10 +791,8 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
             m.tail.start.p = np.clip(m.tail.start.p * ratio(tail_share(r), tail_share(a)), 0.0, 1.0)
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
         if m.partial is not None and r.partial_hit and a.partial_hit:  # per seen-share bin, as detection
-            pr = Table.fit([SEEN_EDGES], [np.asarray(r.partial_feat, float)], np.asarray(r.partial_hit, bool), strength=1e-9)
-            pa = Table.fit([SEEN_EDGES], [np.asarray(a.partial_feat, float)], np.asarray(a.partial_hit, bool), strength=1e-9)
-            ok = (pr.n >= 20) & (pa.n >= 20) & (pa.p > 0)
-            m.partial.p = np.clip(m.partial.p * np.where(ok, np.clip(pr.p / np.where(ok, pa.p, 1.0), 1 / max_step, max_step), 1.0), 0.0, 1.0)
+            scale, _ = bin_scale([SEEN_EDGES], [np.asarray(r.partial_feat, float)], r.partial_hit, [np.asarray(a.partial_feat, float)], a.partial_hit)
+            m.partial.p = np.clip(m.partial.p * scale, 0.0, 1.0)
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
         m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))
         if r.splits >= 10 and a.splits >= 10:
