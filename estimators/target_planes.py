@@ -46,7 +46,7 @@ from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
 from .tp_identity import IdentityLag
 from .tp_initiate import propose
-from .tp_joint import LOST, JointTrack, JointTracker, Occluders
+from .tp_joint import LOST, JointTrack, JointTracker, Occluders, on_floor
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
 
@@ -323,7 +323,7 @@ class TargetPlanes(Estimator):
             xy = np.asarray(cfg.initial_xy, float)
             if xy.shape != (2,) or not np.isfinite(xy).all():
                 raise EstimatorError(f"{self.name}: initial_xy must be [x, y] in metres, got {cfg.initial_xy!r}")
-            if not bool(np.asarray(inside_room(xy[None])).reshape(-1)[0]):
+            if not on_floor(inside_room, xy):
                 raise EstimatorError(f"{self.name}: initial_xy {cfg.initial_xy!r} lies outside the room's floor plan")
             return xy, lambda p: float(np.linalg.norm(np.asarray(p, float) - xy)) <= cfg.init_radius + 2.0 * cfg.radius
         w = cfg.initial_window

@@ -91,6 +91,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
+from trackroom.scenes.spec import nearest_on_segment
+
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
@@ -241,6 +243,12 @@ class Occluders:
         tmax = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
         hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, V): the segment camera -> point meets the box
         return bool((~hidden.any(0)).any())
+
+
+def on_floor(inside_room, xy) -> bool:
+    """Whether the floor point xy (2,) lies on the floor plan (``inside_room``: the floor plan's
+    ``inside``, which takes points (n, 2))."""
+    return bool(np.asarray(inside_room(np.asarray(xy, float)[None])).reshape(-1)[0])
 
 
 class JointTracker:
@@ -870,7 +878,7 @@ class JointTracker:
                             xy_n, _ = geo.intersect_planes(np.array([a_n, sides[sn][0]]), np.array([b_n, sides[sn][1]]), min_angle)
                         except geo.IllConditioned:
                             continue
-                        if float(np.linalg.norm(xy_f - xy_n)) < 2 * cfg.radius or not inside_room(xy_f[None])[0]:
+                        if float(np.linalg.norm(xy_f - xy_n)) < 2 * cfg.radius or not on_floor(inside_room, xy_f):
                             continue
                         # each camera's window holds both: their projected cylinders lie within it
                         # (not section 3.2's target area: the window's top row is the farther
@@ -919,27 +927,26 @@ class JointTracker:
         no velocity and the largest spreads (``sigma_max``, ``max_speed`` / 2; its standing
         position the same), for the windows to find it again. Returns whether it was moved."""
         cfg = self.cfg
-        if self.outline is None or len(self.outline) < 3 or bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
+        if self.outline is None or len(self.outline) < 3 or on_floor(inside_room, tr.xy):
             return False
-        x = tr.xy.copy()
         best = None
         for a, b in zip(self.outline, np.roll(self.outline, -1, axis=0)):
             e = b - a
             L2 = float(e @ e)
             if L2 <= 0.0:
                 continue
-            q = a + float(np.clip((x - a) @ e / L2, 0.0, 1.0)) * e
-            d = float(np.linalg.norm(x - q))
+            q = nearest_on_segment(tr.xy, a, b)
+            d = float(np.linalg.norm(tr.xy - q))
             if best is None or d < best[0]:
                 n = np.array([-e[1], e[0]]) / np.sqrt(L2)  # a normal of the edge; inwards below
                 best = (d, q, n)
         if best is None:
             return False
         _, q, n = best
-        if not bool(np.asarray(inside_room((q + 1e-3 * n)[None])).reshape(-1)[0]):
+        if not on_floor(inside_room, q + 1e-3 * n):
             n = -n
         xy = q + cfg.radius * n
-        if not bool(np.asarray(inside_room(xy[None])).reshape(-1)[0]):  # by a corner: towards the middle
+        if not on_floor(inside_room, xy):  # by a corner: towards the middle
             m = self.outline.mean(axis=0) - q
             xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
         tr.s = np.r_[xy, 0.0, 0.0]
@@ -960,7 +967,7 @@ class JointTracker:
                     continue
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
                     continue
-                if not bool(np.asarray(inside_room(tr.xy[None])).reshape(-1)[0]):
+                if not on_floor(inside_room, tr.xy):
                     continue
             else:
                 self.onto_floor(tr, inside_room)  # the target is kept, on the floor plan

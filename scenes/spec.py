@@ -54,15 +54,20 @@ class Obstacle:
         return local @ np.array([[c, s], [-s, c]]) + np.asarray(self.center, float)
 
 
-def segment_distance(xy, a, b) -> np.ndarray:
-    """Distance from points (..., 2) to the segment a-b."""
+def nearest_on_segment(xy, a, b) -> np.ndarray:
+    """The points (..., 2) of the segment a-b nearest to the points xy (..., 2)."""
     p = np.asarray(xy, float)
     a = np.asarray(a, float)
     b = np.asarray(b, float)
     ab = b - a
     denom = float(ab @ ab)
     s = np.clip(((p - a) @ ab) / denom, 0.0, 1.0) if denom > 0 else np.zeros(p.shape[:-1])
-    return np.linalg.norm(p - (a + s[..., None] * ab), axis=-1)
+    return a + s[..., None] * ab
+
+
+def segment_distance(xy, a, b) -> np.ndarray:
+    """Distance from points (..., 2) to the segment a-b."""
+    return np.linalg.norm(np.asarray(xy, float) - nearest_on_segment(xy, a, b), axis=-1)
 
 
 def point_in_polygon(xy, polygon) -> np.ndarray:
