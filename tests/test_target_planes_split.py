@@ -70,6 +70,21 @@ def _nearest(tracks, paths):
     return {n: np.hypot(tracks.x.to_numpy() - p[k, 0], tracks.y.to_numpy() - p[k, 1]) for n, p in paths.items()}
 
 
+def _obs(cams, paths, drop=None):
+    return Observations({"boxes": _boxes(cams, paths, drop=drop)}, float(TIMES[-1]) + DT)
+
+
+def _during(tracks, paths, t0, t1):
+    """The output rows with t0 <= t < t1 and their distances to A and B (``_nearest``)."""
+    walk = tracks[(tracks.t >= t0) & (tracks.t < t1)]
+    return walk, _nearest(walk, paths)
+
+
+def _on_b(d, within):
+    """Rows on the look-alike B: within ``within`` m of it and nearer it than A."""
+    return (d["B"] < within) & (d["B"] < d["A"])
+
+
 def test_the_scene_is_a_side_by_side_merge_in_every_view():
     cams = right_angle_pair()
     boxes = _boxes(cams, _paths())
@@ -101,12 +116,11 @@ def test_the_diagonal_scene_is_side_by_side_in_both_views():
 def test_two_cameras_seeing_the_pair_side_by_side_start_the_look_alike_and_the_target_keeps_its_id():
     cams = right_angle_pair()
     paths = _diagonal()
-    obs = Observations({"boxes": _boxes(cams, paths)}, float(TIMES[-1]) + DT)
+    obs = _obs(cams, paths)
     multi = TargetPlanes(multi_person=True, split_births=True).run(obs, calib(cams)).tracks
-    walk = multi[(multi.t >= 3.5) & (multi.t < 6.5)]
-    d = _nearest(walk, paths)
+    walk, d = _during(multi, paths, 3.5, 6.5)
     # during the side-by-side walk the look-alike has a track of its own, within 0.2 m
-    on_b = walk[(d["B"] < 0.2) & (d["B"] < d["A"])]
+    on_b = walk[_on_b(d, 0.2)]
     assert on_b.t.nunique() >= 0.9 * walk.t.nunique()
     assert pd.Series(d["A"] < 0.2).groupby(walk.t.to_numpy()).any().mean() >= 0.9  # and A one too
     # the hand-chosen target keeps its identity through the walk and the separation
@@ -116,10 +130,8 @@ def test_two_cameras_seeing_the_pair_side_by_side_start_the_look_alike_and_the_t
     assert (d["A"] < d["B"]).all() and d["A"][TIMES >= 7.5].max() < 0.15
     assert (tgt.status[tgt.status.t.between(3.5, 6.4)].status == MERGED).any()  # it was merged with the new track
     # without the split births (the default) the look-alike has no track while merged (the case it is for)
-    off = TargetPlanes(multi_person=True).run(obs, calib(cams)).tracks
-    off = off[(off.t >= 3.5) & (off.t < 6.5)]
-    d = _nearest(off, paths)
-    assert ((d["B"] < 0.2) & (d["B"] < d["A"])).sum() < 0.5 * off.t.nunique()
+    off, d = _during(TargetPlanes(multi_person=True).run(obs, calib(cams)).tracks, paths, 3.5, 6.5)
+    assert _on_b(d, 0.2).sum() < 0.5 * off.t.nunique()
 
 
 def test_one_camera_side_by_side_and_the_other_on_the_line_of_sight_starts_nothing():
@@ -128,11 +140,10 @@ def test_one_camera_side_by_side_and_the_other_on_the_line_of_sight_starts_nothi
     a window holding both projected cylinders confirmed it, and the look-alike got a track here."""
     cams = right_angle_pair()
     paths = _paths()
-    obs = Observations({"boxes": _boxes(cams, paths)}, float(TIMES[-1]) + DT)
+    obs = _obs(cams, paths)
     multi = TargetPlanes(multi_person=True, split_births=True).run(obs, calib(cams)).tracks
-    walk = multi[(multi.t >= 3.0) & (multi.t < 6.5)]
-    d = _nearest(walk, paths)
-    assert ((d["B"] < 0.2) & (d["B"] < d["A"])).sum() < 0.5 * walk.t.nunique()
+    walk, d = _during(multi, paths, 3.0, 6.5)
+    assert _on_b(d, 0.2).sum() < 0.5 * walk.t.nunique()
     tgt = TargetPlanes(initial_xy=list(paths["A"][0]), split_births=True).run(obs, calib(cams))
     assert len(tgt.tracks) == len(TIMES)
 
@@ -142,11 +153,9 @@ def test_a_too_wide_window_no_other_camera_confirms_starts_nothing():
     too-wide window alone starts no track, in multi-person mode nor for the hand-chosen target."""
     cams = right_angle_pair()
     paths = _paths()
-    obs = Observations({"boxes": _boxes(cams, paths, drop=("west", 1.5))}, float(TIMES[-1]) + DT)
+    obs = _obs(cams, paths, drop=("west", 1.5))
     for est in (TargetPlanes(multi_person=True, split_births=True), TargetPlanes(initial_xy=list(paths["A"][0]), split_births=True)):
-        tr = est.run(obs, calib(cams)).tracks
-        walk = tr[(tr.t >= 2.0) & (tr.t < 6.5)]
-        d = _nearest(walk, paths)
-        assert not ((d["B"] < 0.3) & (d["B"] < d["A"])).any()
+        walk, d = _during(est.run(obs, calib(cams)).tracks, paths, 2.0, 6.5)
+        assert not _on_b(d, 0.3).any()
         assert walk.groupby("t").size().max() <= 1
     assert len(walk) == 45  # the target is tracked (south alone) throughout: nothing else in the way
