@@ -140,6 +140,8 @@ class TargetPlanes(Estimator):
                                  "(docs/target_planes.md)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
+        merged_keep: bool = param(False, "an unconfirmed track explained only as a share of a merged window is "
+                                         "kept (not confirmed) instead of dropped; True: the look-alike beside the target")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
                                            "second, 10 frames at the cameras' 10 fps): identities after two tracks "
                                            "were ambiguous are decided this long after they part (``tp_identity``), "

@@ -963,7 +963,7 @@ class JointTracker:
         out = []
         for tr in tracks:
             if tr.tid != keep:
-                if not ((tr.n_used or (tr.split and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
+                if not ((tr.n_used or ((tr.split or cfg.merged_keep) and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
                     continue
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
                     continue
