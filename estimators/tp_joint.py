@@ -360,7 +360,18 @@ class JointTracker:
         df = boxes.flow[j] - f_pred
         Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
-        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
+        norm = 0.0
+        if cfg.fit_normalised:
+            # the Gaussian's normalisation, against a perfectly located track's (var0: the window
+            # noise and silhouette alone; the calibrated flow noise alone): a prediction spread
+            # wide fits any window near it, and is that much less likely to have made this one
+            if len(projs) == 1:
+                v0 = self.centroid_var(projs[0], boxes.width[j])
+            else:
+                v0 = 0.5 * self.box_sigma**2 + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
+            Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
+            norm = 0.5 * float(np.log(var_u / v0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
+        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f) + norm
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
