@@ -145,6 +145,10 @@ class TargetPlanes(Estimator):
                                      "raised movers' MOTA means (rendered 0.951 -> 0.962, analytic 0.909 -> 0.924, "
                                      "head-on 0.820 -> 0.854) but lowered MOTA or identity on some recordings "
                                      "(docs/target_planes.md, branch tp12m)")
+        fit_norm_relative: bool = param(False, "with fit_normalised, each window's normalisation is taken relative "
+                                        "to the least of the single tracks gating it (floored at 0), so it ranks tracks "
+                                        "against each other and leaves a track's balance against clutter and a miss as "
+                                        "without it (docs/target_planes.md, branch tp12m)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "

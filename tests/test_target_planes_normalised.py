@@ -88,3 +88,30 @@ def test_a_step_keeps_the_stopped_track_where_it_stands():
         jt.step([a, b], frame, 0.1)
         kept = a.n_used == 4 and b.n_used == 0 and not b.seen and np.linalg.norm(b.estimate()[:2] - [3.0, 3.7]) < 0.1
         assert kept == on
+
+
+def test_relative_normalisation_leaves_a_lone_spread_track_against_clutter_as_without_it():
+    """``fit_norm_relative``: each window's normalisation is taken against the least of the single
+    tracks gating it, so a track alone in its gate keeps its balance against clutter and a miss as
+    without the normalisation (absolute: a walker's wide prediction - 0.8 m - loses the window
+    2 m from it in one camera more, left as clutter and a ghost's birth), while the ranking of two
+    tracks for one window (the stopped neighbour's spread-out track) stays as with it."""
+    cams = four_cameras()
+
+    def tracker(on, rel):
+        cfg = TargetPlanes(multi_person=True, fit_normalised=on, fit_norm_relative=rel).resolved_config(calib(cams))
+        return JointTracker(cfg, {c.name: c.P for c in cams}, {c.name: float(c.width) for c in cams}, {c.name: 5.0 for c in cams}, 1.0, 1.0)
+
+    held, to_b = {}, {}
+    for on, rel in ((False, False), (True, False), (True, True)):
+        jt = tracker(on, rel)
+        held[on, rel] = to_b[on, rel] = 0
+        for c in cams:
+            b = JointTrack(1, np.r_[3.0, 3.0, 0.5, 0.0], np.diag([0.8**2, 0.8**2, 0.5**2, 0.5**2]), confirmed=True, hits=30, mu=0.0)
+            expl, _ = jt.explain_camera(c.name, [b], _box(c, [5.0, 3.0], (0.5, 0.0)))
+            held[on, rel] += expl == {0: (0,)}
+            a, b = _pair(0.15)
+            expl, _ = jt.explain_camera(c.name, [a, b], _box(c, [3.0, 3.0]))
+            to_b[on, rel] += expl[0] == (1,)
+    assert held == {(False, False): 4, (True, False): 3, (True, True): 4}
+    assert to_b == {(False, False): 3, (True, False): 0, (True, True): 0}
