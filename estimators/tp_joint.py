@@ -259,6 +259,7 @@ class JointTracker:
     def __init__(self, cfg, Ps: dict[str, np.ndarray], widths: dict[str, float], flow_sigma: dict[str, float],
                  box_sigma: float, u_sigma: float):
         self.cfg, self.Ps, self.widths = cfg, Ps, widths
+        self.norm_ref: dict[str, dict[int, float]] = {}  # per camera, this frame: window -> reference normalisation
         self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
@@ -333,8 +334,11 @@ class JointTracker:
         return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
-    def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
-        """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged)."""
+    def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int, ref: float = 0.0) -> float:
+        """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged).
+        ``ref``: with ``fit_norm_relative``, the normalisation subtracted (floored at 0): the least
+        of the single tracks gating the window, so the normalisation only ranks tracks against
+        each other and leaves their balance against clutter and a miss as without it."""
         cfg = self.cfg
         ul, ur = boxes.win[j, 0], boxes.win[j, 1]
         if len(projs) == 1:
@@ -360,7 +364,20 @@ class JointTracker:
         df = boxes.flow[j] - f_pred
         Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
-        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f)
+        norm = 0.0
+        if cfg.fit_normalised:
+            # the Gaussian's normalisation, against a perfectly located track's (var0: the window
+            # noise and silhouette alone; the calibrated flow noise alone): a prediction spread
+            # wide fits any window near it, and is that much less likely to have made this one
+            if len(projs) == 1:
+                v0 = self.centroid_var(projs[0], boxes.width[j])
+            else:
+                v0 = 0.5 * self.box_sigma**2 + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
+            Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
+            norm = 0.5 * float(np.log(var_u / v0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
+            if cfg.fit_norm_relative:
+                norm = max(norm - ref, 0.0)
+        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f) + norm
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -409,6 +426,8 @@ class JointTracker:
         projection. Windows absent from the result are clutter."""
         projs = {i: p for i, tr in enumerate(tracks) if (p := self.project(c, tr)) is not None}
         n = len(boxes)
+        self.norm_ref[c] = {}
+        cfg = self.cfg
         if not projs or not n:
             return {}, projs
         gate = {}
@@ -435,11 +454,19 @@ class JointTracker:
         cache: dict = {}
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
         walk = {i: self.walk_cost(tracks[i].mu) for i in projs}
+        ref: dict[int, float] = {}
+        if cfg.fit_normalised and cfg.fit_norm_relative:
+            # each window's reference normalisation: the least of the single tracks gating it
+            for i, js in gate.items():
+                for j in js:
+                    nz = self.explain_cost(c, [projs[i]], boxes, j) - self.explain_cost(c, [projs[i]], boxes, j, np.inf)
+                    ref[j] = min(ref.get(j, np.inf), nz)
+        self.norm_ref[c] = ref
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
             if key not in cache:
-                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
+                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j, ref.get(j, 0.0)) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
             return cache[key]
 
         for ts, ws in comps.values():
@@ -632,9 +659,10 @@ class JointTracker:
                 if n == 1:
                     # the window's likelihood ratio: this track against the best explanation
                     # without it - clutter, or another track of this view left without a window
-                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
+                    r_j = self.norm_ref.get(c, {}).get(j, 0.0)
+                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j, r_j) + self.rows_cost(c, tracks[k], q, boxes, j)
                                              for k, q in projs.items() if k != i and k not in holder])
-                    lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
+                    lr = max(alt - self.explain_cost(c, [p], boxes, j, r_j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden)
                 hit[i] |= n == 1
             extra = []
