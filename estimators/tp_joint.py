@@ -335,10 +335,19 @@ class JointTracker:
 
     # --- joint explanation of one camera's windows -----------------------------------------------
     def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int, ref: float = 0.0) -> float:
-        """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged).
-        ``ref``: with ``fit_norm_relative``, the normalisation subtracted (floored at 0): the least
-        of the single tracks gating the window, so the normalisation only ranks tracks against
-        each other and leaves their balance against clutter and a miss as without it."""
+        """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged),
+        plus, with ``fit_normalised``, the Gaussian's normalisation (``explain_terms``). ``ref``:
+        with ``fit_norm_relative``, the normalisation subtracted (floored at 0): the least of the
+        single tracks gating the window, so the normalisation only ranks tracks against each other
+        and leaves their balance against clutter and a miss as without it."""
+        fit, norm = self.explain_terms(c, projs, boxes, j)
+        if self.cfg.fit_normalised and self.cfg.fit_norm_relative:
+            norm = max(norm - ref, 0.0)
+        return fit + norm
+
+    def explain_terms(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> tuple[float, float]:
+        """(0.5 d^2, normalisation) of window j explained by ``projs``; the normalisation is 0
+        without ``fit_normalised``."""
         cfg = self.cfg
         ul, ur = boxes.win[j, 0], boxes.win[j, 1]
         if len(projs) == 1:
@@ -375,9 +384,7 @@ class JointTracker:
                 v0 = 0.5 * self.box_sigma**2 + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
             Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
             norm = 0.5 * float(np.log(var_u / v0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
-            if cfg.fit_norm_relative:
-                norm = max(norm - ref, 0.0)
-        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f) + norm
+        return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f), norm
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -459,8 +466,7 @@ class JointTracker:
             # each window's reference normalisation: the least of the single tracks gating it
             for i, js in gate.items():
                 for j in js:
-                    nz = self.explain_cost(c, [projs[i]], boxes, j) - self.explain_cost(c, [projs[i]], boxes, j, np.inf)
-                    ref[j] = min(ref.get(j, np.inf), nz)
+                    ref[j] = min(ref.get(j, np.inf), max(self.explain_terms(c, [projs[i]], boxes, j)[1], 0.0))
         self.norm_ref[c] = ref
 
         def cost(members: tuple[int, ...], j: int) -> float:

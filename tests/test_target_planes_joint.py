@@ -92,8 +92,9 @@ def test_two_people_merging_in_one_view_and_separating_swapped_keep_their_ids():
     assert err.max() < 0.15
 
 
-def _tracker(cams):
-    cfg = TargetPlanes(multi_person=True).resolved_config(calib(cams))
+def _tracker(cams, **options):
+    """A multi-person JointTracker for the test cameras (``options``: Config fields)."""
+    cfg = TargetPlanes(multi_person=True, **options).resolved_config(calib(cams))
     Ps = {c.name: c.P for c in cams}
     return cfg, JointTracker(cfg, Ps, {c.name: float(c.width) for c in cams}, {c.name: 5.0 for c in cams}, 1.0, 1.0)
 
@@ -248,16 +249,15 @@ def _empty(cams):
     return {c.name: CameraBoxes.empty() for c in cams}
 
 
+def _box(c, xy, vel=(0.0, 0.0)):
+    """Camera c's one window: a cylinder at xy walking at vel."""
+    r = window_row(c, xy, vel)
+    return CameraBoxes(np.array([1], object), np.array([r[0]]), r[None, 1:5], r[None, 5:7])
+
+
 def _frame(cams, xy, vel, names):
     """One frame: the windows of a cylinder at xy walking at vel, in the cameras ``names``."""
-    out = {}
-    for c in cams:
-        if c.name in names:
-            r = window_row(c, xy, vel)
-            out[c.name] = CameraBoxes(np.array([1], object), np.array([r[0]]), r[None, 1:5], r[None, 5:7])
-        else:
-            out[c.name] = CameraBoxes.empty()
-    return out
+    return {c.name: _box(c, xy, vel) if c.name in names else CameraBoxes.empty() for c in cams}
 
 
 def test_a_ghost_track_without_windows_in_cameras_that_should_see_it_is_rejected():

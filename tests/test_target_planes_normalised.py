@@ -11,28 +11,21 @@ left the floor plan, or failed the existence test). With the normalisation 0.5 l
 (var0: a perfectly located track's) a spread-out prediction is as unlikely as it is wide.
 
 Windows are the estimator's person model projected by the test cameras
-(``tests.test_target_planes_joint.window_row``).
+(``tests.test_target_planes_joint._box``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_frames import CameraBoxes
-from trackroom.estimators.tp_joint import C_CLUTTER, JointTrack, JointTracker
-from tests.test_target_planes import calib, four_cameras
-from tests.test_target_planes_joint import window_row
+from trackroom.estimators.tp_joint import C_CLUTTER, JointTrack
+from tests.test_target_planes import four_cameras
+from tests.test_target_planes_joint import _box
+from tests.test_target_planes_joint import _tracker as _joint_tracker
 
 
 def _tracker(cams, on=True):
     """``tests.test_target_planes_joint._tracker`` with ``fit_normalised`` on (or off: the default)."""
-    cfg = TargetPlanes(multi_person=True, fit_normalised=on).resolved_config(calib(cams))
-    return cfg, JointTracker(cfg, {c.name: c.P for c in cams}, {c.name: float(c.width) for c in cams}, {c.name: 5.0 for c in cams}, 1.0, 1.0)
-
-
-def _box(c, xy, vel=(0.0, 0.0)):
-    r = window_row(c, xy, vel)
-    return CameraBoxes(np.array([1], object), np.array([r[0]]), r[None, 1:5], r[None, 5:7])
+    return _joint_tracker(cams, fit_normalised=on)
 
 
 def _pair(off):
@@ -98,13 +91,9 @@ def test_relative_normalisation_leaves_a_lone_spread_track_against_clutter_as_wi
     tracks for one window (the stopped neighbour's spread-out track) stays as with it."""
     cams = four_cameras()
 
-    def tracker(on, rel):
-        cfg = TargetPlanes(multi_person=True, fit_normalised=on, fit_norm_relative=rel).resolved_config(calib(cams))
-        return JointTracker(cfg, {c.name: c.P for c in cams}, {c.name: float(c.width) for c in cams}, {c.name: 5.0 for c in cams}, 1.0, 1.0)
-
     held, to_b = {}, {}
     for on, rel in ((False, False), (True, False), (True, True)):
-        jt = tracker(on, rel)
+        _, jt = _joint_tracker(cams, fit_normalised=on, fit_norm_relative=rel)
         held[on, rel] = to_b[on, rel] = 0
         for c in cams:
             b = JointTrack(1, np.r_[3.0, 3.0, 0.5, 0.0], np.diag([0.8**2, 0.8**2, 0.5**2, 0.5**2]), confirmed=True, hits=30, mu=0.0)

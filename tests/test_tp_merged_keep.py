@@ -11,8 +11,6 @@ Hand-made track states (the prune decision alone).
 """
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from trackroom.estimators.tp_joint import JointTrack
@@ -30,8 +28,7 @@ def _inside(xy):
 
 
 def test_an_unconfirmed_track_in_a_merged_window_is_kept_with_merged_keep():
-    cfg, jt = _tracker(four_cameras())
-    jt.cfg = dataclasses.replace(cfg, merged_keep=True)
+    _, jt = _tracker(four_cameras(), merged_keep=True)
     tr = _merged_newborn()
     assert jt.prune([tr], None, _inside) == [tr]
     assert not tr.confirmed
@@ -41,7 +38,7 @@ def test_without_merged_keep_it_is_dropped_and_unseen_it_is_dropped_anyway():
     cfg, jt = _tracker(four_cameras())
     assert cfg.merged_keep is False
     assert jt.prune([_merged_newborn()], None, _inside) == []
-    jt.cfg = dataclasses.replace(cfg, merged_keep=True)
+    _, jt = _tracker(four_cameras(), merged_keep=True)
     tr = _merged_newborn()
     tr.seen = False
     assert jt.prune([tr], None, _inside) == []
