@@ -138,17 +138,22 @@ class TargetPlanes(Estimator):
                                  "instead of any window setting walking; off: on development seeds it raised "
                                  "analytic 108's identity 78.6 -> 98.6 % but lowered MOTA on 12 recordings "
                                  "(docs/target_planes.md)")
-        fit_normalised: bool = param(False, "a window's fit to a track's prediction includes the Gaussian's "
+        fit_normalised: bool = param(True, "a window's fit to a track's prediction includes the Gaussian's "
                                      "normalisation, 0.5 log of the predicted centroid and flow variances over a "
                                      "perfectly located track's (no parameter value): a stopped person's spread-out "
-                                     "walking state no longer takes a neighbour's window; off: on development seeds it "
-                                     "raised movers' MOTA means (rendered 0.951 -> 0.962, analytic 0.909 -> 0.924, "
-                                     "head-on 0.820 -> 0.854) but lowered MOTA or identity on some recordings "
-                                     "(docs/target_planes.md, branch tp12m)")
+                                     "walking state no longer takes a neighbour's window (with border_edges: movers' "
+                                     "MOTA >= 0.9 on 166 instead of 141 of 260 development recordings; "
+                                     "docs/target_planes.md)")
         fit_norm_relative: bool = param(False, "with fit_normalised, each window's normalisation is taken relative "
                                         "to the least of the single tracks gating it (floored at 0), so it ranks tracks "
                                         "against each other and leaves a track's balance against clutter and a miss as "
                                         "without it (docs/target_planes.md, branch tp12m)")
+        border_edges: bool = param(True, "a window ending at an image border, of a track predicted across it, is the "
+                                   "visible part of someone cut by it (rendered: 21 % of windows end at a border; "
+                                   "their centroids lie a median 7 px inwards of the "
+                                   "axis, their inner edges within 1 px of the projected cylinder's): compared with "
+                                   "the projected cylinder clipped to the image, and its inner edge, not its "
+                                   "centroid, is the measured column")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         merged_keep: bool = param(False, "an unconfirmed track explained only as a share of a merged window is "

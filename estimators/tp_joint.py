@@ -96,6 +96,7 @@ from trackroom.scenes.spec import nearest_on_segment
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
+BORDER_PX = 0.5  # a window edge this close to the image's edge is cut by it, px (a window reaching beyond the image was not cut)
 MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
 C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
 FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
@@ -350,16 +351,31 @@ class JointTracker:
         without ``fit_normalised``."""
         cfg = self.cfg
         ul, ur = boxes.win[j, 0], boxes.win[j, 1]
-        if len(projs) == 1:
+        side = self.border_side(c, boxes, j, projs) if cfg.border_edges else 0
+        if len(projs) == 1 and not side:
             p = projs[0]
-            du, var_u = boxes.u[j] - p.u, self.centroid_var(p, boxes.width[j]) + p.var_u
+            var0 = self.centroid_var(p, boxes.width[j])
+            du, var_u = boxes.u[j] - p.u, var0 + p.var_u
             w_pred = w_narrow = p.width
+            f_pred, var_f = p.flow, p.var_f
+        elif len(projs) == 1:
+            # cut by the image border: the window is the projection's part inside the image, its
+            # centre half-way between the border and the inner edge (which moves with the axis)
+            p = projs[0]
+            L, R = max(p.win[0], 0.0), min(p.win[1], self.widths[c])
+            du = 0.5 * (ul + ur) - 0.5 * (L + R)
+            var0 = self.edge_sigma(p) ** 2
+            var_u = var0 + 0.25 * p.var_u
+            w_pred = w_narrow = max(R - L, 1.0)
             f_pred, var_f = p.flow, p.var_f
         else:
             L = min(p.win[0] for p in projs)
             R = max(p.win[1] for p in projs)
+            if side:
+                L, R = max(L, 0.0), min(R, self.widths[c])
             du = 0.5 * (ul + ur) - 0.5 * (L + R)
-            var_u = 0.5 * self.box_sigma**2 + float(np.mean([p.var_u for p in projs])) + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
+            var0 = 0.5 * self.box_sigma**2 + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
+            var_u = var0 + float(np.mean([p.var_u for p in projs]))
             w_pred = R - L
             fs = np.array([p.flow for p in projs])
             f_pred = fs.mean(0)
@@ -378,13 +394,19 @@ class JointTracker:
             # the Gaussian's normalisation, against a perfectly located track's (var0: the window
             # noise and silhouette alone; the calibrated flow noise alone): a prediction spread
             # wide fits any window near it, and is that much less likely to have made this one
-            if len(projs) == 1:
-                v0 = self.centroid_var(projs[0], boxes.width[j])
-            else:
-                v0 = 0.5 * self.box_sigma**2 + (cfg.edge_sigma_frac * min(p.width for p in projs)) ** 2
             Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
-            norm = 0.5 * float(np.log(var_u / v0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
+            norm = 0.5 * float(np.log(var_u / var0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
         return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f), norm
+
+    def border_side(self, c: str, boxes: CameraBoxes, j: int, projs: list[Projection]) -> int:
+        """-1 / +1: window j ends at the left / right image border and the tracks ``projs``
+        explaining it are predicted cut by that border (their window is the part inside the
+        image; its centroid is the visible part's); 0: otherwise (a window at the border that
+        the prediction does not reach is compared as any other)."""
+        W = self.widths[c]
+        left = abs(boxes.win[j, 0]) <= BORDER_PX and min(p.win[0] for p in projs) < 0.0
+        right = abs(boxes.win[j, 1] - W) <= BORDER_PX and max(p.win[1] for p in projs) > W
+        return -1 if left and not right else 1 if right and not left else 0
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -682,7 +704,11 @@ class JointTracker:
                     if ratio <= cfg.width_ratio_threshold:
                         if cfg.stand_flow:
                             stand_llr[i] += self.stand_flow_llr(c, p, boxes.flow[j]) + self.stand_u_llr(c, tr, p, float(boxes.u[j]), boxes.width[j])
-                        self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
+                        side = self.border_side(c, boxes, j, [p]) if cfg.border_edges else 0
+                        if side:  # the inner edge, as a merged window's outer edges: the axis a radius beyond it
+                            self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
+                        else:
+                            self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
                         used[i] += 1

@@ -369,3 +369,36 @@ def test_a_window_without_flow_makes_standing_likelier():
     tr.xs, tr.Ps = np.array([3.0, 2.5]), np.diag([0.1**2, 0.1**2])
     jt.step([tr], _frame(cams, np.array([3.6, 2.5]), (0.0, 0.0), {c.name for c in cams}), 0.0)
     assert tr.n_used == 4 and tr.mu < 0.01
+
+
+def test_a_window_cut_by_the_image_border_is_compared_with_the_projection_inside_the_image():
+    """A walker half out of south's view (its cylinder's image spans u = -16 .. 15 px) has the
+    window a detector reports: the part inside the image, 0 .. 15 px, its centre 8 px from the
+    axis. With ``border_edges`` a track predicted where the walker is explains it at almost no cost
+    (it is compared with the projection clipped to the image) and is updated by the inner edge,
+    which pulls it no further into the image than the window's centre does without it. A window
+    reaching beyond the image (not cut: synthetic) is compared as any other."""
+    south, _ = right_angle_pair()
+    truth = np.array([-0.85, 3.0])
+    r = window_row(south, truth, (0.0, 0.0))
+    assert r[1] < -10.0 and r[2] > 10.0  # the cylinder is cut by the left border
+    cut = CameraBoxes(np.array([1], object), np.array([0.5 * r[2]]), np.array([[0.0, r[2], r[3], r[4]]]), np.zeros((1, 2)))
+    whole = CameraBoxes(np.array([1], object), np.array([r[0]]), r[None, 1:5], np.zeros((1, 2)))
+
+    def track():
+        S = np.diag([0.2**2, 0.2**2, 0.1**2, 0.1**2])
+        return JointTrack(0, np.r_[truth, 0.0, 0.0], S, confirmed=True, seen=True, exist=EXIST_ACCEPT)
+
+    cost, pulled = {}, {}
+    for on in (True, False):
+        _, jt = _tracker([south], border_edges=on)
+        tr = track()
+        p = jt.project("south", tr)
+        cost[on] = jt.explain_terms("south", [p], cut, 0)[0]
+        assert jt.border_side("south", cut, 0, [p]) == -1  # the window ends at the border the projection crosses
+        assert jt.border_side("south", whole, 0, [p]) == 0
+        jt.step([tr], {"south": cut}, 0.0)
+        assert tr.status["south"][0] == TRACKING  # the window is the track's, not clutter
+        pulled[on] = jt.project("south", tr).u - r[0]
+    assert cost[True] < 0.1 and cost[False] > 5.0 * cost[True]
+    assert 0.0 < pulled[True] <= pulled[False]  # both into the image (the radius offset is shorter than the bounding box's half-width here)

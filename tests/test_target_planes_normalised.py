@@ -1,5 +1,5 @@
 """target_planes: a window's likelihood is normalised by the spread of the prediction it is
-compared with (``JointTracker.explain_cost``, Config ``fit_normalised``, off by default; branch tp12m).
+compared with (``JointTracker.explain_cost``, Config ``fit_normalised``, on by default since issue 12's eighth session; branch tp12m).
 
 On development recordings the movers' largest MOTA loss was a stopped person's track dropped
 while the person still stood: a walker that stops makes no flow window, its track's walking state
@@ -24,7 +24,7 @@ from tests.test_target_planes_joint import _tracker as _joint_tracker
 
 
 def _tracker(cams, on=True):
-    """``tests.test_target_planes_joint._tracker`` with ``fit_normalised`` on (or off: the default)."""
+    """``tests.test_target_planes_joint._tracker`` with ``fit_normalised`` on (the default) or off."""
     return _joint_tracker(cams, fit_normalised=on)
 
 
@@ -53,7 +53,7 @@ def test_the_window_of_a_person_stopping_goes_to_its_own_track_not_to_a_stopped_
                 to_b[off] += expl[0] == (1,)
         if on:
             assert to_b == {0.0: 0, 0.1: 0, 0.15: 0}  # A's own track takes its window in every camera
-        else:  # without the normalisation (the default) B takes it in 2 (0.1 m) and 3 (0.15 m) of 4 cameras
+        else:  # without the normalisation B takes it in 2 (0.1 m) and 3 (0.15 m) of 4 cameras
             assert to_b == {0.0: 0, 0.1: 2, 0.15: 3}
 
 
