@@ -150,10 +150,9 @@ class TargetPlanes(Estimator):
                                         "without it (docs/target_planes.md, branch tp12m)")
         border_edges: bool = param(True, "a window ending at an image border, of a track predicted across it, is the "
                                    "visible part of someone cut by it (rendered: 21 % of windows end at a border; "
-                                   "their centroids lie a median 7 px inwards of the "
-                                   "axis, their inner edges within 1 px of the projected cylinder's): compared with "
-                                   "the projected cylinder clipped to the image, and its inner edge, not its "
-                                   "centroid, is the measured column")
+                                   "their centroids lie a median 7 px inwards of the axis, their inner edges within "
+                                   "1 px of the projected cylinder's): compared with the projected cylinder clipped "
+                                   "to the image, and its inner edge, not its centroid, is the measured column")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         merged_keep: bool = param(False, "an unconfirmed track explained only as a share of a merged window is "

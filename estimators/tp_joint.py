@@ -13,7 +13,10 @@ Per frame:
    cylinders; flow: the mean of their predicted image velocities, its spread added to the noise),
    or clutter; every track has at most one window (none: occluded, out of view or standing).
    Cost of a hypothesis: sum over explained windows of 0.5 d^2 (Mahalanobis, features: centre u,
-   width - one-sided: a window cut by an obstacle is narrower -, flow u, flow v), plus
+   width - one-sided: a window cut by an obstacle is narrower -, flow u, flow v; a window ending
+   at an image border that its track is predicted across is compared with the projection clipped
+   to the image, ``border_side``) and, with ``fit_normalised`` (the default), the Gaussian's
+   normalisation against a perfectly located track's (``explain_terms``), plus
    ``c_clutter`` per clutter window and ``c_miss`` per moving track without a window (0 for a
    track predicted to stand still: it makes no window). Both are 0.5 chi^2_4(0.99): a window is
    explained by a track when that is likelier than a missed track plus a clutter window at the
@@ -23,7 +26,8 @@ Per frame:
    has more than ``MAX_HYPOTHESES`` hypotheses.
 3. **Update** (Kalman; every measurement is linear in s):
    - a window that is one track: its centroid's target plane a [x, y]^T = b (eqs. 3-5, the row
-     normalised so the residual is in metres; sigma = sigma_u / |du/dxy|); its single-camera
+     normalised so the residual is in metres; sigma = sigma_u / |du/dxy|; for a window cut by
+     the image border, ``border_edges``: its inner edge's plane, the axis a ``radius`` beyond it); its single-camera
      target area's depth range (section 3.2), applied only when the prediction lies outside it,
      with sigma = ``radius``; its flow J V = f (eq. 7, J at the predicted body centre), skipped
      as an outlier beyond chi^2_2(0.999) (the rendered flows' tails are heavy). With several
