@@ -163,6 +163,10 @@ class TargetPlanes(Estimator):
                                            "and a track is reported from this long before its confirmation (in "
                                            "multi-person mode moved back along its velocity before its birth); "
                                            "0: no lag (the tracker's own identities, tracks from confirmation)")
+        relink: bool = param(True, "multi-person mode: a newly confirmed track takes the identity of a confirmed "
+                                   "track that ended within hold_s when it likelier continues that person's "
+                                   "predicted state than it is someone new on the floor (``tp_identity``; needs "
+                                   "identity_lag_s > 0)")
         box_sigma_px: float | None = param(None, "window edge noise, px; none: the calibration's box_sigma_px, else 0")
         box_u_sigma_px: float | None = param(None, "window centroid noise, px; none: the calibration's box_u_sigma_px, "
                                                    "else (analytic windows) bearing_sigma_px")
@@ -240,6 +244,8 @@ class TargetPlanes(Estimator):
         next_id = len(tracks)
         # who is who after an encounter: decided lag_s after it (tp_identity); 0: as tracked
         idl = IdentityLag(cfg.identity_lag_s, cfg.accel_sigma, cfg.radius, watch=keep) if cfg.identity_lag_s > 0 else None
+        if idl is not None and cfg.multi_person and cfg.relink and geo.polygon_area(jt.outline) > 0:
+            idl.relink_area, idl.sigma_v, idl.hold_s = geo.polygon_area(jt.outline), 0.5 * cfg.max_speed, cfg.hold_s
         rows, status_rows = [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:

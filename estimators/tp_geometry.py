@@ -293,3 +293,12 @@ def velocity_from_flows(
         b = np.concatenate([b, np.asarray(prior, float)[:k] / prior_sigma])
     sol = np.linalg.lstsq(A, b, rcond=None)[0]
     return sol if k == 3 else np.array([sol[0], sol[1], 0.0])
+
+
+def polygon_area(outline: np.ndarray) -> float:
+    """Area of a simple polygon (N, 2), m^2 (shoelace); 0 for fewer than three vertices."""
+    p = np.asarray(outline, float).reshape(-1, 2)
+    if len(p) < 3:
+        return 0.0
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))

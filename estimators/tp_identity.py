@@ -32,6 +32,17 @@ of the pair's states before and after it, with both assignments kept until then:
   encounter itself, where the two are within a body width or two of each other) keep what was
   reported: the decision never reaches back further than ``lag_s``.
 
+- **A person found again (multi-person mode, ``relink``)**: a confirmed track that ends (the
+  tracker's existence test rejected it, or ``hold_s`` passed unseen) leaves its identity, last
+  state s, S and time. When a track is confirmed for the first time, after the end and within
+  ``hold_s`` of it, two explanations of its state s_n, S_n are compared: the ended person walked
+  on, log N(s_n; F s_e, F S_e F^T + Q + S_n) (the same constant-velocity prediction as above), or
+  someone not seen before, log(1 / floor area) + log N(v_n; 0, sigma_v^2 I + S_n[v]) (anywhere on
+  the floor, at a walking velocity of the tracker's new-track spread ``sigma_v``). The likelier
+  one is taken (a wrong link and a missed one each cost one identity change); of several ended
+  tracks, the likeliest. The new track carries the ended identity from the ended track's last
+  frame on (its rows before that, while both were reported, keep its own id).
+
 ``IdentityLag.update`` is called once a frame with the tracks after the tracker's step;
 ``relabel`` maps (time, internal track id) rows to identities afterwards.
 """
@@ -71,6 +82,12 @@ class IdentityLag:
     episodes: dict = field(default_factory=dict)
     last: dict = field(default_factory=dict)  # internal id -> (s, S, t) of the previous frame
     log: list = field(default_factory=list)  # (td, a, b, log L(X) - log L(K)) of every decision
+    relink_area: float | None = None  # floor area, m^2: found-again links on (module docstring); None: off
+    sigma_v: float = 1.5  # a new person's velocity spread, m/s (the tracker's, for an unknown velocity)
+    hold_s: float = 6.0  # an ended track may be found again this long after its end, s
+    ended: dict = field(default_factory=dict)  # internal id -> (s, S, t) of an ended confirmed track
+    confirmed: set = field(default_factory=set)  # internal ids confirmed so far
+    links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(new person))
 
     def identity(self, tid: int) -> int:
         return self.ident.setdefault(tid, tid)
@@ -101,6 +118,8 @@ class IdentityLag:
         for tr in tracks:
             self.identity(tr.tid)
         alive = {tr.tid: tr for tr in tracks}
+        if self.relink_area is not None:
+            self._relink(t, tracks, alive)
         for a, b in self._candidates(tracks):
             key = (min(a.tid, b.tid), max(a.tid, b.tid))
             ep = self.episodes.get(key)
@@ -119,6 +138,36 @@ class IdentityLag:
                 del self.episodes[key]
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
+
+    def _relink(self, t: float, tracks, alive: dict) -> None:
+        """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
+        the identity of the ended one it likelier continues (module docstring)."""
+        for tid, (s, S, t_last) in self.last.items():
+            if tid not in alive and tid in self.confirmed:
+                self.ended[tid] = (s, S, t_last)
+        for tid in [k for k, e in self.ended.items() if t - e[2] > self.hold_s + 1e-9]:
+            del self.ended[tid]
+        for tr in tracks:
+            if not tr.confirmed or tr.tid in self.confirmed:
+                continue
+            self.confirmed.add(tr.tid)
+            held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
+            new = float(-np.log(self.relink_area)) + self._loglik(tr.s[2:], self.sigma_v**2 * np.eye(2) + tr.S[2:, 2:])
+            best, best_llr = None, 0.0
+            for tid, (s, S, t_last) in self.ended.items():
+                if self.ident.get(tid, tid) in held:
+                    continue
+                p, C = self._predict(s, S, t - t_last)
+                llr = self._loglik(tr.s - p, C + tr.S) - new
+                if llr > best_llr:
+                    best, best_llr = tid, llr
+            if best is None:
+                continue
+            ident = self.ident.get(best, best)
+            self.ident[tr.tid] = ident
+            self.events.append((self.ended[best][2] + 1e-6, {tr.tid: ident}))
+            self.links.append((t, tr.tid, best, best_llr))
+            del self.ended[best]
 
     def _predict(self, s, S, dt):
         F = np.eye(4)

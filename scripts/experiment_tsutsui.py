@@ -273,7 +273,7 @@ def table_line(m: dict) -> str:
     multi-person MOTA and ID switches on the movers, estimate time (s)."""
     return (f"{m['sensing']:9s} seed {m['seed']!s:>4}  identity {100 * m['identity_held']:6.2f} %  "
             f"RMSE>=2 {m['rmse_2plus']:.3f} m ({m['frames_2plus']})  RMSE1 {m['rmse_1']:.3f} m ({m['frames_1']})  "
-            f"0 cams {m['frames_0']}  MOTA {m['multi_mota']:.3f}  IDsw {m['multi_id_switches']}  est {m['estimate_s']} s")
+            f"0 cams {m['frames_0']}  MOTA {m['multi_mota']:.3f}  IDsw {m['multi_id_switches']}  IDF1 {m['multi_idf1']:.3f}  est {m['estimate_s']} s")
 
 
 HIGHER_IS_BETTER = ("identity_held", "multi_mota", "multi_idf1")
@@ -281,7 +281,7 @@ HIGHER_IS_BETTER = ("identity_held", "multi_mota", "multi_idf1")
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
     """Mean and worst over runs of each figure, per sensing mode."""
-    cols = ["identity_held", "rmse_2plus", "p95_2plus", "rmse_1", "multi_mota", "multi_id_switches"]
+    cols = ["identity_held", "rmse_2plus", "p95_2plus", "rmse_1", "multi_mota", "multi_id_switches", "multi_idf1"]
     out = {}
     for mode, g in df.groupby("sensing"):
         for c in cols:

@@ -133,3 +133,54 @@ def test_a_track_is_reported_back_to_a_lag_before_its_confirmation_along_its_vel
     k = np.searchsorted(times, early.t.to_numpy() - 1e-9)
     err = np.hypot(early.x.to_numpy() - paths["C"][k, 0], early.y.to_numpy() - paths["C"][k, 1])
     assert err.max() < 0.15
+
+
+def relink_run(reborn_at):
+    """Multi-person ``IdentityLag`` with found-again links (floor 8 m x 6 m): person A walks east
+    at 1 m/s along y = 3; its track 0 ends after t = 2.0 s (the existence test rejected it), and a
+    new track 2 is confirmed at t = 2.5 s at ``reborn_at`` (moving east at 1 m/s). Track 1, person
+    B, stands at (1, 1) throughout. Returns the decision object and each row's identity."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=48.0, sigma_v=1.5, hold_s=6.0)
+    rows = []
+    for t in TIMES:
+        trs = [JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True)]
+        if t <= 2.0 + 1e-9:
+            trs.append(JointTrack(0, np.array([1.0 + t, 3.0, 1.0, 0.0]), S0.copy(), confirmed=True, seen=True))
+        if t >= 2.3 - 1e-9:
+            x0, y0 = reborn_at
+            trs.append(JointTrack(2, np.array([x0 + (t - 2.5), y0, 1.0, 0.0]), S0.copy(), confirmed=t >= 2.5 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+        rows += [(t, tr.tid) for tr in trs]
+    t, tid = np.array(rows).T
+    return idl, t, tid.astype(int), idl.relabel(t, tid.astype(int))
+
+
+def test_a_track_confirmed_where_an_ended_one_walked_on_to_takes_its_identity():
+    """A at 1 m/s reaches x = 3.5 at t = 2.5 s: a track confirmed there continues it (its
+    log-likelihood ratio against someone new is large), so from A's last frame on it is reported
+    as identity 0; its frames while A's track was still reported (none here) would keep its own."""
+    idl, t, tid, ident = relink_run((3.5, 3.0))
+    (_, new, ended, llr), = idl.links
+    assert (new, ended) == (2, 0) and llr > 5.0
+    assert set(ident[tid == 2]) == {0}
+    assert set(ident[tid == 1]) == {1}
+    # never two rows of one identity in a frame
+    assert not pd.DataFrame({"t": t, "i": ident}).duplicated().any()
+
+
+def test_a_track_confirmed_far_from_where_an_ended_one_could_be_is_someone_new():
+    """4 m off A's predicted position half a second after it ended: someone new, own identity."""
+    idl, t, tid, ident = relink_run((3.5, -1.0))
+    assert idl.links == []
+    assert set(ident[tid == 2]) == {2}
+
+
+def test_an_identity_still_carried_is_not_given_to_a_new_track():
+    """Track 1 (B) is alive: its identity is never handed out, even to a track confirmed right on
+    it (two tracks on one person are the tracker's to merge, not a found-again person)."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=48.0)
+    for t in TIMES[:10]:
+        trs = [JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True),
+               JointTrack(2, np.array([1.0, 1.05, 0.0, 0.0]), S0.copy(), confirmed=t >= 0.5, seen=True)]
+        idl.update(float(t), trs)
+    assert idl.links == [] and idl.identity(2) == 2
