@@ -245,7 +245,7 @@ class TargetPlanes(Estimator):
         # who is who after an encounter: decided lag_s after it (tp_identity); 0: as tracked
         idl = IdentityLag(cfg.identity_lag_s, cfg.accel_sigma, cfg.radius, watch=keep) if cfg.identity_lag_s > 0 else None
         if idl is not None and cfg.multi_person and cfg.relink and geo.polygon_area(jt.outline) > 0:
-            idl.relink_area, idl.sigma_v, idl.hold_s = geo.polygon_area(jt.outline), 0.5 * cfg.max_speed, cfg.hold_s
+            idl.relink_area, idl.sigma_v, idl.hold_s, idl.walk_s = geo.polygon_area(jt.outline), 0.5 * cfg.max_speed, cfg.hold_s, cfg.walk_s
         rows, status_rows = [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:

@@ -34,14 +34,24 @@ of the pair's states before and after it, with both assignments kept until then:
 
 - **A person found again (multi-person mode, ``relink``)**: a confirmed track that ends (the
   tracker's existence test rejected it, or ``hold_s`` passed unseen) leaves its identity, last
-  state s, S and time. When a track is confirmed for the first time, after the end and within
-  ``hold_s`` of it, two explanations of its state s_n, S_n are compared: the ended person walked
-  on, log N(s_n; F s_e, F S_e F^T + Q + S_n) (the same constant-velocity prediction as above), or
-  someone not seen before, log(1 / floor area) + log N(v_n; 0, sigma_v^2 I + S_n[v]) (anywhere on
-  the floor, at a walking velocity of the tracker's new-track spread ``sigma_v``). The likelier
-  one is taken (a wrong link and a missed one each cost one identity change); of several ended
-  tracks, the likeliest. The new track carries the ended identity from the ended track's last
-  frame on (its rows before that, while both were reported, keep its own id).
+  state s_e, S_e, standing probability mu_e and time. When a track is confirmed for the first
+  time, after the end and within ``hold_s`` of it, its state s_n, S_n is
+  explained two ways:
+
+      L(walked on) = (1 - p) N(s_n; F s_e, F S_e F^T + Q + S_n)
+                     + p N(x_n; x_w, S_w[x] + S_n[x] + (sigma_v a)^2 I) N(v_n; 0, sigma_v^2 I + S_n[v])
+      L(someone new) = (1 / floor area) N(v_n; 0, sigma_v^2 I + S_n[v])
+
+  The first term: the person walked on at constant velocity (the prediction above). The second:
+  the person stopped where last seen, x_w, S_w the track's state in its last frame with a window
+  (a standing person makes no window, so its track coasts on and is often lost then) and walked
+  off again, at most the new track's age a (since its birth) ago; p = 1 - (1 - mu_e)
+  exp(-dt / ``walk_s``), the chance that a walker stopped within the gap dt (the tracker's
+  walking-mode duration). Someone new is anywhere on the floor, at a walking velocity of the
+  tracker's new-track spread ``sigma_v``. The likelier explanation is taken (a wrong link and a
+  missed one each cost one identity change); of several ended tracks, the likeliest. The new
+  track carries the ended identity from the ended track's last frame on (its rows before that,
+  while both were reported, keep its own id).
 
 ``IdentityLag.update`` is called once a frame with the tracks after the tracker's step;
 ``relabel`` maps (time, internal track id) rows to identities afterwards.
@@ -85,9 +95,14 @@ class IdentityLag:
     relink_area: float | None = None  # floor area, m^2: found-again links on (module docstring); None: off
     sigma_v: float = 1.5  # a new person's velocity spread, m/s (the tracker's, for an unknown velocity)
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
+    walk_s: float = 8.0  # mean time a walker walks before stopping, s (the tracker's walking mode)
+    born: dict = field(default_factory=dict)  # internal id -> time of its first frame
+    last_mu: dict = field(default_factory=dict)  # internal id -> standing probability in the previous frame
+    last_seen: dict = field(default_factory=dict)  # internal id -> (x, S[x]) in its last frame with a window
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t) of an ended confirmed track
     confirmed: set = field(default_factory=set)  # internal ids confirmed so far
-    links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(new person))
+    links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(someone new)) of each link
+    scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
 
     def identity(self, tid: int) -> int:
         return self.ident.setdefault(tid, tid)
@@ -117,6 +132,7 @@ class IdentityLag:
         """One frame: open, extend, close and decide episodes; remember the states."""
         for tr in tracks:
             self.identity(tr.tid)
+            self.born.setdefault(tr.tid, t)
         alive = {tr.tid: tr for tr in tracks}
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
@@ -138,27 +154,41 @@ class IdentityLag:
                 del self.episodes[key]
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
+        self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
+        for tr in tracks:
+            if tr.seen:
+                self.last_seen[tr.tid] = (tr.s[:2].copy(), tr.S[:2, :2].copy())
 
     def _relink(self, t: float, tracks, alive: dict) -> None:
         """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
         the identity of the ended one it likelier continues (module docstring)."""
         for tid, (s, S, t_last) in self.last.items():
             if tid not in alive and tid in self.confirmed:
-                self.ended[tid] = (s, S, t_last)
+                self.ended[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
         for tid in [k for k, e in self.ended.items() if t - e[2] > self.hold_s + 1e-9]:
             del self.ended[tid]
+        for tid in [k for k in self.last_seen if k not in alive]:
+            del self.last_seen[tid]
         for tr in tracks:
             if not tr.confirmed or tr.tid in self.confirmed:
                 continue
             self.confirmed.add(tr.tid)
             held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
-            new = float(-np.log(self.relink_area)) + self._loglik(tr.s[2:], self.sigma_v**2 * np.eye(2) + tr.S[2:, 2:])
+            age = t - self.born.get(tr.tid, t)
+            moving = self._loglik(tr.s[2:], self.sigma_v**2 * np.eye(2) + tr.S[2:, 2:])
+            new = float(-np.log(self.relink_area)) + moving
             best, best_llr = None, 0.0
-            for tid, (s, S, t_last) in self.ended.items():
+            for tid, (s, S, t_last, mu, (xw, Sw)) in self.ended.items():
                 if self.ident.get(tid, tid) in held:
                     continue
-                p, C = self._predict(s, S, t - t_last)
-                llr = self._loglik(tr.s - p, C + tr.S) - new
+                dt = t - t_last
+                p, C = self._predict(s, S, dt)
+                stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
+                walked = np.log(max(1.0 - stop, 1e-300)) + self._loglik(tr.s - p, C + tr.S)
+                stood = np.log(max(stop, 1e-300)) + moving + self._loglik(
+                    tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
+                llr = float(np.logaddexp(walked, stood)) - new
+                self.scores.append((t, tr.tid, tid, llr))
                 if llr > best_llr:
                     best, best_llr = tid, llr
             if best is None:

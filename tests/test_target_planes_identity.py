@@ -175,6 +175,33 @@ def test_a_track_confirmed_far_from_where_an_ended_one_could_be_is_someone_new()
     assert set(ident[tid == 2]) == {2}
 
 
+def test_a_walker_who_stopped_where_its_track_ended_and_walks_off_another_way_keeps_its_identity():
+    """A walks east until t = 1 s, then stands at (2, 3) (no windows: its track ends at 1.0 s) and
+    sets off north at 1 m/s at t = 3.5 s; a new track is born then and confirmed half a second
+    later. The constant-velocity prediction (x = 5 m) is 3 m off; the walker stopped where last
+    seen (p = 1 - exp(-3 / 8), the walking mode's switch) and walked off at the new track's
+    velocity explains the new track. Someone 3 m north of that spot walking east did not come from
+    it: someone new."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=72.0, sigma_v=1.5, hold_s=6.0, walk_s=8.0)
+    for t in TIMES:
+        trs = []
+        if t <= 1.0 + 1e-9:
+            trs.append(JointTrack(0, np.array([1.0 + t, 3.0, 1.0, 0.0]), S0.copy(), confirmed=True, seen=True))
+        if t >= 3.5 - 1e-9:
+            trs.append(JointTrack(2, np.array([2.0, 3.0 + (t - 3.5), 0.0, 1.0]), S0.copy(), confirmed=t >= 4.0 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+    (_, new, ended, llr), = idl.links
+    assert (new, ended) == (2, 0) and llr > 1.0
+    # a new track 3 m north of where A stopped, walking east: someone new
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=72.0, sigma_v=1.5, hold_s=6.0, walk_s=8.0)
+    for t in TIMES:
+        trs = [JointTrack(0, np.array([1.0 + t, 3.0, 1.0, 0.0]), S0.copy(), confirmed=True, seen=True)] if t <= 1.0 + 1e-9 else []
+        if t >= 3.5 - 1e-9:
+            trs.append(JointTrack(2, np.array([2.0 + (t - 3.5), 6.0, 1.0, 0.0]), S0.copy(), confirmed=t >= 4.0 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+    assert idl.links == [] and idl.identity(2) == 2
+
+
 def test_an_identity_still_carried_is_not_given_to_a_new_track():
     """Track 1 (B) is alive: its identity is never handed out, even to a track confirmed right on
     it (two tracks on one person are the tracker's to merge, not a found-again person)."""
