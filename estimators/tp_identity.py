@@ -52,6 +52,11 @@ of the pair's states before and after it, with both assignments kept until then:
   missed one each cost one identity change); of several ended tracks, the likeliest. The new
   track carries the ended identity from the ended track's last frame on (its rows before that,
   while both were reported, keep its own id).
+- **A successor (the same, for a track that fell behind its person)**: a track whose windows
+  move on without it lingers, and the person gets a second track before the first ends. When a
+  confirmed track ends, a track confirmed within ``lag_s`` before and still under its own identity
+  takes the ended identity (from the end on) when its first state s_b, S_b is likelier the ended
+  track's state at that time, N(s_b; s_e(t_b), S_b + S_e(t_b)), than someone new (as above).
 
 ``IdentityLag.update`` is called once a frame with the tracks after the tracker's step;
 ``relabel`` maps (time, internal track id) rows to identities afterwards.
@@ -97,6 +102,8 @@ class IdentityLag:
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
     walk_s: float = 8.0  # mean time a walker walks before stopping, s (the tracker's walking mode)
     born: dict = field(default_factory=dict)  # internal id -> time of its first frame
+    conf_t: dict = field(default_factory=dict)  # internal id -> time of its confirmation
+    hist: dict = field(default_factory=dict)  # internal id -> [(t, s, S)] over the last hold_s
     last_mu: dict = field(default_factory=dict)  # internal id -> standing probability in the previous frame
     last_seen: dict = field(default_factory=dict)  # internal id -> (x, S[x]) in its last frame with a window
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t) of an ended confirmed track
@@ -155,6 +162,14 @@ class IdentityLag:
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
+        if self.relink_area is not None:
+            for tr in tracks:
+                h = self.hist.setdefault(tr.tid, [])
+                h.append((t, tr.s.copy(), tr.S.copy()))
+                while len(h) > 2 and t - h[1][0] > self.hold_s:
+                    h.pop(1)  # keep the first state (its birth) and the last hold_s
+            for tid in [k for k in self.hist if k not in alive]:
+                del self.hist[tid]
         for tr in tracks:
             if tr.seen:
                 self.last_seen[tr.tid] = (tr.s[:2].copy(), tr.S[:2, :2].copy())
@@ -162,9 +177,12 @@ class IdentityLag:
     def _relink(self, t: float, tracks, alive: dict) -> None:
         """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
         the identity of the ended one it likelier continues (module docstring)."""
+        fresh = []
         for tid, (s, S, t_last) in self.last.items():
             if tid not in alive and tid in self.confirmed:
                 self.ended[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
+                fresh.append(tid)
+        self._successors(t, tracks, fresh)
         for tid in [k for k, e in self.ended.items() if t - e[2] > self.hold_s + 1e-9]:
             del self.ended[tid]
         for tid in [k for k in self.last_seen if k not in alive]:
@@ -173,6 +191,7 @@ class IdentityLag:
             if not tr.confirmed or tr.tid in self.confirmed:
                 continue
             self.confirmed.add(tr.tid)
+            self.conf_t[tr.tid] = t
             held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
             age = t - self.born.get(tr.tid, t)
             moving = self._loglik(tr.s[2:], self.sigma_v**2 * np.eye(2) + tr.S[2:, 2:])
@@ -198,6 +217,39 @@ class IdentityLag:
             self.events.append((self.ended[best][2] + 1e-6, {tr.tid: ident}))
             self.links.append((t, tr.tid, best, best_llr))
             del self.ended[best]
+
+    def _successors(self, t: float, tracks, fresh: list) -> None:
+        """Confirmed tracks that ended this frame, each given to a successor (module docstring): a
+        track confirmed within ``lag_s`` and still under its own identity, whose first state is
+        likelier the ended track's state at that time than someone new."""
+        held = {self.ident.get(o.tid, o.tid) for o in tracks}
+        for e in fresh:
+            if e not in self.ended or self.ident.get(e, e) in held:
+                continue
+            best, best_llr = None, 0.0
+            for y in tracks:
+                if not y.confirmed or self.ident.get(y.tid, y.tid) != y.tid or t - self.conf_t.get(y.tid, -np.inf) > self.lag_s + 1e-9:
+                    continue
+                hy, he = self.hist.get(y.tid), self.hist.get(e)
+                if not hy or not he:
+                    continue
+                tb, sb, Sb = hy[0]
+                at = [h for h in he if abs(h[0] - tb) < 1e-6]
+                if not at:
+                    continue
+                _, se, Se = at[0]
+                new = float(-np.log(self.relink_area)) + self._loglik(sb[2:], self.sigma_v**2 * np.eye(2) + Sb[2:, 2:])
+                llr = self._loglik(sb - se, Sb + Se) - new
+                self.scores.append((t, y.tid, e, llr))
+                if llr > best_llr:
+                    best, best_llr = y.tid, llr
+            if best is None:
+                continue
+            ident = self.ident.get(e, e)
+            self.ident[best] = ident
+            self.events.append((self.ended[e][2] + 1e-6, {best: ident}))
+            self.links.append((t, best, e, best_llr))
+            del self.ended[e]
 
     def _predict(self, s, S, dt):
         F = np.eye(4)

@@ -202,6 +202,46 @@ def test_a_walker_who_stopped_where_its_track_ended_and_walks_off_another_way_ke
     assert idl.links == [] and idl.identity(2) == 2
 
 
+def successor_run(born_at_y):
+    """Person A walks east at 1 m/s along y = 3. Its track 0 follows until t = 1.0 s and then falls
+    behind (it stalls at x = 2, as a track left behind by its windows does); a new track 2 is born
+    at t = 1.5 s at (x_A, ``born_at_y``), moving east at 1 m/s, and confirmed at 2.0 s; track 0
+    ends at 2.5 s. Track 1 (B) stands at (1, 1)."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=72.0, sigma_v=1.5, hold_s=6.0)
+    wide = np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2])  # a new track's spreads
+    rows = []
+    for t in TIMES:
+        trs = [JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True)]
+        if t <= 2.5 + 1e-9:
+            x = 1.0 + min(t, 1.0)
+            trs.append(JointTrack(0, np.array([x, 3.0, 1.0 if t < 1.0 else 0.0, 0.0]), S0.copy(), confirmed=True, seen=True))
+        if t >= 1.5 - 1e-9:
+            trs.append(JointTrack(2, np.array([1.0 + t, born_at_y, 1.0, 0.0]), (S0 if t >= 2.0 - 1e-9 else wide).copy(),
+                                  confirmed=t >= 2.0 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+        rows += [(t, tr.tid) for tr in trs]
+    t, tid = np.array(rows).T
+    return idl, t, tid.astype(int), idl.relabel(t, tid.astype(int))
+
+
+def test_a_track_born_on_the_person_an_older_track_fell_behind_takes_its_identity_when_that_one_ends():
+    """At track 2's birth (t = 1.5 s, x = 2.5) the stalled track 0 is 0.5 m behind it on A's
+    line: the successor continues that person, so from track 0's end it carries identity 0, and
+    no frame reports an identity twice."""
+    idl, t, tid, ident = successor_run(3.0)
+    assert [(new, ended) for _, new, ended, _ in idl.links] == [(2, 0)]
+    assert set(ident[(tid == 2) & (t > 2.5 + 1e-6)]) == {0}
+    assert set(ident[(tid == 2) & (t <= 2.5)]) == {2}
+    assert not pd.DataFrame({"t": t, "i": ident}).duplicated().any()
+
+
+def test_a_track_born_on_someone_else_does_not_take_the_identity_of_a_track_that_ends():
+    """The same, but track 2 is born 3 m away (y = 6): someone else, its own identity."""
+    idl, t, tid, ident = successor_run(6.0)
+    assert idl.links == []
+    assert set(ident[tid == 2]) == {2}
+
+
 def test_an_identity_still_carried_is_not_given_to_a_new_track():
     """Track 1 (B) is alive: its identity is never handed out, even to a track confirmed right on
     it (two tracks on one person are the tracker's to merge, not a found-again person)."""
