@@ -133,21 +133,12 @@ class TargetPlanes(Estimator):
                                    "(both see two people side by side; issue 12: a look-alike walking beside the "
                                    "target, merged with it in every view); off: on development seeds it never fired "
                                    "(docs/target_planes.md)")
-        stand_flow: bool = param(False, "weigh the walking and standing modes by the flows and columns of a track's "
-                                 "windows of its own (no flow where it would stand: a walker that just stopped) "
-                                 "instead of any window setting walking; off: on development seeds it raised "
-                                 "analytic 108's identity 78.6 -> 98.6 % but lowered MOTA on 12 recordings "
-                                 "(docs/target_planes.md)")
         fit_normalised: bool = param(True, "a window's fit to a track's prediction includes the Gaussian's "
                                      "normalisation, 0.5 log of the predicted centroid and flow variances over a "
                                      "perfectly located track's (no parameter value): a stopped person's spread-out "
                                      "walking state no longer takes a neighbour's window (with border_edges: movers' "
                                      "MOTA >= 0.9 on 166 instead of 141 of 260 development recordings; "
                                      "docs/target_planes.md)")
-        fit_norm_relative: bool = param(False, "with fit_normalised, each window's normalisation is taken relative "
-                                        "to the least of the single tracks gating it (floored at 0), so it ranks tracks "
-                                        "against each other and leaves a track's balance against clutter and a miss as "
-                                        "without it (docs/target_planes.md, branch tp12m)")
         border_edges: bool = param(True, "a window ending at an image border, of a track predicted across it, is the "
                                    "visible part of someone cut by it (rendered: 21 % of windows end at a border; "
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "
@@ -155,8 +146,6 @@ class TargetPlanes(Estimator):
                                    "to the image, and its inner edge, not its centroid, is the measured column")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
-        merged_keep: bool = param(False, "an unconfirmed track explained only as a share of a merged window is "
-                                         "kept (not confirmed) instead of dropped; True: the look-alike beside the target")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
                                            "second, 10 frames at the cameras' 10 fps): identities after two tracks "
                                            "were ambiguous are decided this long after they part (``tp_identity``), "

@@ -62,10 +62,7 @@ Per frame:
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
-   walks (mu = 0); with ``stand_flow`` (off by default) windows of its own alone weigh the modes
-   by their flows and centroid columns instead (``stand_flow_llr``: no flow, a walker that just
-   stopped, is likelier standing; ``stand_u_llr``: a window off the standing position, a walker
-   starting from rest, is likelier walking); none anywhere makes standing likelier by ``p_miss`` per camera in view.
+   walks (mu = 0); none anywhere makes standing likelier by ``p_miss`` per camera in view.
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -264,7 +261,6 @@ class JointTracker:
     def __init__(self, cfg, Ps: dict[str, np.ndarray], widths: dict[str, float], flow_sigma: dict[str, float],
                  box_sigma: float, u_sigma: float):
         self.cfg, self.Ps, self.widths = cfg, Ps, widths
-        self.norm_ref: dict[str, dict[int, float]] = {}  # per camera, this frame: window -> reference normalisation
         self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
@@ -339,15 +335,10 @@ class JointTracker:
         return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
-    def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int, ref: float = 0.0) -> float:
+    def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
         """0.5 d^2 of window j explained by the tracks ``projs`` (one: a person alone; more: merged),
-        plus, with ``fit_normalised``, the Gaussian's normalisation (``explain_terms``). ``ref``:
-        with ``fit_norm_relative``, the normalisation subtracted (floored at 0): the least of the
-        single tracks gating the window, so the normalisation only ranks tracks against each other
-        and leaves their balance against clutter and a miss as without it."""
+        plus, with ``fit_normalised``, the Gaussian's normalisation (``explain_terms``)."""
         fit, norm = self.explain_terms(c, projs, boxes, j)
-        if self.cfg.fit_normalised and self.cfg.fit_norm_relative:
-            norm = max(norm - ref, 0.0)
         return fit + norm
 
     def explain_terms(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> tuple[float, float]:
@@ -459,7 +450,6 @@ class JointTracker:
         projection. Windows absent from the result are clutter."""
         projs = {i: p for i, tr in enumerate(tracks) if (p := self.project(c, tr)) is not None}
         n = len(boxes)
-        self.norm_ref[c] = {}
         cfg = self.cfg
         if not projs or not n:
             return {}, projs
@@ -487,18 +477,11 @@ class JointTracker:
         cache: dict = {}
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
         walk = {i: self.walk_cost(tracks[i].mu) for i in projs}
-        ref: dict[int, float] = {}
-        if cfg.fit_normalised and cfg.fit_norm_relative:
-            # each window's reference normalisation: the least of the single tracks gating it
-            for i, js in gate.items():
-                for j in js:
-                    ref[j] = min(ref.get(j, np.inf), max(self.explain_terms(c, [projs[i]], boxes, j)[1], 0.0))
-        self.norm_ref[c] = ref
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
             if key not in cache:
-                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j, ref.get(j, 0.0)) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
+                cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
             return cache[key]
 
         for ts, ws in comps.values():
@@ -618,30 +601,6 @@ class JointTracker:
         var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
         kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
-    def stand_flow_llr(self, c: str, p: Projection, flow: np.ndarray) -> float:
-        """log N(f; 0, R) - log N(f; J v, R + var_f): how much likelier a window's flow f is from
-        someone standing (the flow tracker's window of a walker that just stopped: its mean flow
-        over ``flow_window`` frames falling to 0) than from the track walking on as predicted. R:
-        the flow noise of ``update_flow``. No parameter."""
-        f = np.asarray(flow, float)
-        R = (self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2) * np.eye(2)
-        Cw = R + p.var_f
-        r = f - p.flow
-        return float(-0.5 * (f @ np.linalg.solve(R, f) + np.linalg.slogdet(R)[1]) + 0.5 * (r @ np.linalg.solve(Cw, r) + np.linalg.slogdet(Cw)[1]))
-
-    def stand_u_llr(self, c: str, tr: JointTrack, p: Projection, u: float, width: float) -> float:
-        """log N(u; u(xs), Ju Ps Ju^T + var_c) - log N(u; p.u, p.var_u + var_c): how much likelier the
-        window's centroid column u is where the track would stand (its standing position xs, Ps)
-        than where it walks to (var_c: the centroid's noise, ``centroid_var``)."""
-        if tr.xs is None:
-            return 0.0
-        X = np.array([tr.xs[0], tr.xs[1], self.hc])
-        (us, _), _ = geo.project(self.Ps[c], X)
-        Ju = geo.flow_jacobian(self.Ps[c], X)[0, :2]
-        vc = self.centroid_var(p, width)
-        vs, vw = float(Ju @ tr.Ps @ Ju) + vc, p.var_u + vc
-        return float(-0.5 * ((u - us) ** 2 / vs + np.log(vs)) + 0.5 * ((u - p.u) ** 2 / vw + np.log(vw)))
-
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
 
@@ -664,8 +623,6 @@ class JointTracker:
         seen = [False] * len(tracks)
         walk = [0.0] * len(tracks)
         hit = [False] * len(tracks)
-        stand_llr = [0.0] * len(tracks)  # log P(windows' flows | standing) - log P(... | walking), windows of its own
-        shared = [False] * len(tracks)  # a share of a merged window (its flow is the members' mixture: says walking)
         for tr in tracks:
             tr.status = {}
             tr.log_miss = 0.0
@@ -691,10 +648,9 @@ class JointTracker:
                 if n == 1:
                     # the window's likelihood ratio: this track against the best explanation
                     # without it - clutter, or another track of this view left without a window
-                    r_j = self.norm_ref.get(c, {}).get(j, 0.0)
-                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j, r_j) + self.rows_cost(c, tracks[k], q, boxes, j)
+                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
                                              for k, q in projs.items() if k != i and k not in holder])
-                    lr = max(alt - self.explain_cost(c, [p], boxes, j, r_j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
+                    lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden)
                 hit[i] |= n == 1
             extra = []
@@ -706,8 +662,6 @@ class JointTracker:
                     seen[i] = True
                     ratio = (boxes.width[j] - p.width) / p.width
                     if ratio <= cfg.width_ratio_threshold:
-                        if cfg.stand_flow:
-                            stand_llr[i] += self.stand_flow_llr(c, p, boxes.flow[j]) + self.stand_u_llr(c, tr, p, float(boxes.u[j]), boxes.width[j])
                         side = self.border_side(c, boxes, j, [p]) if cfg.border_edges else 0
                         if side:  # the inner edge, as a merged window's outer edges: the axis a radius beyond it
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
@@ -737,7 +691,6 @@ class JointTracker:
                 for k, i in enumerate(mem):
                     tr, p = tracks[i], ps[k]
                     seen[i] = True
-                    shared[i] = True
                     if k == lo:
                         self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0)
                     if k == hi:
@@ -778,14 +731,9 @@ class JointTracker:
             if tr.located:
                 self.existence(tr, walk[i], hit[i])  # before the mode posterior: mu is still the prior
             if tr.located:
-                # mode posterior: a window of its own or a share of a merged one says it walks (with
-                # ``stand_flow``, windows of its own alone weigh the modes by their flows and columns); none
+                # mode posterior: a window of its own or a share of a merged one says it walks; none
                 # anywhere is likelier standing, by P(no window | walking) over the cameras
-                if cfg.stand_flow and seen[i] and used[i] and not shared[i]:
-                    e = float(np.exp(np.clip(stand_llr[i], -50.0, 50.0)))
-                    tr.mu = tr.mu * e / (tr.mu * e + 1.0 - tr.mu)
-                else:
-                    tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
+                tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
             if used[i] or (tr.split and seen[i]):  # a hit: a window that is this track alone (or a share of
@@ -1027,7 +975,7 @@ class JointTracker:
         out = []
         for tr in tracks:
             if tr.tid != keep:
-                if not ((tr.n_used or ((tr.split or cfg.merged_keep) and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
+                if not ((tr.n_used or (tr.split and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
                     continue
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
                     continue

@@ -6,8 +6,6 @@ estimator's own) projected by the test cameras, so a reader can recompute each v
 """
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pandas as pd
 import pytest
@@ -344,31 +342,6 @@ def test_the_target_track_that_left_the_floor_plan_is_put_back_on_it():
     on = JointTrack(3, np.array([3.0, 6.0, 0.3, 1.8]), S.copy(), confirmed=True, hits=50)
     jt.prune([on], 3, cal.floorplan.inside)
     assert on.s == pytest.approx([3.0, 6.0, 0.3, 1.8]) and on.S == pytest.approx(S)
-
-
-def test_a_window_without_flow_makes_standing_likelier():
-    """A track walking at 0.6 m/s, standing probability 0.5, gets a window of its own in all four
-    cameras where it is. With no flow in it (a walker that stopped: the flow tracker's window of
-    someone who just stood still) the window is likelier standing than walking on: the standing
-    probability rises, instead of being reset to 0 by any window. With the flow of a 0.6 m/s walk
-    it falls to near 0. A window without flow where the track walks to, 0.6 m from where it stood
-    (a walker starting from rest), says walking: its columns (``stand_u_llr``). With ``stand_flow`` (off by default)."""
-    cams = four_cameras()
-    for vel, standing in (((0.0, 0.0), True), ((0.6, 0.0), False)):
-        cfg, jt, tr = _standing_track(cams, [3.0, 2.5], mu=0.5)
-        jt.cfg = cfg = dataclasses.replace(cfg, stand_flow=True)
-        tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
-        jt.step([tr], _frame(cams, np.array([3.0, 2.5]), vel, {c.name for c in cams}), 0.0)
-        assert tr.seen and tr.n_used == 4
-        assert (tr.mu > 0.9) if standing else (tr.mu < 0.01)
-    # a walker starting from rest (0.3 m/s so far): its windows' mean flow still near 0, but they
-    # are where it walks to, 0.6 m from where it stood - their columns say walking
-    cfg, jt, tr = _standing_track(cams, [3.6, 2.5], mu=0.5)
-    tr.s[2] = 0.3
-    jt.cfg = cfg = dataclasses.replace(cfg, stand_flow=True)
-    tr.xs, tr.Ps = np.array([3.0, 2.5]), np.diag([0.1**2, 0.1**2])
-    jt.step([tr], _frame(cams, np.array([3.6, 2.5]), (0.0, 0.0), {c.name for c in cams}), 0.0)
-    assert tr.n_used == 4 and tr.mu < 0.01
 
 
 def test_a_window_cut_by_the_image_border_is_compared_with_the_projection_inside_the_image():
