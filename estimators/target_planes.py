@@ -233,8 +233,9 @@ class TargetPlanes(Estimator):
         next_id = len(tracks)
         # who is who after an encounter: decided lag_s after it (tp_identity); 0: as tracked
         idl = IdentityLag(cfg.identity_lag_s, cfg.accel_sigma, cfg.radius, watch=keep) if cfg.identity_lag_s > 0 else None
-        if idl is not None and cfg.multi_person and cfg.relink and geo.polygon_area(jt.outline) > 0:
-            idl.relink_area, idl.sigma_v, idl.hold_s, idl.walk_s = geo.polygon_area(jt.outline), 0.5 * cfg.max_speed, cfg.hold_s, cfg.walk_s
+        floor_area = geo.polygon_area(jt.outline)
+        if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
+            idl.relink_area, idl.sigma_v, idl.hold_s, idl.walk_s = floor_area, 0.5 * cfg.max_speed, cfg.hold_s, cfg.walk_s
         rows, status_rows = [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:

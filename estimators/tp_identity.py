@@ -102,12 +102,11 @@ class IdentityLag:
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
     walk_s: float = 8.0  # mean time a walker walks before stopping, s (the tracker's walking mode)
     born: dict = field(default_factory=dict)  # internal id -> time of its first frame
-    conf_t: dict = field(default_factory=dict)  # internal id -> time of its confirmation
+    conf_t: dict = field(default_factory=dict)  # internal id -> time of its confirmation (the ids confirmed so far)
     hist: dict = field(default_factory=dict)  # internal id -> [(t, s, S)] over the last hold_s
     last_mu: dict = field(default_factory=dict)  # internal id -> standing probability in the previous frame
     last_seen: dict = field(default_factory=dict)  # internal id -> (x, S[x]) in its last frame with a window
-    ended: dict = field(default_factory=dict)  # internal id -> (s, S, t) of an ended confirmed track
-    confirmed: set = field(default_factory=set)  # internal ids confirmed so far
+    ended: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of an ended confirmed track
     links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(someone new)) of each link
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
 
@@ -179,7 +178,7 @@ class IdentityLag:
         the identity of the ended one it likelier continues (module docstring)."""
         fresh = []
         for tid, (s, S, t_last) in self.last.items():
-            if tid not in alive and tid in self.confirmed:
+            if tid not in alive and tid in self.conf_t:
                 self.ended[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
                 fresh.append(tid)
         self._successors(t, tracks, fresh)
@@ -188,13 +187,12 @@ class IdentityLag:
         for tid in [k for k in self.last_seen if k not in alive]:
             del self.last_seen[tid]
         for tr in tracks:
-            if not tr.confirmed or tr.tid in self.confirmed:
+            if not tr.confirmed or tr.tid in self.conf_t:
                 continue
-            self.confirmed.add(tr.tid)
             self.conf_t[tr.tid] = t
             held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
             age = t - self.born.get(tr.tid, t)
-            moving = self._loglik(tr.s[2:], self.sigma_v**2 * np.eye(2) + tr.S[2:, 2:])
+            moving = self._walking(tr.s, tr.S)
             new = float(-np.log(self.relink_area)) + moving
             best, best_llr = None, 0.0
             for tid, (s, S, t_last, mu, (xw, Sw)) in self.ended.items():
@@ -210,13 +208,8 @@ class IdentityLag:
                 self.scores.append((t, tr.tid, tid, llr))
                 if llr > best_llr:
                     best, best_llr = tid, llr
-            if best is None:
-                continue
-            ident = self.ident.get(best, best)
-            self.ident[tr.tid] = ident
-            self.events.append((self.ended[best][2] + 1e-6, {tr.tid: ident}))
-            self.links.append((t, tr.tid, best, best_llr))
-            del self.ended[best]
+            if best is not None:
+                self._link(t, tr.tid, best, best_llr)
 
     def _successors(self, t: float, tracks, fresh: list) -> None:
         """Confirmed tracks that ended this frame, each given to a successor (module docstring): a
@@ -238,18 +231,27 @@ class IdentityLag:
                 if not at:
                     continue
                 _, se, Se = at[0]
-                new = float(-np.log(self.relink_area)) + self._loglik(sb[2:], self.sigma_v**2 * np.eye(2) + Sb[2:, 2:])
+                new = float(-np.log(self.relink_area)) + self._walking(sb, Sb)
                 llr = self._loglik(sb - se, Sb + Se) - new
                 self.scores.append((t, y.tid, e, llr))
                 if llr > best_llr:
                     best, best_llr = y.tid, llr
-            if best is None:
-                continue
-            ident = self.ident.get(e, e)
-            self.ident[best] = ident
-            self.events.append((self.ended[e][2] + 1e-6, {best: ident}))
-            self.links.append((t, best, e, best_llr))
-            del self.ended[e]
+            if best is not None:
+                self._link(t, best, e, best_llr)
+
+    def _walking(self, s: np.ndarray, S: np.ndarray) -> float:
+        """log N(v; 0, sigma_v^2 I + S[v]): a track's velocity as a walker's whose direction and
+        pace are unknown (someone new, or someone setting off from where they stood)."""
+        return self._loglik(s[2:], self.sigma_v**2 * np.eye(2) + S[2:, 2:])
+
+    def _link(self, t: float, tid: int, ended: int, llr: float) -> None:
+        """Track ``tid`` carries the identity of the ended track ``ended`` from that one's last
+        frame on."""
+        ident = self.ident.get(ended, ended)
+        self.ident[tid] = ident
+        self.events.append((self.ended[ended][2] + 1e-6, {tid: ident}))
+        self.links.append((t, tid, ended, llr))
+        del self.ended[ended]
 
     def _predict(self, s, S, dt):
         F = np.eye(4)
