@@ -46,6 +46,10 @@ from .walkers import Trajectories
 from .world import World
 
 VIS_FRACTIONS = (0.5, 0.75, 0.95)  # of the person's height, floor = 0
+# oblique cameras: one more ray, to the top of the head (this share of the height), tells whether
+# any of a person is seen over an obstacle that hides the axis rays (``Occlusion.head``): behind a
+# shelf or a standing person, the rendered flow tracker still reports a strip window on the head
+HEAD_TOP = 1.0
 CIRCLE_SAMPLES = 16  # points on each rim of the cylinder for its window
 PROGRESS_EVERY = 100  # camera frames between progress reports of ``Occlusion.finish``
 
@@ -161,13 +165,17 @@ class Occlusion:
     ``frame_steps``: the sorted steps at which some camera casts.
     """
 
-    def __init__(self, world: World, scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry]):
+    def __init__(self, world: World, scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], head_ray: bool = False):
         self.world, self.scene, self.traj, self.geometry = world, scene, traj, geometry
         self.heights = np.array([w.height for w in scene.walkers])
         self.visible = {name: np.zeros_like(g.in_fov) for name, g in geometry.items()}
         self.fraction = {name: np.zeros(g.in_fov.shape) for name, g in geometry.items()}  # share of rays that reach the person
         self.cams = [scene.camera(name) for name in geometry]
         V = len(VIS_FRACTIONS)
+        # (oblique cameras, with ``head_ray``) 1 where the ray to the top of the head reaches the
+        # person; not cast (no entry) for other cameras, or without ``head_ray`` (a model that does
+        # not use it: one ray in four less per oblique camera frame)
+        self.head = {c.name: np.zeros(geometry[c.name].in_fov.shape) for c in self.cams if head_ray and c.kind == "oblique"}
         self._own = np.asarray(world.person_geom, np.int32)
         self._cams = []  # per camera: (frame index, person index) of each ray group, target lengths, hits
         self._layout = []  # per camera: frame steps, ray bounds of each frame, origin, flat rays and hits, cutoff
@@ -178,14 +186,18 @@ class Occlusion:
             z = (pos[:, 2] - 0.5 * self.heights[p_idx])[:, None] + self.heights[p_idx, None] * np.asarray(VIS_FRACTIONS)
             pts = np.concatenate([np.broadcast_to(pos[:, None, :2], z.shape + (2,)), z[..., None]], -1)  # (R, V, 3)
             origin = np.asarray(cam.position, float)
+            if cam.name in self.head:
+                top = np.concatenate([pos[:, :2], (pos[:, 2] + (HEAD_TOP - 0.5) * self.heights[p_idx])[:, None]], -1)
+                pts = np.concatenate([pts, top[:, None, :]], axis=1)
+            n_rays = pts.shape[1]
             vec = pts - origin
-            length = np.sqrt((vec * vec).sum(-1))  # (R, V)
+            length = np.sqrt((vec * vec).sum(-1))  # (R, n_rays)
             vec = np.ascontiguousarray((vec / length[..., None]).reshape(-1))
             cutoff = float(length.max() + 1.0) if length.size else 1.0
             geomid = np.full(length.size, -1, np.int32)
             dist = np.full(length.size, -1.0)
             self._cams.append((f_idx, p_idx, length, geomid, dist))
-            bounds = V * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))  # rays of each frame
+            bounds = n_rays * np.searchsorted(f_idx, np.arange(len(g.steps) + 1))  # rays of each frame
             self._layout.append((g.steps, bounds, origin, vec, geomid, dist, cutoff))
         # the trajectory steps at which some camera casts rays
         self.frame_steps = np.unique(np.concatenate([steps[b[1:] > b[:-1]] for steps, b, *_ in self._layout] or [np.zeros(0, int)]))
@@ -220,9 +232,10 @@ class Occlusion:
         self.done.add(k)
 
     def _rays(self, geomid, dist, length, people) -> np.ndarray:
-        """(R, V) bool: a ray reaches its point when it first hits the person's own capsule, hits
-        nothing, or hits something only beyond the point."""
-        own = np.repeat(self._own[people], len(VIS_FRACTIONS))
+        """(R, n) bool: a ray reaches its point when it first hits the person's own capsule, hits
+        nothing, or hits something only beyond the point (n rays per person: ``length``'s columns)."""
+        n = length.shape[-1] if length.ndim > 1 else len(VIS_FRACTIONS)
+        own = np.repeat(self._own[people], n)
         seen = (geomid == own) | (geomid < 0) | (dist >= length.ravel() - 1e-6)
         return seen.reshape(len(people), -1)
 
@@ -266,10 +279,15 @@ class Occlusion:
             vis, frac = self.visible[cam.name], self.fraction[cam.name]
             vis[:] = False
             frac[:] = 0.0
+            if cam.name in self.head:
+                self.head[cam.name][:] = 0.0
             if len(f_idx):
                 rays = self._rays(geomid, dist, length, p_idx)
-                vis[f_idx, p_idx] = rays.any(axis=1) & g_in_fov[f_idx, p_idx]
-                frac[f_idx, p_idx] = rays.mean(axis=1)
+                centre = rays[:, : len(VIS_FRACTIONS)]
+                vis[f_idx, p_idx] = centre.any(axis=1) & g_in_fov[f_idx, p_idx]
+                frac[f_idx, p_idx] = centre.mean(axis=1)
+                if cam.name in self.head:
+                    self.head[cam.name][f_idx, p_idx] = rays[:, len(VIS_FRACTIONS)]
 
 
 def camera_geometry(scene: Scene, traj: Trajectories) -> dict[str, CameraGeometry]:
@@ -368,10 +386,11 @@ def visibility_table(scene: Scene, traj: Trajectories, geometry: dict[str, Camer
 
 
 def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict[str, CameraGeometry], fraction: dict[str, np.ndarray],
-                                rngs: dict[str, np.random.Generator], model) -> dict[str, pd.DataFrame]:
+                                rngs: dict[str, np.random.Generator], model, head: dict[str, np.ndarray] | None = None) -> dict[str, pd.DataFrame]:
     """bearings, boxes, floor_detections from the geometry through a fitted perception model
     (``sim.perception_model``, ``sim.analytic_detectors``): misses, merges, label confusion,
-    false detections and tracker ids as the rendered detectors make them."""
+    false detections and tracker ids as the rendered detectors make them. ``head``: the oblique
+    cameras' head rays (``Occlusion.head``), which a windows model's partial windows may use."""
     from . import analytic_detectors as det
 
     colours = [w.color_name for w in scene.walkers]
@@ -385,7 +404,7 @@ def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict
         if cam.kind in ("horizontal", "oblique"):
             out["bearings"].append(det.blobs(cam, g, frac, t, model[cam.kind], rng, colours, palette))
         if cam.kind == "oblique":
-            out["boxes"].append(det.windows(cam, g, frac, t, model["windows"], rng))
+            out["boxes"].append(det.windows(cam, g, frac, t, model["windows"], rng, None if head is None else head.get(cam.name)))
         if cam.kind == "overhead":
             m = model["privacy" if cam.privacy else "overhead"]
             out["floor_detections"].append(det.floor(cam, g, frac, traj, t, m, rng, bounds))

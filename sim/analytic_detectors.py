@@ -253,8 +253,10 @@ def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarra
     return np.where(wrong, (idx + shift) % n_classes, idx)
 
 
-def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator) -> pd.DataFrame | None:
-    """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker."""
+def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
+            head: np.ndarray | None = None) -> pd.DataFrame | None:
+    """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker
+    (``head``: (F, P) 1 where the ray to the top of the head reaches the person)."""
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
     frac = seen_share(frac, m.seen_frames)
@@ -294,7 +296,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     cf, ce, cfl, cid = ids.clutter(F, cam)
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     # drawn last: a model without partial windows samples the same stream as before
-    pf, pe, pfl, pid = ids.partials(cand & ~det & (speed >= MOVING_PX_S), frac, e, g.flow)
+    head = None if head is None else seen_share(head, m.seen_frames)
+    pf, pe, pfl, pid = ids.partials(cand & ~det & (speed >= MOVING_PX_S), frac, e, g.flow, head)
     f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff, pf), (edges, ce, fe, pe), (flow, cfl, ffl, pfl), (tid, cid, fid, pid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
     edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
@@ -391,12 +394,20 @@ class WindowIds:
         place and size relative to the person's window, moving with the person's flow."""
         return self._attached(det, e, flow, self.m.fragment, self.m.fragment_frames, "frag")
 
-    def partials(self, missed: np.ndarray, frac: np.ndarray, e: np.ndarray, flow: np.ndarray):
+    def partials(self, missed: np.ndarray, frac: np.ndarray, e: np.ndarray, flow: np.ndarray, head: np.ndarray | None = None):
         """Partial windows of missed moving people (``missed``: (F, P)), as fragments are of
-        detected ones: ``partial(frac)`` / ``partial_frames`` born per missed person-frame
-        (``frac``: the seen share of rays), placed by the ``part_*`` tables. A model without
-        them (``partial`` None) draws nothing."""
-        rate = 0.0 if self.m.partial is None else self.m.partial(frac)
+        detected ones: ``partial(frac[, head])`` / ``partial_frames`` born per missed person-frame
+        (``frac``: the seen share of the axis rays; ``head``: of the head ray, for a table over
+        both), placed by the ``part_*`` tables. A model without them (``partial`` None) draws nothing."""
+        m = self.m
+        if m.partial is None:
+            rate = 0.0
+        elif len(m.partial.edges) == 2:
+            if head is None:
+                raise ValueError("this model's partial windows depend on the head ray: give head")
+            rate = m.partial(frac, head)
+        else:
+            rate = m.partial(frac)
         return self._attached(missed, e, flow, rate, self.m.partial_frames, "part")
 
     def _attached(self, on: np.ndarray, e: np.ndarray, flow: np.ndarray, rate, frames: float, table: str):

@@ -54,6 +54,9 @@ FLOOR_GATE_M = 0.75
 # windows: detection and partial windows by the seen share of rays averaged over this many frames
 # (``analytic_detectors.seen_share``: a flow region outlives a ray grazing an obstacle for a frame)
 WINDOW_SEEN_FRAMES = 3
+# windows: partial windows of missed walkers by the seen share of the axis rays and of the head ray
+# (both over WINDOW_SEEN_FRAMES): the head over a shelf or a standing person leaves a strip window
+PARTIAL_EDGES = [SEEN_EDGES, [-INF, 0.5, INF]]
 REGION_MARGIN_M = 0.3  # overhead: detection rates from people this far inside the camera's tile
 DETECT_EDGES = {"horizontal": [SEEN_EDGES, CLIP_EDGES], "oblique": [SEEN_EDGES, CLIP_EDGES],  # detection table bins
                 "windows": [SEEN_EDGES, IMAGE_SPEED_EDGES], "overhead": [SEEN_EDGES, [-INF, INF], AXIS_CLIP_EDGES],
@@ -86,7 +89,7 @@ class DetectorStats:
     # and the missed moving person-frames they are counted against
     partials: int = 0
     partial_ids: set = field(default_factory=set)
-    partial_feat: list = field(default_factory=list)  # per missed moving person-frame: seen share
+    partial_feat: list = field(default_factory=list)  # per missed moving person-frame: seen share of axis and head rays
     partial_hit: list = field(default_factory=list)  # and whether a partial window is on them
     continuing: int = 0
     restarts: int = 0
@@ -107,8 +110,9 @@ class DetectorStats:
 
 
 def scene_features(scene: Scene, seed: int, duration: float):
-    """(trajectories, camera geometry, ray fraction) of ``scene`` at ``seed``: the analytic view
-    of exactly the walkers a recording with that seed holds."""
+    """(trajectories, camera geometry, ray fraction, head ray) of ``scene`` at ``seed``: the
+    analytic view of exactly the walkers a recording with that seed holds (``Occlusion``'s
+    ``fraction`` and, for oblique cameras, ``head``)."""
     from . import analytic
     from .walkers import plan_trajectories
     from .world import build_world
@@ -117,9 +121,9 @@ def scene_features(scene: Scene, seed: int, duration: float):
     traj = plan_trajectories(scene, duration, motion_rng)
     world = build_world(scene)
     geometry = analytic.camera_geometry(scene, traj)
-    occ = analytic.Occlusion(world, scene, traj, geometry)
+    occ = analytic.Occlusion(world, scene, traj, geometry, head_ray=True)
     occ.finish()
-    return traj, geometry, occ.fraction
+    return traj, geometry, occ.fraction, occ.head
 
 
 def _frames(df: pd.DataFrame, cam, n: int) -> dict[int, pd.DataFrame]:
@@ -143,7 +147,7 @@ def _assign(cost: np.ndarray, ok: np.ndarray):
 def measure(rec, scene: Scene, features=None) -> dict[str, DetectorStats]:
     """Detector statistics of a recording (see the module docstring)."""
     seed, duration = int(rec.meta["seed"]), float(rec.meta["duration"])
-    traj, geometry, fraction = features or scene_features(scene, seed, duration)
+    traj, geometry, fraction, head = features or scene_features(scene, seed, duration)
     obs = rec.observations.tables
     stats = {k: DetectorStats() for k in DETECTORS}
     colours = [w.color_name for w in scene.walkers]
@@ -152,7 +156,7 @@ def measure(rec, scene: Scene, features=None) -> dict[str, DetectorStats]:
         if cam.kind in ("horizontal", "oblique"):
             _measure_blobs(stats[cam.kind], cam, g, frac, obs.get("bearings"), colours)
         if cam.kind == "oblique":
-            _measure_windows(stats["windows"], cam, g, frac, obs.get("boxes"))
+            _measure_windows(stats["windows"], cam, g, frac, obs.get("boxes"), head[cam.name])
         if cam.kind == "overhead":
             _measure_floor(stats["privacy" if cam.privacy else "overhead"], cam, g, frac, traj, obs.get("floor_detections"))
     return stats
@@ -244,8 +248,9 @@ def _iou(e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
     return inter / np.maximum(area(e1)[:, None] + area(e2)[None] - inter, 1e-9), inter / np.maximum(area(e2)[None], 1e-9)
 
 
-def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
+def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
     frac = seen_share(frac, WINDOW_SEEN_FRAMES)
+    head = seen_share(head, WINDOW_SEEN_FRAMES)
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
     F, P = cand.shape
@@ -331,7 +336,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes):
         for k in np.nonzero(both)[0]:
             _pair(s, cam.name, int(iu[k]), int(ju[k]), f, o_all[f, k], merged_with)
     missed = cand & ~hit & (speed >= MOVING_PX_S)
-    s.partial_feat += frac[missed].tolist()
+    s.partial_feat += list(zip(frac[missed].tolist(), head[missed].tolist()))
     s.partial_hit += has_part[missed].tolist()
     _window_ids(s, window_of, members, own)
     _candidates(s, cam.name, cand, lambda f, p: (frac[f, p], speed[f, p]), hit)
@@ -718,7 +723,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             clutter_unlabelled=s.clutter_unlabelled / s.clutter if s.clutter else 0.0,
             fragment=s.fragments / max(int(np.sum(hit)), 1),
             fragment_frames=max(1.0, s.fragments / max(len(s.fragment_ids), 1)) if k == "windows" else 1.0,
-            partial=Table.fit([SEEN_EDGES], [np.asarray(s.partial_feat, float)], np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
+            partial=Table.fit(PARTIAL_EDGES, list(np.asarray(s.partial_feat, float).reshape(-1, 2).T), np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
             partial_frames=max(1.0, s.partials / max(len(s.partial_ids), 1)),
             seen_frames=WINDOW_SEEN_FRAMES if k == "windows" else 1,
             fragment_label=s.fragment_labelled / s.fragments if s.fragments and k in ("horizontal", "oblique") else 1.0,
@@ -790,8 +795,9 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
         if m.tail is not None:  # episodes cut short by misses and merges, or added by the tables' own tails
             m.tail.start.p = np.clip(m.tail.start.p * ratio(tail_share(r), tail_share(a)), 0.0, 1.0)
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
-        if m.partial is not None and r.partial_hit and a.partial_hit:  # per seen-share bin, as detection
-            scale, _ = bin_scale([SEEN_EDGES], [np.asarray(r.partial_feat, float)], r.partial_hit, [np.asarray(a.partial_feat, float)], a.partial_hit)
+        if m.partial is not None and r.partial_hit and a.partial_hit:  # per bin, as detection
+            feats = [list(np.asarray(x.partial_feat, float).reshape(-1, 2).T[: len(m.partial.edges)]) for x in (r, a)]
+            scale, _ = bin_scale(m.partial.edges, feats[0], r.partial_hit, feats[1], a.partial_hit)
             m.partial.p = np.clip(m.partial.p * scale, 0.0, 1.0)
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))
         m.restart = float(np.clip(m.restart * ratio(rate(r.restarts, r.continuing), rate(a.restarts, a.continuing)), 0, 1))

@@ -65,7 +65,9 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            (``frag_*`` error tables); fragment windows live ``fragment_frames`` frames;
   partial  (flow windows) a moving person the detector missed often still has a small window on
            part of the body (IoU with the person's window below the match gate): windows per
-           missed moving person-frame by the seen share of rays (``partial``, a table), born at
+           missed moving person-frame by the seen share of rays (``partial``, a table; fits
+           from the ninth on: by the seen share of the axis rays and of the ray to the top of the
+           head, ``analytic.HEAD_TOP``: a head over a shelf leaves a strip window), born at
            that rate / ``partial_frames`` and living ``partial_frames`` frames, placed relative
            to the person's window (``part_*`` error tables); models without ``partial`` draw none;
   ids      (flow windows) the camera tracker's id: kept while the person's window continues (gaps
@@ -286,6 +288,11 @@ class DetectorModel:
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
 
+    @property
+    def uses_head(self) -> bool:
+        """(windows) whether partial windows depend on the head ray (a table over two features)."""
+        return self.partial is not None and len(self.partial.edges) == 2
+
     def to_dict(self) -> dict:
         return {
             "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "err_rho": round(self.err_rho, 4), "merge": self.merge.to_dict(),
@@ -344,6 +351,11 @@ class PerceptionModel:
 
     def __getitem__(self, name: str) -> DetectorModel:
         return self.detectors[name]
+
+    @property
+    def uses_head(self) -> bool:
+        """Whether analytic sensing must cast the oblique cameras' head rays (``Occlusion.head``)."""
+        return not self.ideal and "windows" in self.detectors and self.detectors["windows"].uses_head
 
     def noise_figures(self, kinds=("horizontal",)) -> dict[str, float]:
         """The measured noise a user of the network would quote (calibration.noise): bearing and

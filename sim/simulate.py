@@ -191,7 +191,7 @@ def camera_tables(scene: Scene, traj: Trajectories, geometry: dict, occlusion, c
     perception model, or ideal."""
     if model.ideal:
         return analytic.observation_tables(scene, traj, geometry, occlusion.visible, cam_rngs)
-    return analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model)
+    return analytic.modelled_observation_tables(scene, traj, geometry, occlusion.fraction, cam_rngs, model, occlusion.head)
 
 
 def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic", progress=False, save_frames=None,
@@ -230,7 +230,7 @@ def simulate(scene: Scene, seed: int, duration: float, sensing: str = "analytic"
     occlusion, bar = None, None
     if sensing == "analytic":
         geometry = analytic.camera_geometry(scene, traj)
-        occlusion = analytic.Occlusion(world, scene, traj, geometry)
+        occlusion = analytic.Occlusion(world, scene, traj, geometry, head_ray=model.uses_head)
         # one bar over the IMU samples and the ray-cast camera frames
         bar = progress_bar(progress, len(steps) + len(occlusion.frame_steps), f"{scene.name} ({sensing})", "step")
 

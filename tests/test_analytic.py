@@ -164,3 +164,31 @@ def test_a_person_beside_a_wall_camera_is_not_seen_in_its_image():
     g = project_people(cam, SimpleNamespace(pos=pos), np.array([1.7, 1.7]), np.array([0.2, 0.2]), np.array([0]))
     assert not g.near[0, 0] and g.span[0, 0, 0] > cam.width  # wholly right of the image
     assert g.near[0, 1] and 0 < g.span[0, 1, 0] < cam.width / 2 < g.span[0, 1, 1] < cam.width
+
+
+@pytest.mark.parametrize("obstacle_height, head_seen", [(1.80, 1.0), (2.10, 0.0)])
+def test_the_head_ray_sees_a_head_over_an_obstacle_that_hides_the_axis(obstacle_height, head_seen):
+    """An oblique camera at 2 m looks along y = 3 at a person 1.75 m tall standing at (6, 3), behind
+    a 10 cm thick obstacle across the line of sight at x = 4. The axis rays (to 0.5, 0.75 and 0.95
+    of the height) pass x = 4 at 1.78 m or lower, the ray to the top of the head at 1.83 m: a 1.80 m
+    obstacle hides the axis and leaves the head seen (``Occlusion.head`` 1), a 2.10 m one hides
+    both; ``fraction`` is 0 in both."""
+    from trackroom.sim import analytic
+    from trackroom.sim.walkers import plan_trajectories
+    from trackroom.sim.world import build_world
+
+    raw = {
+        **OCCLUSION,
+        "walls": [],
+        "obstacles": [{"name": "shelf", "center": [4.0, 3.0], "size": [0.1, 1.0, obstacle_height]}],
+        "cameras": [{**OCCLUSION["cameras"][1], "position": [0.1, 3.0, 2.0], "look_at": [8.0, 3.0, 0.9]}],
+        "walkers": {"count": 1, "vary": False, "people": [{"name": "target", "motion": "standing", "start": [6.0, 3.0], "height": 1.75}]},
+    }
+    scene = parse_scene(raw)
+    traj = plan_trajectories(scene, 1.0, np.random.default_rng(0))
+    geometry = analytic.camera_geometry(scene, traj)
+    occ = analytic.Occlusion(build_world(scene), scene, traj, geometry, head_ray=True)
+    occ.finish()
+    assert geometry["tilted"].in_fov.all()
+    np.testing.assert_array_equal(occ.fraction["tilted"], 0.0)
+    np.testing.assert_array_equal(occ.head["tilted"], head_seen)

@@ -136,7 +136,7 @@ def test_person_ids_cannot_be_recovered_beyond_the_label_confusion(tmp_path):
     assert abs(acc - 0.7) < 0.06  # labels confused as the model says
     # the best label -> person lookup: for each label, the person most often behind it
     feats = pf.scene_features(scene, 3, 40.0)
-    traj, geometry, _ = feats
+    traj, geometry, *_ = feats
     b = rec.observations["bearings"]
     from trackroom.sim.analytic_detectors import visible_span
 
@@ -478,7 +478,7 @@ def test_silhouette_pairs_within_reach_equal_the_exact_distance():
     from trackroom.sim.analytic_detectors import silhouette_pairs
 
     scene = load_scene("overhead_lab", ["walkers.count=8"])
-    _, geometry, _ = pf.scene_features(scene, 5, 10.0)
+    _, geometry, *_ = pf.scene_features(scene, 5, 10.0)
     for g in geometry.values():
         exact, fast = silhouette_pairs(g), silhouette_pairs(g, 1.5)
         near = exact < 1.5
@@ -774,6 +774,36 @@ def test_partial_windows_of_missed_walkers_are_simulated_and_the_fit_finds_them_
     again = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
     assert np.allclose(again.partial.p, fitted.partial.p, atol=1e-6)
     assert "partial" not in load_model("fitted")["oblique"].to_dict()
+
+
+def test_partial_windows_by_the_head_ray_are_drawn_where_the_head_is_seen_and_fitted_back(tmp_path):
+    """A partial-window table over the axis rays' seen share and the head ray (fits from the ninth
+    on): windows born on missed walkers only where the top of the head is seen (0.3 per
+    person-frame, none where it is hidden). Simulation casts the head rays because the model needs
+    them, the measured rates are 1 - e^-0.3 and 0 in the two head columns, and the fit finds them
+    back; a model without the table casts none."""
+    from trackroom.sim.perception_model import Quantiles, Table
+
+    def edit(m):
+        w = m["windows"]
+        # never detected: every window is a partial one (none is a detection whose error took it
+        # off its person, which the measurement would count as partial)
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment = constant(0.0), 0.0, constant(0.0), 0.0, 0.0
+        w.partial, w.partial_frames, w.seen_frames = Table(pf.PARTIAL_EDGES, np.array([[0.0, 0.3]] * 4)), 1.0, pf.WINDOW_SEEN_FRAMES
+        w.errors.update({"part_du": Quantiles.gaussian(0.05), "part_dv": Quantiles.gaussian(0.01, -0.45),
+                         "part_w": Quantiles.gaussian(0.05, 0.5), "part_h": Quantiles.gaussian(0.005, 0.07)})
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=1"])
+    assert load_model(scene.sensors.perception).uses_head and not load_model("fitted").uses_head
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    X, hit = np.asarray(s.partial_feat, float), np.asarray(s.partial_hit, bool)
+    seen = X[:, 1] > 0.5
+    assert seen.sum() > 300 and (~seen).sum() > 30
+    assert hit[seen].mean() == pytest.approx(1 - np.exp(-0.3), abs=0.05)
+    assert hit[~seen].mean() == 0.0
+    fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
+    assert fitted.uses_head
+    col = lambda j: float(np.average(fitted.partial.p[:, j], weights=np.maximum(fitted.partial.n[:, j], 1e-9)))
+    assert col(1) == pytest.approx(1 - np.exp(-0.3), abs=0.05) and col(0) < 0.05
 
 
 def test_the_windows_seen_share_is_a_mean_over_the_last_frames():
