@@ -793,7 +793,10 @@ def test_partial_windows_by_the_head_ray_are_drawn_where_the_head_is_seen_and_fi
         w.errors.update({"part_du": Quantiles.gaussian(0.05), "part_dv": Quantiles.gaussian(0.01, -0.45),
                          "part_w": Quantiles.gaussian(0.05, 0.5), "part_h": Quantiles.gaussian(0.005, 0.07)})
     scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=1"])
-    assert load_model(scene.sensors.perception).uses_head and not load_model("fitted").uses_head
+    assert load_model(scene.sensors.perception).uses_head
+    one_feature = load_model("fitted")
+    one_feature["windows"].partial = constant(0.3)  # a table over the axis rays only: no head rays cast
+    assert not one_feature.uses_head and not load_model("ideal").uses_head
     s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
     X, hit = np.asarray(s.partial_feat, float), np.asarray(s.partial_hit, bool)
     seen = X[:, 1] > 0.5
