@@ -253,6 +253,29 @@ def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarra
     return np.where(wrong, (idx + shift) % n_classes, idx)
 
 
+# windows: a window whose span comes within this many px of another moving person's image span
+# (vertical spans overlapping), or whose people are not all wholly seen, is "crowded": its edge
+# errors come from the ``*_crowded`` tables where a model has them (the rendered detector's large
+# edge errors are mostly there: a neighbour's flow joins the region, an occluder cuts it; someone
+# standing still beside a walker makes no flow and leaves the window alone)
+CROWDED_PX = 10.0
+
+
+def crowded(e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int]) -> bool:
+    """Whether the window of ``members`` at frame f is crowded (``CROWDED_PX``): ``e`` (F, P, 4)
+    image edges, ``frac`` the seen share of rays, ``moving`` who is in the image and moves in it
+    (at least ``MOVING_PX_S``)."""
+    if (frac[f, members] < 5 / 6).any():
+        return True
+    lo, hi = e[f, members, 0].min(), e[f, members, 1].max()
+    top, bottom = e[f, members, 2].min(), e[f, members, 3].max()
+    others = np.setdiff1d(np.nonzero(moving[f])[0], members)
+    if not len(others):
+        return False
+    o = e[f, others]
+    return bool(((o[:, 0] <= hi + CROWDED_PX) & (o[:, 1] >= lo - CROWDED_PX) & (o[:, 2] <= bottom) & (o[:, 3] >= top)).any())
+
+
 def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng: np.random.Generator,
             head: np.ndarray | None = None) -> pd.DataFrame | None:
     """``boxes`` rows (t, camera, track, u, edges, flow) of an oblique camera's flow tracker
@@ -267,7 +290,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     F, P = det.shape
     ids = WindowIds(P, m, rng)
     grids = error_uniforms(rng, det.shape, m, 6)
-    out_f, out_p, out_e, out_fl, out_id = [], [], [], [], []
+    out_f, out_p, out_e, out_fl, out_id, out_c = [], [], [], [], [], []
+    split_errors = "u_left_crowded" in m.errors  # models before the eighth fit's successor: one table
     for f in range(F):
         groups = {}
         for p in np.nonzero(det[f])[0]:
@@ -281,14 +305,18 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
+            out_c.append(split_errors and crowded(e, frac, cand & (speed >= MOVING_PX_S), f, mem))
     n = len(out_f)
     f = np.asarray(out_f, int)
     edges = np.asarray(out_e, float).reshape(n, 4)
     flow = np.asarray(out_fl, float).reshape(n, 2)
     tid = np.asarray(out_id, np.int64)
     pp = np.asarray(out_p, int)
+    busy = np.asarray(out_c, bool)
     for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v")):
         e_j = m.error(name).at(grids[j][f, pp])
+        if j < 4 and busy.any():
+            e_j[busy] = m.error(name + "_crowded").at(grids[j][f[busy], pp[busy]])
         if j < 4:
             edges[:, j] += e_j
         else:

@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, crowded, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -297,8 +297,9 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
             window_of[f, p] = window_of[f, q]
         for p, rr in match.items():
             if own[f, p]:
+                tag = "_crowded" if crowded(e, frac, cand & (speed >= MOVING_PX_S), f, [p]) else ""
                 for j, c in enumerate(cols):
-                    s.errors[c].append(W[rr, j] - e[f, p, j])
+                    s.errors[c + tag].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
                 s.err_seq.append((cam.name, p, f, s.errors["u"][-1]))
                 s.errors["flow_u"].append(fl[rr, 0] - g.flow[f, p, 0])

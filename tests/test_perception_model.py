@@ -756,7 +756,9 @@ def test_partial_windows_of_missed_walkers_are_simulated_and_the_fit_finds_them_
 
     def edit(m):
         w = m["windows"]
-        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment = constant(0.6), 0.0, constant(0.0), 0.0, 0.0
+        # never detected: every window is a partial one (none is a detection whose edge errors took it
+        # off its person, which the measurement would count as partial)
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment = constant(0.0), 0.0, constant(0.0), 0.0, 0.0
         w.partial, w.partial_frames = constant(0.3), 1.0
         w.errors.update({"part_du": Quantiles.gaussian(0.05), "part_dv": Quantiles.gaussian(0.01, -0.45),
                          "part_w": Quantiles.gaussian(0.05, 0.5), "part_h": Quantiles.gaussian(0.005, 0.07)})
@@ -819,3 +821,41 @@ def test_the_windows_seen_share_is_a_mean_over_the_last_frames():
     assert seen_share(frac, 1) is frac
     assert np.allclose(seen_share(np.array([[0.0], [1.0]]), 3)[:, 0], [0.0, 0.5])  # fewer frames at the start
     assert "seen_frames" not in load_model("fitted")["oblique"].to_dict()
+
+
+def test_a_window_near_another_person_or_partly_hidden_is_crowded():
+    """``crowded``: another moving person's image span within CROWDED_PX of the window's (vertical
+    spans overlapping), or a member not wholly seen; people far apart, beside but at other heights,
+    or standing still (``moving`` false: no flow to join the region) are not."""
+    from trackroom.sim.analytic_detectors import CROWDED_PX, crowded
+
+    e = np.array([[[100.0, 120.0, 50.0, 150.0], [120.0 + CROWDED_PX - 1, 150.0, 50.0, 150.0], [300.0, 320.0, 50.0, 150.0]]])
+    frac = np.ones((1, 3))
+    cand = np.ones((1, 3), bool)
+    assert crowded(e, frac, cand, 0, [0]) and crowded(e, frac, cand, 0, [1])
+    assert not crowded(e, frac, cand, 0, [2])
+    assert not crowded(e, frac, np.array([[True, False, True]]), 0, [0])  # the neighbour does not move (or is not in the image)
+    high = e.copy()
+    high[0, 1, 2:] = [0.0, 40.0]  # beside, but above the window
+    assert not crowded(high, frac, cand, 0, [0])
+    assert crowded(e, np.array([[2 / 3, 1.0, 1.0]]), cand, 0, [2]) is False and crowded(e, np.array([[1.0, 1.0, 2 / 3]]), cand, 0, [2])
+
+
+def test_window_edge_errors_are_drawn_and_fitted_by_crowding(tmp_path):
+    """A windows model with ``*_crowded`` edge tables draws a crowded window's edge errors from them
+    (here biased 12 px, clear windows unbiased), and the fit measures the two apart again."""
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        w = m["windows"]
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+        for c in ("u_left", "u_right"):
+            w.errors[c] = Quantiles.gaussian(0.5)
+            w.errors[c + "_crowded"] = Quantiles.gaussian(0.5, 12.0)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    assert len(s.errors["u_left"]) > 300 and len(s.errors["u_left_crowded"]) > 100
+    assert abs(np.median(s.errors["u_left"])) < 1.0
+    assert np.median(s.errors["u_left_crowded"]) == pytest.approx(12.0, abs=1.5)
+    fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
+    assert fitted.error("u_right_crowded").bias == pytest.approx(12.0, abs=1.5) and abs(fitted.error("u_right").bias) < 1.0
