@@ -291,7 +291,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     ids = WindowIds(P, m, rng)
     grids = error_uniforms(rng, det.shape, m, 6)
     out_f, out_p, out_e, out_fl, out_id, out_c = [], [], [], [], [], []
-    split_errors = "u_left_crowded" in m.errors  # models before the eighth fit's successor: one table
+    split_errors = "u_left_crowded" in m.errors  # models without crowded tables (the bundled fits): one table
+    moving = cand & (speed >= MOVING_PX_S)
     for f in range(F):
         groups = {}
         for p in np.nonzero(det[f])[0]:
@@ -305,7 +306,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
-            out_c.append(split_errors and crowded(e, frac, cand & (speed >= MOVING_PX_S), f, mem))
+            out_c.append(split_errors and crowded(e, frac, moving, f, mem))
     n = len(out_f)
     f = np.asarray(out_f, int)
     edges = np.asarray(out_e, float).reshape(n, 4)
@@ -325,7 +326,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     # drawn last: a model without partial windows samples the same stream as before
     head = None if head is None else seen_share(head, m.seen_frames)
-    pf, pe, pfl, pid = ids.partials(cand & ~det & (speed >= MOVING_PX_S), frac, e, g.flow, head)
+    pf, pe, pfl, pid = ids.partials(moving & ~det, frac, e, g.flow, head)
     f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff, pf), (edges, ce, fe, pe), (flow, cfl, ffl, pfl), (tid, cid, fid, pid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
     edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
@@ -430,7 +431,7 @@ class WindowIds:
         m = self.m
         if m.partial is None:
             rate = 0.0
-        elif len(m.partial.edges) == 2:
+        elif m.uses_head:
             if head is None:
                 raise ValueError("this model's partial windows depend on the head ray: give head")
             rate = m.partial(frac, head)

@@ -107,6 +107,10 @@ class DetectorStats:
     tail_feat: list = field(default_factory=list)
     tail_hit: list = field(default_factory=list)
 
+    def partial_columns(self) -> list[np.ndarray]:
+        """The partial-window features as columns: the axis rays' seen share, the head ray's."""
+        return list(np.asarray(self.partial_feat, float).reshape(-1, 2).T)
+
     def arrays(self, n_features: int):
         """(features (candidates, n_features), hit (candidates,))."""
         X = np.asarray(self.feats, float).reshape(-1, n_features) if self.feats else np.zeros((0, n_features))
@@ -257,6 +261,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
     head = seen_share(head, WINDOW_SEEN_FRAMES)
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
+    moving = cand & (speed >= MOVING_PX_S)
     F, P = cand.shape
     by_frame = _frames(boxes, cam, F)
     hit, own = np.zeros((F, P), bool), np.zeros((F, P), bool)
@@ -297,7 +302,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
             window_of[f, p] = window_of[f, q]
         for p, rr in match.items():
             if own[f, p]:
-                tag = "_crowded" if crowded(e, frac, cand & (speed >= MOVING_PX_S), f, [p]) else ""
+                tag = "_crowded" if crowded(e, frac, moving, f, [p]) else ""
                 for j, c in enumerate(cols):
                     s.errors[c + tag].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
@@ -340,7 +345,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
         both = hit[f, iu] & hit[f, ju] & ok_all[f]
         for k in np.nonzero(both)[0]:
             _pair(s, cam.name, int(iu[k]), int(ju[k]), f, o_all[f, k], merged_with)
-    missed = cand & ~hit & (speed >= MOVING_PX_S)
+    missed = moving & ~hit
     s.partial_feat += list(zip(frac[missed].tolist(), head[missed].tolist()))
     s.partial_hit += has_part[missed].tolist()
     _window_ids(s, window_of, members, own)
@@ -728,7 +733,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
             clutter_unlabelled=s.clutter_unlabelled / s.clutter if s.clutter else 0.0,
             fragment=s.fragments / max(int(np.sum(hit)), 1),
             fragment_frames=max(1.0, s.fragments / max(len(s.fragment_ids), 1)) if k == "windows" else 1.0,
-            partial=Table.fit(PARTIAL_EDGES, list(np.asarray(s.partial_feat, float).reshape(-1, 2).T), np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
+            partial=Table.fit(PARTIAL_EDGES, s.partial_columns(), np.asarray(s.partial_hit, bool)) if k == "windows" and s.partials else None,
             partial_frames=max(1.0, s.partials / max(len(s.partial_ids), 1)),
             seen_frames=WINDOW_SEEN_FRAMES if k == "windows" else 1,
             fragment_label=s.fragment_labelled / s.fragments if s.fragments and k in ("horizontal", "oblique") else 1.0,
@@ -801,7 +806,7 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
             m.tail.start.p = np.clip(m.tail.start.p * ratio(tail_share(r), tail_share(a)), 0.0, 1.0)
         m.fragment *= ratio(rate(r.fragments, sum(r.hit)), rate(a.fragments, sum(a.hit)))
         if m.partial is not None and r.partial_hit and a.partial_hit:  # per bin, as detection
-            feats = [list(np.asarray(x.partial_feat, float).reshape(-1, 2).T[: len(m.partial.edges)]) for x in (r, a)]
+            feats = [x.partial_columns()[: len(m.partial.edges)] for x in (r, a)]  # (a one-feature table: the axis rays')
             scale, _ = bin_scale(m.partial.edges, feats[0], r.partial_hit, feats[1], a.partial_hit)
             m.partial.p = np.clip(m.partial.p * scale, 0.0, 1.0)
         m.clutter *= ratio(rate(r.clutter, r.frames), rate(a.clutter, a.frames))

@@ -66,7 +66,7 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
   partial  (flow windows) a moving person the detector missed often still has a small window on
            part of the body (IoU with the person's window below the match gate): windows per
            missed moving person-frame by the seen share of rays (``partial``, a table; fits
-           from the ninth on: by the seen share of the axis rays and of the ray to the top of the
+           from the eighth on: by the seen share of the axis rays and of the ray to the top of the
            head, ``analytic.HEAD_TOP``: a head over a shelf leaves a strip window), born at
            that rate / ``partial_frames`` and living ``partial_frames`` frames, placed relative
            to the person's window (``part_*`` error tables); models without ``partial`` draw none;
