@@ -24,6 +24,7 @@ by default) are never used to fit the perception model (fitted on 100-105) or to
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -71,7 +72,7 @@ def recording_for(folder: Path, mode: str, rendered_rec, draw: int = 0):
     return simulate(scene, int(rendered_rec.meta["seed"]), float(rendered_rec.meta["duration"]), perception_draw=draw)
 
 
-def figures(case: str, rec) -> dict:
+def figures(case: str, rec, tp_params: dict | None = None) -> dict:
     from scripts import experiment_tsutsui as ts
     from trackroom.estimators import get
     from trackroom.estimators.target_planes import TargetPlanes
@@ -79,10 +80,10 @@ def figures(case: str, rec) -> dict:
     from trackroom.scenes.loader import load_scene
 
     if case == "target_planes (target)":
-        res = TargetPlanes(initial_xy=ts.click(rec), **ts.estimator_config(rec)).run(rec.observations, rec.calibration)
+        res = TargetPlanes(initial_xy=ts.click(rec), **{**ts.estimator_config(rec), **(tp_params or {})}).run(rec.observations, rec.calibration)
         return ts.single_target_metrics(rec, res)
     if case == "target_planes (multi)":
-        tracks = TargetPlanes(multi_person=True, **ts.estimator_config(rec)).estimate(rec.observations, rec.calibration)
+        tracks = TargetPlanes(multi_person=True, **{**ts.estimator_config(rec), **(tp_params or {})}).estimate(rec.observations, rec.calibration)
         scene = load_scene(rec.meta["scene"])
         return evaluate(ts.movers_only(rec, scene), tracks, gate=1.0).metrics()
     tracks = get(case)().estimate(rec.observations, rec.calibration)
@@ -116,8 +117,16 @@ def main(argv=None) -> int:
     ap.add_argument("--draws", type=int, default=1, help="perception draws of the fitted analytic twin per seed "
                     "(default 1: the recording's own; more average over redrawn camera streams and show their spread)")
     ap.add_argument("--model", default="fitted", help="perception model file of the analytic twin (default: the bundled one)")
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                    help="a target_planes Config value (JSON) for both modes, e.g. flow_rel_sigma=0.1 (repeatable)")
     a = ap.parse_args(argv)
     MODEL[0] = a.model
+    tp_params = {}
+    for kv in a.param:
+        key, sep, value = kv.partition("=")
+        if not sep:
+            raise SystemExit(f"--param {kv}: expected KEY=VALUE")
+        tp_params[key] = json.loads(value)
     seeds = parse_seeds(a.seeds)
     root = Path(a.rendered)
     rows = []
@@ -132,7 +141,7 @@ def main(argv=None) -> int:
                     for case, f, _ in cases:
                         if f != folder:
                             continue
-                        m = figures(case, rec)
+                        m = figures(case, rec, tp_params)
                         rows.append({"case": case, "scene": folder, "seed": seed, "mode": mode, "draw": draw,
                                      **{k: m.get(k, np.nan) for k in ("identity_held", "idf1", "id_accuracy", "mota", "rmse",
                                                                        "rmse_2plus")}})

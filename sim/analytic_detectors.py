@@ -253,6 +253,28 @@ def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarra
     return np.where(wrong, (idx + shift) % n_classes, idx)
 
 
+# windows: the flow detector's error grows with the image speed and falls short along the motion
+# (rendered occlusion_lab development seeds 100-119, ``scripts/measure_flow_errors.py``: median
+# -1.5 px/s and robust sd 2-3 px/s below 40 px/s; -5 to -7 and 7-10 px/s at 40-80; -20 and 27 px/s
+# above 80; their largest errors are shortfalls). A model with ``flow_along_s<k>`` /
+# ``flow_across_s<k>`` tables draws a window's flow error along and across its people's image
+# velocity from the tables of its speed bin k (edges below, px/s); a model without them draws
+# ``flow_u`` / ``flow_v`` in image axes.
+FLOW_SPEED_EDGES = (40.0, 80.0)
+
+
+def flow_frame(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(speed bin (n,), unit direction (n, 2)) of image velocities ``flow`` (n, 2), px/s; the
+    direction of a velocity under 1 px/s is the image's u axis."""
+    speed = np.hypot(flow[:, 0], flow[:, 1])
+    d = np.where((speed >= 1.0)[:, None], flow / np.maximum(speed, 1e-9)[:, None], np.array([1.0, 0.0]))
+    return np.searchsorted(FLOW_SPEED_EDGES, speed, side="right"), d
+
+
+def has_flow_frame(m) -> bool:
+    return "flow_along_s0" in m.errors
+
+
 # windows: a window whose span comes within this many px of another moving person's image span
 # (vertical spans overlapping), or whose people are not all wholly seen, is "crowded": its edge
 # errors come from the ``*_crowded`` tables where a model has them (the rendered detector's large
@@ -314,14 +336,22 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     tid = np.asarray(out_id, np.int64)
     pp = np.asarray(out_p, int)
     busy = np.asarray(out_c, bool)
-    for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v")):
+    for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
         e_j = m.error(name).at(grids[j][f, pp])
-        if j < 4 and busy.any():
+        if busy.any():
             e_j[busy] = m.error(name + "_crowded").at(grids[j][f[busy], pp[busy]])
-        if j < 4:
-            edges[:, j] += e_j
-        else:
-            flow[:, j - 4] += e_j
+        edges[:, j] += e_j
+    if has_flow_frame(m):  # along and across the people's image velocity, by its speed
+        k, d = flow_frame(flow)
+        along, across = np.zeros(n), np.zeros(n)
+        for b in np.unique(k):
+            on = k == b
+            along[on] = m.error(f"flow_along_s{b}").at(grids[4][f[on], pp[on]])
+            across[on] = m.error(f"flow_across_s{b}").at(grids[5][f[on], pp[on]])
+        flow += along[:, None] * d + across[:, None] * np.column_stack([-d[:, 1], d[:, 0]])
+    else:
+        flow[:, 0] += m.error("flow_u").at(grids[4][f, pp])
+        flow[:, 1] += m.error("flow_v").at(grids[5][f, pp])
     cf, ce, cfl, cid = ids.clutter(F, cam)
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     # drawn last: a model without partial windows samples the same stream as before

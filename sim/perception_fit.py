@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (FLOOR_TABLES, MOVING_PX_S, crowded, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, crowded, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -307,8 +307,12 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
                     s.errors[c + tag].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
                 s.err_seq.append((cam.name, p, f, s.errors["u"][-1]))
-                s.errors["flow_u"].append(fl[rr, 0] - g.flow[f, p, 0])
-                s.errors["flow_v"].append(fl[rr, 1] - g.flow[f, p, 1])
+                ef = fl[rr] - g.flow[f, p]
+                s.errors["flow_u"].append(ef[0])
+                s.errors["flow_v"].append(ef[1])
+                (k,), (d,) = flow_frame(g.flow[f, p][None])
+                s.errors[f"flow_along_s{k}"].append(float(ef @ d))
+                s.errors[f"flow_across_s{k}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
         used = set(match.values())
         for rr in range(len(W)):
             if rr in used:
@@ -692,8 +696,10 @@ def tail_share(s: DetectorStats) -> float:
     return float(np.mean(np.asarray(s.floor_abs) > TAIL_M)) if s.floor_abs else np.nan
 
 
-def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionModel:
-    """A perception model from rendered statistics (``merge_stats`` of several recordings)."""
+def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True) -> PerceptionModel:
+    """A perception model from rendered statistics (``merge_stats`` of several recordings);
+    ``crowded`` False: the windows' edge errors in one table each, crowded or not (no
+    ``*_crowded`` tables, as the bundled eighth and tenth fits)."""
     from .perception_flow import FlowParams
 
     out = {}
@@ -714,10 +720,20 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str]) -> PerceptionMode
                 # table then holds the rest
                 head_gain[name] = float(r @ h / (h @ h)) if h @ h > 0 else 0.0
                 errors[name + "_r"] = Quantiles.fit(r - head_gain[name] * h)
-        for name, v in s.errors.items():
+        samples = dict(s.errors)
+        if not crowded:
+            for name in [n for n in samples if n.endswith("_crowded")]:
+                plain = name[: -len("_crowded")]
+                samples[plain] = list(samples.get(plain, ())) + list(samples.pop(name))
+        for name, v in samples.items():
             if name in errors or name in {t + "_h" for t in FLOOR_TABLES.values()}:  # (not the windows' frag_h, clutter_h)
                 continue
             errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
+        if "flow_along_s0" in errors:  # a speed bin with too few windows takes the next slower bin's tables
+            for b in range(1, len(FLOW_SPEED_EDGES) + 1):
+                for axis in ("along", "across"):
+                    if len(s.errors.get(f"flow_{axis}_s{b}", ())) < 30:
+                        errors[f"flow_{axis}_s{b}"] = errors[f"flow_{axis}_s{b - 1}"]
         if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:
             errors["u_clip"] = errors["u"]
         for name in FLOOR_TABLES.values():  # too few blobs in a state: they take another state's tables (floor_table)

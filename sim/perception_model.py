@@ -46,7 +46,9 @@ cameras, oblique flow windows, overhead regular and privacy floor detections):
            blob's state (head cut or whole, near another person or alone:
            ``analytic_detectors.FLOOR_TABLES``), and the radial one adds ``head_gain`` times the
            head-height shift (``CameraGeometry.head_shift``): the detector places a person by the
-           head, and a walking person's head bobs.
+           head, and a walking person's head bobs. Flow windows' flow errors (from the tenth fit)
+           are drawn along and across the people's image velocity from tables by its speed
+           (``analytic_detectors.FLOW_SPEED_EDGES``): the flow detector falls short of fast motion.
   tail     (overhead, privacy; ``Tail``) drift episodes beyond the error tables: a blob that
            drifts off its person over a few frames (a head cut by the tile's border, a blob partly
            joined with a neighbour's) and often ends in a miss. Per detected, unmerged

@@ -859,3 +859,39 @@ def test_window_edge_errors_are_drawn_and_fitted_by_crowding(tmp_path):
     assert np.median(s.errors["u_left_crowded"]) == pytest.approx(12.0, abs=1.5)
     fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
     assert fitted.error("u_right_crowded").bias == pytest.approx(12.0, abs=1.5) and abs(fitted.error("u_right").bias) < 1.0
+
+
+def test_window_flow_errors_are_drawn_along_the_motion_by_speed_and_fitted_back(tmp_path):
+    """A windows model with ``flow_along_s<k>`` / ``flow_across_s<k>`` tables draws a window's flow
+    error along and across its person's image velocity from the tables of its speed bin (here short
+    by 3 px/s below 40 px/s and by 12 px/s at 40-80, unbiased across); the fit measures them back
+    bin by bin, and with ``crowded=False`` pools the crowded windows' edge errors into one table."""
+    from trackroom.sim.analytic_detectors import FLOW_SPEED_EDGES
+    from trackroom.sim.perception_model import Quantiles
+
+    shortfall = {0: 3.0, 1: 12.0, 2: 12.0}
+
+    def edit(m):
+        w = m["windows"]
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+        for b in range(len(FLOW_SPEED_EDGES) + 1):
+            w.errors[f"flow_along_s{b}"] = Quantiles.gaussian(0.5, -shortfall[b])
+            w.errors[f"flow_across_s{b}"] = Quantiles.gaussian(0.5)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    for b in (0, 1):
+        along, across = np.asarray(s.errors[f"flow_along_s{b}"]), np.asarray(s.errors[f"flow_across_s{b}"])
+        assert len(along) > 30
+        assert np.median(along) == pytest.approx(-shortfall[b], abs=1.0) and abs(np.median(across)) < 1.0
+    # in image axes the shortfall points every way the people walk: no single u or v bias holds it
+    assert np.mean(np.abs(s.errors["flow_u"]) + np.abs(s.errors["flow_v"])) > 2.0
+    stats = {k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}
+    fitted = pf.fit(stats, ["test"])["windows"]
+    assert fitted.error("flow_along_s1").bias == pytest.approx(-12.0, abs=1.0)
+    assert fitted.error("flow_along_s0").bias == pytest.approx(-3.0, abs=1.0)
+    assert any(k.endswith("_crowded") for k in fitted.errors)
+    pooled = pf.fit(stats, ["test"], crowded=False)["windows"]
+    assert not any(k.endswith("_crowded") for k in pooled.errors)
+    both = np.r_[s.errors["u_left"], s.errors["u_left_crowded"]]
+    q = np.array([0.1, 0.5, 0.9])
+    np.testing.assert_allclose(pooled.error("u_left").at(q), Quantiles.fit(both).at(q))

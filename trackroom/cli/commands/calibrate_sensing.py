@@ -39,6 +39,9 @@ def add_arguments(p) -> None:
                         "from --base; the recordings need only show these detectors")
     p.add_argument("--base", default="fitted",
                    help="with --only: the model the other detectors come from (default: the bundled model)")
+    p.add_argument("--pooled-edges", action="store_true",
+                   help="fit the flow windows' edge errors in one table each, crowded or not (no *_crowded tables; "
+                        "the bundled model is fitted so)")
     p.add_argument("--quiet", action="store_true", help="no progress bar while rendering")
 
 
@@ -116,7 +119,7 @@ def run(args) -> int:
         names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
-    model = pf.fit(rendered, names)
+    model = pf.fit(rendered, names, crowded=not args.pooled_edges)
     if args.only:
         from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
 
