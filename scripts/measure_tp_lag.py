@@ -11,7 +11,6 @@ along-track error is a lag: a flow that falls short of the person's motion drags
 and the position with it. The truth is read here, by the experimenter.
 """
 import argparse
-import json
 
 import numpy as np
 
@@ -42,12 +41,7 @@ def main(argv=None) -> int:
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
     a = ap.parse_args(argv)
-    params = {}
-    for kv in a.param:
-        key, sep, value = kv.partition("=")
-        if not sep:
-            raise SystemExit(f"--param {kv}: expected KEY=VALUE")
-        params[key] = json.loads(value)
+    params = ts.parse_params(a.param)
     e = np.vstack([errors(d, params) for d in a.recordings])
     along, across = e[:, 0], e[:, 1]
     print(f"{len(e)} walking frames of the target track (>= 2 cameras, within 1 m) in {len(a.recordings)} recording(s)")

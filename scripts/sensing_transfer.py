@@ -24,7 +24,6 @@ by default) are never used to fit the perception model (fitted on 100-105) or to
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
@@ -118,15 +117,12 @@ def main(argv=None) -> int:
                     "(default 1: the recording's own; more average over redrawn camera streams and show their spread)")
     ap.add_argument("--model", default="fitted", help="perception model file of the analytic twin (default: the bundled one)")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                    help="a target_planes Config value (JSON) for both modes, e.g. flow_rel_sigma=0.1 (repeatable)")
+                    help="a target_planes Config value (JSON) for both modes, e.g. hold_s=4 (repeatable)")
     a = ap.parse_args(argv)
     MODEL[0] = a.model
-    tp_params = {}
-    for kv in a.param:
-        key, sep, value = kv.partition("=")
-        if not sep:
-            raise SystemExit(f"--param {kv}: expected KEY=VALUE")
-        tp_params[key] = json.loads(value)
+    from scripts.experiment_tsutsui import parse_params
+
+    tp_params = parse_params(a.param)
     seeds = parse_seeds(a.seeds)
     root = Path(a.rendered)
     rows = []
