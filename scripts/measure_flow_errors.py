@@ -6,7 +6,7 @@ For every window of the ``boxes`` table that holds exactly one walking mover (th
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
 cylinder, 1.8 m by 0.2 m, and of no other person's, standing or not, hidden or not), the
 window's flow against the image velocity of that person's body centre (0.85 m above the floor,
-the projection's derivative along the true velocity). Errors are split along the true image
+``tp_geometry.flow_jacobian`` times the true velocity, eq. 7). Errors are split along the true image
 motion (negative: the flow is short of it) and across it, per bin of true image speed, with their
 median, robust standard deviation (1.4826 MAD), the robust one relative to the speed, and the
 90 % quantile of their size. Run it on rendered recordings to see how the flow detector's error
@@ -25,13 +25,6 @@ MOVERS = ("target", "distractor")
 CENTRE_Z = 0.85
 HEIGHT, RADIUS = 1.8, 0.2
 SPEED_BINS = (5, 10, 20, 30, 40, 60, 80, 1000)  # px/s
-
-
-def image_velocity(P: np.ndarray, X: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """d/dt of the projection of X (3,) moving at V (3,), px/s."""
-    h = P @ np.r_[X, 1.0]
-    dh = P[:, :3] @ V
-    return (dh[:2] * h[2] - h[:2] * dh[2]) / h[2] ** 2
 
 
 def errors(d) -> pd.DataFrame:
@@ -57,7 +50,7 @@ def errors(d) -> pd.DataFrame:
         x, y, vx, vy = (float(g[c].to_numpy()[k]) for c in ("x", "y", "vx", "vy"))
         if np.hypot(vx, vy) < 0.5:
             continue
-        f = image_velocity(Ps[b.camera], np.array([x, y, CENTRE_Z]), np.array([vx, vy, 0.0]))
+        f = geo.flow_jacobian(Ps[b.camera], np.array([x, y, CENTRE_Z])) @ np.array([vx, vy, 0.0])  # eq. 7
         speed = float(np.hypot(*f))
         if speed <= 0.0:
             continue
