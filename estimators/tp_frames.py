@@ -64,6 +64,17 @@ def frame_times(calibration: Calibration, cameras: list[str], duration: float, b
     return np.unique(np.round(np.concatenate(ts), 6))
 
 
+def mean_flows(boxes: pd.DataFrame, flow_window: int) -> pd.DataFrame:
+    """``boxes`` with each window's flow replaced by the causal mean over the last ``flow_window``
+    frames of the same camera track (rows in time order within each track)."""
+    if flow_window <= 1 or not len(boxes):
+        return boxes
+    df = boxes.copy()
+    g = df.groupby(["camera", "track"], sort=False)[["flow_u", "flow_v"]]
+    df[["flow_u", "flow_v"]] = g.transform(lambda s: s.rolling(flow_window, min_periods=1).mean())
+    return df
+
+
 def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -> dict[float, dict[str, CameraBoxes]]:
     """``{t: {camera: CameraBoxes}}`` for the given cameras (time rounded to 1 us).
 
@@ -74,11 +85,7 @@ def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -
     missing = [c for c in BOX_COLUMNS if c not in boxes.columns]
     if missing:
         raise RecordingError(f"boxes: missing columns {missing}")
-    df = boxes[boxes["camera"].isin(cameras)]
-    if flow_window > 1 and len(df):
-        df = df.copy()
-        g = df.groupby(["camera", "track"], sort=False)[["flow_u", "flow_v"]]
-        df[["flow_u", "flow_v"]] = g.transform(lambda s: s.rolling(flow_window, min_periods=1).mean())
+    df = mean_flows(boxes[boxes["camera"].isin(cameras)], flow_window)
     num = df[["u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"]].to_numpy(float)
     if len(df) and not np.isfinite(num).all():
         raise RecordingError("boxes: non-finite window or flow values")

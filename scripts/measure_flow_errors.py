@@ -1,6 +1,6 @@
 """Flow windows' region flow against the true image velocity, by image speed.
 
-    python scripts/measure_flow_errors.py DIR [DIR ...]     # occlusion_lab recordings, either mode
+    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N]   # occlusion_lab recordings, either mode
 
 For every window of the ``boxes`` table that holds exactly one walking mover (the scene's target
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
@@ -12,25 +12,46 @@ median, robust standard deviation (1.4826 MAD), the robust one relative to the s
 90 % quantile of their size. Run it on rendered recordings to see how the flow detector's error
 grows with the image speed (``target_planes``' ``flow_rel_sigma``), and on their analytic twins
 to compare. The truth is read here, by the experimenter.
+
+``--flow-window N``: each window's flow is first averaged over the last N frames of its camera
+track, as ``target_planes`` does (``flow_window``, default 1: the detector's own flows).
+
+Then how the errors persist: the autocorrelation, over consecutive frames of one camera track
+holding the same person, of the along-motion flow error and of the window centroid's error (its
+column minus the projected body centre's), and their integrated autocorrelation time
+tau = 1 + 2 sum_L rho(L) (frames; the sum up to the first lag whose rho is not positive): a
+Kalman filter that takes one such measurement a frame as independent has taken about tau
+frames' worth of error as independent ones, and should multiply its variance by tau
+(``target_planes``' ``flow_corr_frames``, ``plane_corr_frames``). And the fit of
+rho(L) = w a^L over lags 1-10: an error that is a persistent part (share w of its variance,
+Gauss-Markov of correlation time -1 / (fps ln a) s) plus a part new each frame, which is how
+``target_planes`` models the flow's (``flow_bias_share``, ``flow_bias_tau``). Last, the
+episodes of flows far short of the motion (more than half of it, above 30 px/s): their share and
+how long they last (the rendered detector's come in runs; ``perception_fit.fit_flow_persist``).
 """
-import sys
+import argparse
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import curve_fit
 
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.tp_frames import mean_flows
 
 MOVERS = ("target", "distractor")
 CENTRE_Z = 0.85
 HEIGHT, RADIUS = 1.8, 0.2
 SPEED_BINS = (5, 10, 20, 30, 40, 60, 80, 1000)  # px/s
+MAX_LAG = 30  # frames
 
 
-def errors(d) -> pd.DataFrame:
+def errors(d, flow_window: int = 1) -> pd.DataFrame:
     rec = read_recording(d)
-    boxes, people = rec.observations["boxes"], rec.truth.people
+    people = rec.truth.people
     Ps = {c: np.asarray(cam.P, float) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
+    fps = {c: float(rec.calibration.cameras[c].fps) for c in Ps}
+    boxes = mean_flows(rec.observations["boxes"].sort_values("t", kind="stable"), flow_window)
     at = {t: g for t, g in people.groupby(people.t.round(2))}
     rows = []
     for b in boxes[boxes.camera.isin(list(Ps))].itertuples():
@@ -50,15 +71,41 @@ def errors(d) -> pd.DataFrame:
         x, y, vx, vy = (float(g[c].to_numpy()[k]) for c in ("x", "y", "vx", "vy"))
         if np.hypot(vx, vy) < 0.5:
             continue
-        f = geo.flow_jacobian(Ps[b.camera], np.array([x, y, CENTRE_Z])) @ np.array([vx, vy, 0.0])  # eq. 7
+        X = np.array([x, y, CENTRE_Z])
+        f = geo.flow_jacobian(Ps[b.camera], X) @ np.array([vx, vy, 0.0])  # eq. 7
         speed = float(np.hypot(*f))
         if speed <= 0.0:
             continue
         e = np.array([b.flow_u, b.flow_v]) - f
         along = float(e @ f) / speed
         across = float(e[1] * f[0] - e[0] * f[1]) / speed
-        rows.append((str(d), t, b.camera, pid, speed, along, across))
-    return pd.DataFrame(rows, columns=["rec", "t", "camera", "pid", "speed", "along", "across"])
+        du = float(b.u) - float(geo.project(Ps[b.camera], X)[0][0])
+        rows.append((str(d), t, int(round(t * fps[b.camera])), b.camera, b.track, pid, speed, along, across, du))
+    return pd.DataFrame(rows, columns=["rec", "t", "frame", "camera", "track", "pid", "speed", "along", "across", "du"])
+
+
+def autocorrelation(df: pd.DataFrame, col: str, max_lag: int = MAX_LAG) -> np.ndarray:
+    """rho(L), L = 0..max_lag, of column ``col`` over pairs of rows L frames apart in one camera
+    track holding the same person (the column's mean over all rows removed)."""
+    x = df[col].to_numpy(float) - df[col].mean()
+    key = df[["rec", "camera", "track", "pid"]].astype(str).agg("|".join, axis=1).to_numpy()
+    at = {(k, f): i for i, (k, f) in enumerate(zip(key, df["frame"].to_numpy()))}
+    rho = np.zeros(max_lag + 1)
+    for L in range(max_lag + 1):
+        pairs = [(i, j) for (k, f), i in at.items() if (j := at.get((k, f + L))) is not None]
+        if len(pairs) < 10:
+            rho[L:] = np.nan
+            break
+        a, b = np.array(pairs).T
+        rho[L] = float(np.mean(x[a] * x[b]) / np.mean(x**2))
+    return rho
+
+
+def corr_time(rho: np.ndarray) -> float:
+    """1 + 2 sum_L rho(L), up to the first lag whose rho is not positive."""
+    tail = rho[1:]
+    stop = np.flatnonzero(~(tail > 0.0))
+    return float(1.0 + 2.0 * tail[: stop[0] if len(stop) else len(tail)].sum())
 
 
 def rsd(x: pd.Series) -> float:
@@ -78,9 +125,59 @@ def table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-if __name__ == "__main__":
-    if len(sys.argv) < 2:
-        sys.exit(__doc__)
-    df = pd.concat([errors(d) for d in sys.argv[1:]], ignore_index=True)
-    print(f"{len(df)} windows holding one walking mover; flow error (px/s) by true image speed:")
+def short_runs(df: pd.DataFrame, min_speed: float = 30.0, frac: float = 0.5) -> tuple[int, float, float, int]:
+    """Episodes of a flow far short of the motion: among windows of true image speed over
+    ``min_speed`` px/s, those whose flow falls more than ``frac`` of the speed short; returns
+    (windows, their share, the mean run of consecutive such frames in one camera track of one
+    person, runs of 5 frames or more)."""
+    fast = df[df.speed > min_speed].sort_values(["rec", "camera", "track", "pid", "frame"])
+    if not len(fast):
+        return 0, 0.0, 0.0, 0
+    short = (fast.along < -frac * fast.speed).to_numpy()
+    key = fast[["rec", "camera", "track", "pid"]].astype(str).agg("|".join, axis=1).to_numpy()
+    frame = fast["frame"].to_numpy()
+    runs, cur = [], 0
+    for i in range(len(fast)):
+        follows = i > 0 and key[i] == key[i - 1] and frame[i] == frame[i - 1] + 1
+        if short[i]:
+            cur = cur + 1 if follows and cur else 1
+            if i + 1 == len(fast) or not short[i + 1] or key[i + 1] != key[i] or frame[i + 1] != frame[i] + 1:
+                runs.append(cur)
+                cur = 0
+    runs = np.asarray(runs, float)
+    return len(fast), float(short.mean()), float(runs.mean()) if len(runs) else 0.0, int((runs >= 5).sum())
+
+
+def persistent_fit(rho: np.ndarray, lags: int = 10) -> tuple[float, float]:
+    """(w, a) of rho(L) = w a^L, least squares over L = 1..lags."""
+    L = np.arange(1, lags + 1)
+    y = rho[1 : lags + 1]
+    ok = np.isfinite(y)
+    (w, a), _ = curve_fit(lambda x, w, a: w * a**x, L[ok], y[ok], p0=(0.5, 0.8), bounds=([0.0, 0.0], [1.0, 0.999]))
+    return float(w), float(a)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR")
+    ap.add_argument("--flow-window", type=int, default=1, metavar="N", help="average each window's flow over N frames of its track first")
+    a = ap.parse_args(argv)
+    df = pd.concat([errors(d, a.flow_window) for d in a.recordings], ignore_index=True)
+    fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
+    print(f"{len(df)} windows holding one walking mover; flow error (px/s, flow averaged over {a.flow_window} frame(s)) by true image speed:")
     print(table(df).round(2).to_string(index=False))
+    lags = (1, 2, 3, 5, 10, 20)
+    print("how the errors persist along a camera track (autocorrelation by lag in frames; tau: integrated autocorrelation time):")
+    for col, name in (("along", "flow error along the motion"), ("du", "centroid column error")):
+        rho = autocorrelation(df, col)
+        w, a_ = persistent_fit(rho)
+        print(f"  {name}: " + "  ".join(f"rho({L}) {rho[L]:+.2f}" for L in lags) + f"  tau {corr_time(rho):.1f} frames;"
+              f" persistent share {w:.2f}, its correlation time {-1.0 / (fps * np.log(a_)):.2f} s")
+    n, share, run, long_runs = short_runs(df)
+    print(f"flows short of the motion by more than half (true image speed over 30 px/s, {n} windows): {share:.3f} of them,"
+          f" in runs of {run:.1f} frames on average, {long_runs} runs of 5 frames or more")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -15,7 +15,7 @@ import pandas as pd
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events
+from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
 
 
 def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, m: DetectorModel) -> np.ndarray:
@@ -312,6 +312,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     F, P = det.shape
     ids = WindowIds(P, m, rng)
     grids = error_uniforms(rng, det.shape, m, 6)
+    if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
+        grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
     out_f, out_p, out_e, out_fl, out_id, out_c = [], [], [], [], [], []
     split_errors = "u_left_crowded" in m.errors  # models without crowded tables (the bundled fits): one table
     moving = cand & (speed >= MOVING_PX_S)

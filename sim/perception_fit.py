@@ -81,6 +81,7 @@ class DetectorStats:
     pair_runs: list = field(default_factory=list)  # (sequence key, pair, frame, pair index)
     errors: dict = field(default_factory=lambda: defaultdict(list))
     err_seq: list = field(default_factory=list)  # (sequence key, person, frame, main error) for err_rho
+    flow_seq: list = field(default_factory=list)  # (sequence key, person, frame, flow error along the motion) for flow_persist
     label_ok: list = field(default_factory=list)
     frames: int = 0
     clutter: int = 0
@@ -312,6 +313,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
                 s.errors["flow_v"].append(ef[1])
                 (k,), (d,) = flow_frame(g.flow[f, p][None])
                 s.errors[f"flow_along_s{k}"].append(float(ef @ d))
+                s.flow_seq.append((cam.name, p, f, float(ef @ d)))
                 s.errors[f"flow_across_s{k}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
         used = set(match.values())
         for rr in range(len(W)):
@@ -498,6 +500,7 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             o.hit += s.hit
             o.runs += [((i, key), p, f, base + idx) for key, p, f, idx in s.runs]
             o.err_seq += [((i, key), p, f, v) for key, p, f, v in s.err_seq]
+            o.flow_seq += [((i, key), p, f, v) for key, p, f, v in s.flow_seq]
             o.pair_runs += [((i, key), pair, f, len(o.pair_merged) + idx) for key, pair, f, idx in s.pair_runs]
             o.pair_feat += s.pair_feat
             o.pair_merged += s.pair_merged
@@ -673,6 +676,43 @@ def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     return float(np.clip(r, 0.0, 0.999)) if np.isfinite(r) else 0.0
 
 
+FLOW_PERSIST_LAGS = 20  # frames: lags of the flow errors' autocorrelation that flow_persist is fitted to
+MIN_FLOW_PAIRS = 200  # pairs of consecutive flow errors below which no flow_persist is fitted
+
+
+def fit_flow_persist(s: DetectorStats) -> tuple[float, float, float] | None:
+    """(w, a_slow, a_fast) of the flow errors' persistence (windows): their normal scores'
+    autocorrelation over lags 1..FLOW_PERSIST_LAGS frames (pairs in one camera's sequence of one
+    person) fitted by w a_slow^L + (1 - w) a_fast^L, the autocorrelation of the two-timescale
+    Gaussian copula the sampler draws (``perception_model.two_timescale_normals``). The rendered
+    flow detector's errors have a slow part (long shortfalls of a fast, textureless person)
+    that one lag-one correlation (``err_rho``) decays far too fast for. None: too few pairs."""
+    if len(s.flow_seq) < MIN_FLOW_PAIRS:
+        return None
+    from scipy.optimize import curve_fit
+    from scipy.special import ndtri
+    from scipy.stats import rankdata
+
+    key = [str((r[0], r[1])) for r in s.flow_seq]
+    v = np.array([r[3] for r in s.flow_seq], float)
+    z = ndtri((rankdata(v) - 0.5) / len(v))
+    at = {(k, r[2]): i for i, (k, r) in enumerate(zip(key, s.flow_seq))}
+    rho = []
+    for L in range(1, FLOW_PERSIST_LAGS + 1):
+        pairs = np.array([(i, j) for (k, f), i in at.items() if (j := at.get((k, f + L))) is not None], int).reshape(-1, 2)
+        if len(pairs) < MIN_FLOW_PAIRS:
+            break
+        rho.append(float(np.mean(z[pairs[:, 0]] * z[pairs[:, 1]])))
+    if len(rho) < 3:
+        return None
+    lags = np.arange(1, len(rho) + 1)
+    (w, a_s, a_f), _ = curve_fit(lambda x, w, a, b: w * a**x + (1.0 - w) * b**x, lags, np.asarray(rho), p0=(0.5, 0.9, 0.5),
+                                 bounds=([0.0, 0.0, 0.0], [1.0, 0.999, 0.999]))
+    if a_s < a_f:  # name the slower part a_slow
+        w, a_s, a_f = 1.0 - w, a_f, a_s
+    return float(w), float(a_s), float(a_f)
+
+
 TAIL_EDGES = [[-INF, 0.5, INF], [-INF, 0.5, INF]]  # head cut, near (0 or 1)
 MIN_TAIL_EPISODES = 5
 
@@ -696,10 +736,11 @@ def tail_share(s: DetectorStats) -> float:
     return float(np.mean(np.asarray(s.floor_abs) > TAIL_M)) if s.floor_abs else np.nan
 
 
-def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True) -> PerceptionModel:
+def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True, flow_persist: bool = False) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings);
     ``crowded`` False: the windows' edge errors in one table each, crowded or not (no
-    ``*_crowded`` tables, as the bundled eighth and tenth fits)."""
+    ``*_crowded`` tables, as the bundled eighth and tenth fits); ``flow_persist``: the windows'
+    flow errors persist on two time scales (``fit_flow_persist``; the eleventh fit, not bundled)."""
     from .perception_flow import FlowParams
 
     out = {}
@@ -742,6 +783,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
         n_clutter_ids = max(len(s.clutter_ids), 1)
         out[k] = DetectorModel(
             detect=detect, miss_stay=fit_miss_stay(s, p), err_rho=fit_err_rho(s, head_gain), head_gain=head_gain, merge=merge,
+            flow_persist=fit_flow_persist(s) if k == "windows" and flow_persist else None,
             merge_stay=fit_merge_stay(s, merge), errors=errors,
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
             clutter=s.clutter / s.frames if s.frames else 0.0,

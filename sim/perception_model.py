@@ -286,6 +286,9 @@ class DetectorModel:
     # the geometric head-height shift (``CameraGeometry.head_shift``) in the radial error
     head_gain: dict[str, float] = field(default_factory=dict)
     tail: Tail | None = None  # overhead, privacy: drift episodes (None: models before them draw none)
+    # (windows) the flow errors' persistence (w, a_slow, a_fast): their copula is the two-timescale
+    # Gaussian ``two_timescale_normals``; None: err_rho's AR(1), as the other errors (models before it)
+    flow_persist: tuple[float, float, float] | None = None
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -309,6 +312,7 @@ class DetectorModel:
             **({"seen_frames": int(self.seen_frames)} if self.seen_frames > 1 else {}),
             **({"head_gain": {k: round(v, 4) for k, v in self.head_gain.items()}} if self.head_gain else {}),
             **({"tail": self.tail.to_dict()} if self.tail is not None else {}),
+            **({"flow_persist": [round(x, 4) for x in self.flow_persist]} if self.flow_persist is not None else {}),
         }
 
     @classmethod
@@ -325,7 +329,11 @@ class DetectorModel:
                 partial=Table.from_dict(d["partial"]) if "partial" in d else None, partial_frames=float(d.get("partial_frames", 1.0)),
                 seen_frames=int(d.get("seen_frames", 1)),
                 head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()},
-                tail=Tail.from_dict(d["tail"]) if "tail" in d else None)
+                tail=Tail.from_dict(d["tail"]) if "tail" in d else None,
+                flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None)
+        if m.flow_persist is not None and (len(m.flow_persist) != 3 or not all(0.0 <= x <= 1.0 for x in m.flow_persist)
+                                           or max(m.flow_persist[1:]) >= 1.0):
+            raise ValueError(f"flow_persist must be (w, a_slow, a_fast), w in [0, 1] and both a in [0, 1), got {m.flow_persist}")
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
@@ -483,6 +491,13 @@ def correlated_normals(rng: np.random.Generator, shape: tuple[int, int], rho: fl
         z[1:] *= math.sqrt(1 - rho * rho)
         z = ar1(z, rho)
     return z
+
+
+def two_timescale_normals(rng: np.random.Generator, shape: tuple[int, int], w: float, a_slow: float, a_fast: float) -> np.ndarray:
+    """(F, P) standard normals, each column sqrt(w) S + sqrt(1 - w) R with S and R unit AR(1)
+    columns of lag-one correlations a_slow and a_fast: autocorrelation w a_slow^L + (1 - w) a_fast^L
+    at lag L (a slow part of share w that one AR(1) cannot give with a fast one)."""
+    return math.sqrt(w) * correlated_normals(rng, shape, a_slow) + math.sqrt(1.0 - w) * correlated_normals(rng, shape, a_fast)
 
 
 def ar1(x: np.ndarray, a: float) -> np.ndarray:

@@ -895,3 +895,56 @@ def test_window_flow_errors_are_drawn_along_the_motion_by_speed_and_fitted_back(
     both = np.r_[s.errors["u_left"], s.errors["u_left_crowded"]]
     q = np.array([0.1, 0.5, 0.9])
     np.testing.assert_allclose(pooled.error("u_left").at(q), Quantiles.fit(both).at(q))
+
+
+def test_two_timescale_normals_have_the_autocorrelation_of_their_two_parts():
+    """sqrt(w) S + sqrt(1 - w) R of unit AR(1) columns: unit variance and autocorrelation
+    w a_slow^L + (1 - w) a_fast^L (one AR(1) of the same lag-one value decays far faster)."""
+    from trackroom.sim.perception_model import two_timescale_normals
+
+    w, a_s, a_f = 0.7, 0.9, 0.2
+    z = two_timescale_normals(np.random.default_rng(3), (4000, 40), w, a_s, a_f)
+    assert z.var() == pytest.approx(1.0, abs=0.05)
+    for L in (1, 3, 10):
+        rho = float(np.mean(z[L:] * z[:-L]))
+        assert rho == pytest.approx(w * a_s**L + (1 - w) * a_f**L, abs=0.03)
+    assert float(np.mean(z[10:] * z[:-10])) > 3 * (w * a_s + (1 - w) * a_f) ** 10
+
+
+def test_flow_errors_persisting_on_two_time_scales_are_drawn_and_fitted_back(tmp_path):
+    """A windows model with ``flow_persist`` (w, a_slow, a_fast) draws each person's flow errors
+    from the two-timescale copula; ``fit(flow_persist=True)`` measures them back from the
+    analytic recordings (their normal scores' autocorrelation). A model without it draws errors
+    whose slow part the fit finds small; ``fit`` without the flag fits none; a bad value in a
+    model file is one clear error."""
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(persist):
+        def f(m):
+            w = m["windows"]
+            w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+            w.err_rho, w.flow_persist = 0.0, persist
+            for name in [n for n in w.errors if n.startswith("flow_")]:
+                w.errors[name] = Quantiles.gaussian(5.0)
+        return f
+
+    fits = {}
+    for persist in ((0.7, 0.9, 0.2), None):
+        path = tmp_path / str(persist is None)
+        path.mkdir()
+        scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(path, edit(persist))}"])
+        s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+        assert len(s.flow_seq) > pf.MIN_FLOW_PAIRS
+        stats = {k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}
+        fits[persist is None] = pf.fit(stats, ["test"], flow_persist=True)["windows"].flow_persist
+        assert pf.fit(stats, ["test"])["windows"].flow_persist is None
+    w, a_s, _ = fits[False]
+    assert w == pytest.approx(0.7, abs=0.15) and a_s == pytest.approx(0.9, abs=0.05)
+    w0, a0, _ = fits[True]
+    assert w0 * a0**10 < 0.05  # errors drawn afresh each frame: nothing left at lag 10
+    d = load_model("fitted").to_dict()
+    d["detectors"]["windows"]["flow_persist"] = [0.5, 1.2, 0.1]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    with pytest.raises(ModelError, match="flow_persist"):
+        load_model(bad)

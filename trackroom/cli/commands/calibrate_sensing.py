@@ -42,6 +42,9 @@ def add_arguments(p) -> None:
     p.add_argument("--pooled-edges", action="store_true",
                    help="fit the flow windows' edge errors in one table each, crowded or not (no *_crowded tables; "
                         "the bundled model is fitted so)")
+    p.add_argument("--flow-persist", action="store_true",
+                   help="fit the flow windows' flow errors as persisting on two time scales (a slow and a fast part: "
+                        "the rendered flow detector's long shortfalls; the eleventh fit, not bundled)")
     p.add_argument("--quiet", action="store_true", help="no progress bar while rendering")
 
 
@@ -119,7 +122,7 @@ def run(args) -> int:
         names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
-    model = pf.fit(rendered, names, crowded=not args.pooled_edges)
+    model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist)
     if args.only:
         from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
 

@@ -1,0 +1,40 @@
+"""scripts/measure_flow_errors.py: how the flow and centroid errors persist, on synthetic tables."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from scripts.measure_flow_errors import autocorrelation, corr_time, persistent_fit, short_runs
+
+
+def _table(values: np.ndarray, speed: float = 50.0) -> pd.DataFrame:
+    """One camera track per column of ``values`` (frames down), as ``errors`` returns them."""
+    F, P = values.shape
+    f, p = np.meshgrid(np.arange(F), np.arange(P), indexing="ij")
+    return pd.DataFrame({"rec": "r", "t": f.ravel() / 10.0, "frame": f.ravel(), "camera": "c", "track": p.ravel(), "pid": "target",
+                         "speed": speed, "along": values.ravel(), "across": 0.0, "du": values.ravel()})
+
+
+def test_an_ar1_error_has_its_autocorrelation_and_integrated_time():
+    rng = np.random.default_rng(0)
+    a = 0.8
+    x = np.zeros((3000, 8))
+    x[0] = rng.standard_normal(8)
+    for k in range(1, len(x)):
+        x[k] = a * x[k - 1] + np.sqrt(1 - a * a) * rng.standard_normal(8)
+    rho = autocorrelation(_table(x), "along", 20)
+    np.testing.assert_allclose(rho[[1, 2, 5]], a ** np.array([1, 2, 5]), atol=0.03)
+    assert corr_time(rho) == pytest.approx((1 + a) / (1 - a), rel=0.15)  # 1 + 2 sum a^L
+    w, a_fit = persistent_fit(rho)
+    assert w == pytest.approx(1.0, abs=0.1) and a_fit == pytest.approx(a, abs=0.03)
+
+
+def test_runs_of_flows_far_short_of_the_motion_are_counted():
+    along = np.zeros((40, 1))
+    along[5:12, 0] = -40.0  # a run of 7 frames short by 40 of 50 px/s
+    along[20, 0] = -30.0  # a run of one
+    along[30, 0] = -10.0  # short, not by more than half
+    n, share, run, long_runs = short_runs(_table(along))
+    assert (n, long_runs) == (40, 1)
+    assert share == pytest.approx(8 / 40) and run == pytest.approx(4.0)
