@@ -123,24 +123,6 @@ class TargetPlanes(Estimator):
                                           "slower in an image may have no window there, px/s")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
-        flow_corr_frames: float = param(1.0, "integrated autocorrelation time of the flow's error, frames (1 + 2 x the "
-                                             "sum of its autocorrelations): a flow update's variance is multiplied by "
-                                             "it, since consecutive flows share their error")
-        plane_corr_frames: float = param(1.0, "the same for a window centroid's target plane")
-        flow_bias_share: float = param(0.0, "share of the flow error's variance that persists over frames: the "
-                                            "flow tracker's error on one person in one camera, modelled in the "
-                                            "track's state as a Gauss-Markov error per camera (0: flows' errors "
-                                            "taken as independent from frame to frame)")
-        flow_bias_tau: float = param(0.5, "correlation time of that persistent flow error, s")
-        centroid_bias_share: float = param(0.0, "share of the window centroid's error about the projected axis "
-                                                "(edge_sigma_frac of the person's projected width) that persists over "
-                                                "frames, modelled as the flow's (0: independent from frame to frame)")
-        centroid_bias_tau: float = param(0.5, "correlation time of that persistent centroid error, s")
-        accel_sigma_straight: float = param(0.0, "walkers' white-acceleration noise while walking straight on, "
-                                                 "m/s^2/sqrt(Hz): with it, two motion modes (IMM), straight on and "
-                                                 "turning (accel_sigma); 0: one mode, accel_sigma")
-        straight_s: float = param(4.0, "mean time a walker walks straight on, s (the motion modes' switch rate)")
-        turn_s: float = param(1.0, "mean time a walker turns, starts or slows, s")
         area_margin: float = param(0.05, "allowance on target areas, m")
         window_margin_px: float = param(1.0, "allowance on windows, px (plus 3 sigma of the calibrated window noise)")
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "

@@ -139,44 +139,6 @@ class JointTrack:
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
-    # the flow tracker's persistent error on this person in each camera (px/s; 2 per camera, in
-    # ``JointTracker.cams`` order), its covariance and its cross-covariance with s (4, 2 cameras);
-    # None: not modelled (``flow_bias_share`` 0) or not yet started (``JointTracker.start_bias``)
-    b: np.ndarray | None = None
-    B: np.ndarray | None = None
-    C: np.ndarray | None = None
-    # the walking state's motion modes (``JointTracker.predict``; None: one): per mode [probability,
-    # x, P] with x, P the packed state (``pack``), and this frame's log-likelihood of each mode
-    motion: list | None = None
-    motion_ll: np.ndarray | None = None
-
-    def pack(self) -> tuple[np.ndarray, np.ndarray]:
-        """The walking state and the persistent errors as one vector and covariance."""
-        if self.b is None:
-            return self.s.copy(), self.S.copy()
-        return np.r_[self.s, self.b], np.block([[self.S, self.C], [self.C.T, self.B]])
-
-    def unpack(self, x: np.ndarray, P: np.ndarray) -> None:
-        self.s, self.S = x[:4].copy(), P[:4, :4].copy()
-        if len(x) > 4:
-            self.b, self.B, self.C = x[4:].copy(), P[4:, 4:].copy(), P[:4, 4:].copy()
-
-    def combine_motion(self) -> None:
-        """The walking state as the moment-matched mixture of its motion modes."""
-        if self.motion is None:
-            return
-        w = np.array([m[0] for m in self.motion])
-        x = sum(wi * m[1] for wi, m in zip(w, self.motion))
-        P = sum(wi * (m[2] + np.outer(m[1] - x, m[1] - x)) for wi, m in zip(w, self.motion))
-        self.unpack(x, P)
-
-    def sync_motion(self) -> None:
-        """Every motion mode takes the walking state as it now is (after a change made to it
-        directly: a split, a put back on the floor plan, the speed limit)."""
-        if self.motion is not None:
-            x, P = self.pack()
-            for m in self.motion:
-                m[1], m[2] = x.copy(), P.copy()
 
     def estimate(self) -> np.ndarray:
         """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
@@ -210,46 +172,16 @@ class Projection:
 
 
 def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
-              cap: float | None = None, Hb: np.ndarray | None = None) -> bool:
-    """Kalman update of ``tr`` (see ``kf_update_one``); a track with motion modes updates each
-    and adds the measurement's likelihood under each to ``tr.motion_ll`` (its squared
-    Mahalanobis distance capped at chi^2(0.999) of its dimension: one wild window does not
-    decide the mode), then recombines them."""
-    if tr.motion is None:
-        return kf_update_one(tr, H, z, R, gate, soft, cap, Hb)
-    ok = False
-    H2, R2 = np.atleast_2d(H), np.atleast_2d(R)
-    for i, m in enumerate(tr.motion):
-        tr.unpack(m[1], m[2])
-        Hf = np.hstack([H2, Hb if Hb is not None else np.zeros((len(H2), len(m[1]) - 4))]) if len(m[1]) > 4 else H2
-        r = np.atleast_1d(z) - Hf @ m[1]
-        Sy = Hf @ m[2] @ Hf.T + R2
-        d2 = min(float(r @ np.linalg.solve(Sy, r)), float(chi2.ppf(0.999, len(r))))
-        tr.motion_ll[i] += -0.5 * (d2 + float(np.linalg.slogdet(Sy)[1]))
-        ok |= kf_update_one(tr, H, z, R, gate, soft, cap, Hb)
-        m[1], m[2] = tr.pack()
-    tr.combine_motion()
-    return ok
-
-
-def kf_update_one(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
-                  cap: float | None = None, Hb: np.ndarray | None = None) -> bool:
-    """Kalman update of ``tr`` with z = H s + Hb b + noise(R) (``Hb``: on the persistent flow
-    errors ``tr.b``, none by default; a track that models them is updated jointly with them,
-    whatever the measurement). When the innovation's squared
+              cap: float | None = None) -> bool:
+    """Kalman update of ``tr`` with z = H s + noise(R). When the innovation's squared
     Mahalanobis distance d^2 exceeds ``gate`` the update is skipped (False), or with ``soft``
     made after scaling the position's covariance by d^2 / gate, its standard deviation at most
     to ``cap`` (m) (the state, not the measurement, is taken to be off: an overconfident state
     that went astray is pulled back instead of rejecting every later window)."""
     H = np.atleast_2d(H)
     R = np.atleast_2d(R)
-    if tr.b is None:
-        x, P = tr.s, tr.S
-    else:
-        x, P = np.r_[tr.s, tr.b], np.block([[tr.S, tr.C], [tr.C.T, tr.B]])
-        H = np.hstack([H, Hb if Hb is not None else np.zeros((len(H), len(tr.b)))])
-    r = np.atleast_1d(z) - H @ x
-    Sy = H @ P @ H.T + R
+    r = np.atleast_1d(z) - H @ tr.s
+    Sy = H @ tr.S @ H.T + R
     if gate is not None:
         d2 = float(r @ np.linalg.solve(Sy, r))
         if d2 > gate:
@@ -257,18 +189,15 @@ def kf_update_one(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, g
                 return False
             # the state, not the window, is taken to be off: the position's covariance grows
             # (rows and columns scaled, correlations kept), up to sigma_max
-            k = np.ones(len(x))
-            sd = float(np.sqrt(max(P[0, 0], P[1, 1])))
+            k = np.ones(4)
+            sd = float(np.sqrt(max(tr.S[0, 0], tr.S[1, 1])))
             k[:2] = min(np.sqrt(d2 / gate), max(cap / sd, 1.0)) if cap else np.sqrt(d2 / gate)
-            P = P * np.outer(k, k)
-            Sy = H @ P @ H.T + R
-    K = np.linalg.solve(Sy, H @ P).T
-    x = x + K @ r
-    IKH = np.eye(len(x)) - K @ H
-    P = IKH @ P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
-    tr.s, tr.S = x[:4], P[:4, :4]
-    if tr.b is not None:
-        tr.b, tr.B, tr.C = x[4:], P[4:, 4:], P[:4, 4:]
+            tr.S = tr.S * np.outer(k, k)
+            Sy = H @ tr.S @ H.T + R
+    K = np.linalg.solve(Sy, H @ tr.S).T
+    tr.s = tr.s + K @ r
+    IKH = np.eye(4) - K @ H
+    tr.S = IKH @ tr.S @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
     return True
 
 
@@ -333,7 +262,6 @@ class JointTracker:
                  box_sigma: float, u_sigma: float):
         self.cfg, self.Ps, self.widths = cfg, Ps, widths
         self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
-        self.cams = {c: k for k, c in enumerate(Ps)}  # camera -> its block of a track's persistent flow errors
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
@@ -361,19 +289,10 @@ class JointTracker:
         Cs[:2, :2], Cs[2:, 2:] = tr.Ps, cfg.start_sigma_v**2 * np.eye(2)
         if mu_p < 1.0:
             b = mu * q_sw / (1.0 - mu_p)  # share of the walking prior that was standing
-            for x, P in ([tr.motion[0][1:], tr.motion[1][1:]] if tr.motion is not None else []):
-                m = (1.0 - b) * x[:4] + b * ms
-                da, db = x[:4] - m, ms - m
-                P[:4, :4] = (1.0 - b) * (P[:4, :4] + np.outer(da, da)) + b * (Cs + np.outer(db, db))
-                P[:4, 4:] *= 1.0 - b
-                P[4:, :4] *= 1.0 - b
-                x[:4] = m
             m = (1.0 - b) * tr.s + b * ms
             da, db = tr.s - m, ms - m
             tr.S = (1.0 - b) * (tr.S + np.outer(da, da)) + b * (Cs + np.outer(db, db))
             tr.s = m
-            if tr.C is not None:  # the standing mode's share is independent of the flow errors
-                tr.C = (1.0 - b) * tr.C
         if mu_p > 0.0:
             c = (1.0 - mu) * q_ws / mu_p  # share of the standing prior that was walking
             m = (1.0 - c) * tr.xs + c * tr.s[:2]
@@ -384,70 +303,17 @@ class JointTracker:
         tr.mu = mu_p
 
     def predict(self, tr: JointTrack, dt: float) -> None:
-        """Walking / standing interaction (``mix_modes``), then the walking state's prediction:
-        with ``accel_sigma_straight`` (motion modes, IMM) two walking motion models, walking
-        straight on (white acceleration ``accel_sigma_straight``) and turning, starting or
-        slowing (``accel_sigma``), Markov switches of mean durations ``straight_s`` and
-        ``turn_s``; each mode's prior is the mixture of the modes it may come from, each is
-        predicted and updated (``kf_update``) on its own, and the track's walking state is
-        their moment-matched mixture. A walker goes straight between turns: one white
-        acceleration that allows the turns makes the straight legs' velocity loose, and one
-        that fits the legs makes the turns late (measured on the walkers' truth:
-        ``docs/target_planes.md``)."""
         cfg = self.cfg
         self.mix_modes(tr, dt)
-        if not cfg.accel_sigma_straight:
-            self.predict_motion(tr, dt, cfg.accel_sigma)
-            return
-        self.start_bias(tr)
-        if tr.motion is None:
-            x, P = tr.pack()
-            p0 = cfg.straight_s / (cfg.straight_s + cfg.turn_s)
-            tr.motion = [[p0, x, P], [1.0 - p0, x.copy(), P.copy()]]
-        leave = np.array([min(dt / cfg.straight_s, 1.0), min(dt / cfg.turn_s, 1.0)])
-        T = np.array([[1.0 - leave[0], leave[0]], [leave[1], 1.0 - leave[1]]])  # T[i, j]: P(mode j next | mode i)
-        mu = np.array([m[0] for m in tr.motion])
-        c = mu @ T
-        mixed = []
-        for j in range(2):
-            w = T[:, j] * mu / max(c[j], 1e-300)
-            x = sum(w[i] * tr.motion[i][1] for i in range(2))
-            P = sum(w[i] * (tr.motion[i][2] + np.outer(tr.motion[i][1] - x, tr.motion[i][1] - x)) for i in range(2))
-            mixed.append((x, P))
-        for j, (q_a, (x, P)) in enumerate(zip((cfg.accel_sigma_straight, cfg.accel_sigma), mixed)):
-            tr.unpack(x, P)
-            self.predict_motion(tr, dt, q_a)
-            x, P = tr.pack()
-            tr.motion[j] = [float(c[j]), x, P]
-        tr.motion_ll = np.zeros(2)
-        tr.combine_motion()
-
-    def motion_posterior(self, tr: JointTrack) -> None:
-        """The motion modes' probabilities given this frame's measurements (their likelihoods,
-        ``kf_update``), and the walking state recombined with them."""
-        if tr.motion is None or tr.motion_ll is None:
-            return
-        ll = tr.motion_ll - tr.motion_ll.max()
-        w = np.array([m[0] for m in tr.motion]) * np.exp(ll)
-        w = w / w.sum()
-        for m, wi in zip(tr.motion, w):
-            m[0] = float(max(wi, 1e-6))
-        tr.motion_ll = np.zeros(2)
-        tr.combine_motion()
-
-    def predict_motion(self, tr: JointTrack, dt: float, accel_sigma: float) -> None:
-        """One motion model's prediction of the walking state (and the persistent errors)."""
-        cfg = self.cfg
         decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
         F = np.eye(4)
         F[0, 2] = F[1, 3] = dt
         F[2, 2] = F[3, 3] = decay
-        q = accel_sigma**2
+        q = cfg.accel_sigma**2
         Q1 = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
         Q = np.kron(Q1, np.eye(2))
         tr.s = F @ tr.s
         tr.S = F @ tr.S @ F.T + Q
-        self.predict_bias(tr, F, dt)
         for sl, cap in ((slice(0, 2), cfg.sigma_max), (slice(2, 4), 0.5 * cfg.max_speed)):
             # cap the spreads: a stopped walker stays near where it vanished; no one walks faster
             # than max_speed (scaling rows and columns keeps S positive definite)
@@ -456,61 +322,6 @@ class JointTracker:
                 k = np.ones(4)
                 k[sl] = cap / sd
                 tr.S = tr.S * np.outer(k, k)
-                if tr.C is not None:
-                    tr.C = k[:, None] * tr.C
-
-    def flow_white_var(self, c: str) -> float:
-        """Variance (px^2/s^2) of the part of camera c's flow error that is new each frame: the
-        calibrated flow noise and ``flow_model_sigma``, less the persistent share
-        ``flow_bias_share`` (modelled in the track's state, ``start_bias``)."""
-        return (self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2) * (1.0 - self.cfg.flow_bias_share)
-
-    def bias_stationary(self) -> tuple[np.ndarray, np.ndarray]:
-        """(variances, correlation times) of the persistent errors, in ``tr.b``'s order: per
-        camera the flow's 2 components (px/s), then per camera the centroid's, in projected
-        person widths (so that its px size grows with the person's image, as measured)."""
-        cfg = self.cfg
-        flow = np.repeat([(self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * cfg.flow_bias_share for c in self.cams], 2)
-        cen = np.full(len(self.cams), cfg.centroid_bias_share * cfg.edge_sigma_frac**2)
-        tau = np.r_[np.full(len(flow), cfg.flow_bias_tau), np.full(len(cen), cfg.centroid_bias_tau)]
-        return np.r_[flow, cen], tau
-
-    def start_bias(self, tr: JointTrack) -> None:
-        """Starts modelling the track's persistent errors, when ``flow_bias_share`` or
-        ``centroid_bias_share`` is above 0: mean 0, the stationary spread, independent of the
-        state. The flow tracker's error on a person persists over frames, and so does its
-        window's centroid offset from the projected axis (measured: ``scripts/measure_flow_errors.py``):
-        a filter that took each frame's error as new would take the same error again and again
-        as evidence, and be sure of a position and velocity that are off (an overconfident,
-        lagging track)."""
-        if tr.b is not None or (self.cfg.flow_bias_share <= 0.0 and self.cfg.centroid_bias_share <= 0.0):
-            return
-        var, _ = self.bias_stationary()
-        tr.b = np.zeros(len(var))
-        tr.B = np.diag(var)
-        tr.C = np.zeros((4, len(var)))
-
-    def predict_bias(self, tr: JointTrack, F: np.ndarray, dt: float) -> None:
-        """The persistent errors decay (Gauss-Markov, correlation times ``flow_bias_tau`` and
-        ``centroid_bias_tau``) towards their stationary spread; their cross-covariance with s
-        follows F."""
-        self.start_bias(tr)
-        if tr.b is None:
-            return
-        var, tau = self.bias_stationary()
-        a = np.exp(-dt / tau)
-        tr.b = a * tr.b
-        tr.B = np.outer(a, a) * tr.B + np.diag((1.0 - a * a) * var)
-        tr.C = (F @ tr.C) * a[None, :]
-
-    def bias_block(self, c: str) -> slice:
-        """Camera c's flow error components in ``tr.b``."""
-        k = self.cams[c]
-        return slice(2 * k, 2 * k + 2)
-
-    def centroid_bias_index(self, c: str) -> int:
-        """Camera c's centroid error in ``tr.b`` (in projected person widths)."""
-        return 2 * len(self.cams) + self.cams[c]
 
     def project(self, c: str, tr: JointTrack) -> Projection | None:
         P = self.Ps[c]
@@ -521,15 +332,7 @@ class JointTracker:
         (u, v), _ = geo.project(P, X)
         J = geo.flow_jacobian(P, X)
         Ju, J2 = J[0, :2], J[:, :2]
-        flow, var_f = J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T
-        var_u = float(Ju @ tr.S[:2, :2] @ Ju)
-        if tr.b is not None:  # the detector's persistent errors on this person here
-            k = self.bias_block(c)
-            cross = J2 @ tr.C[2:, k]
-            flow, var_f = flow + tr.b[k], var_f + tr.B[k, k] + cross + cross.T
-            i, w = self.centroid_bias_index(c), max(float(win[1] - win[0]), 1.0)
-            u, var_u = u + w * tr.b[i], var_u + w * w * tr.B[i, i] + 2.0 * w * float(Ju @ tr.C[:2, i])
-        return Projection(win, float(u), var_u, flow, var_f, J, float(v))
+        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
     def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
@@ -579,14 +382,14 @@ class JointTracker:
         elif dw < 0:
             sw = 0.5 * w_narrow  # one person partly hidden (an obstacle, the image border) or a fragment
         df = boxes.flow[j] - f_pred
-        Sf = var_f + self.flow_white_var(c) * np.eye(2)
+        Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
         norm = 0.0
         if cfg.fit_normalised:
             # the Gaussian's normalisation, against a perfectly located track's (var0: the window
             # noise and silhouette alone; the calibrated flow noise alone): a prediction spread
             # wide fits any window near it, and is that much less likely to have made this one
-            Sf0 = self.flow_white_var(c) * np.eye(2)
+            Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
             norm = 0.5 * float(np.log(var_u / var0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
         return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f), norm
 
@@ -622,7 +425,7 @@ class JointTracker:
         hidden, or a fragment of the region), the axis anywhere within the missing width
         (uniform: (w_c - w)^2 / 12; section 3.2's partial extraction)."""
         short = max(p.width - float(width), 0.0)
-        return self.u_sigma**2 + (1.0 - self.cfg.centroid_bias_share) * (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
+        return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
 
     def miss_walk(self, p: Projection) -> float:
         """-log P(no window | walking): free for a walking track predicted slow in this image (no
@@ -779,14 +582,7 @@ class JointTracker:
             return
         if offset_sign:
             b += self.cfg.radius * offset_sign * np.sign(float(Ju @ a))
-        Hb = None
-        if tr.b is not None and not offset_sign:
-            # the centroid's persistent offset, beta projected widths: the column u moves by
-            # width beta px, its plane by width beta / (Ju . a) m along a
-            Hb = np.zeros((1, len(tr.b)))
-            Hb[0, self.centroid_bias_index(c)] = p.width / float(Ju @ a)
-        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True,
-                  cap=self.cfg.sigma_max, Hb=Hb)
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
 
     def update_depth(self, tr: JointTrack, c: str, boxes: CameraBoxes, j: int) -> None:
         """Section 3.2's depth range as an interval: pulls the track in only from outside it."""
@@ -799,17 +595,11 @@ class JointTracker:
         kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
-        """Eq. 7: the window's flow = J V (W = 0) plus the flow tracker's persistent error on
-        this person in this camera (when modelled: ``start_bias``); not used beyond ``gate``
-        (chi^2_2)."""
+        """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
-        Hb = None
-        if tr.b is not None:
-            Hb = np.zeros((2, len(tr.b)))
-            Hb[:, self.bias_block(c)] = np.eye(2)
-        var = (self.flow_white_var(c) + extra_var) * self.cfg.flow_corr_frames
-        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate, Hb=Hb)
+        var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
+        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
@@ -876,7 +666,7 @@ class JointTracker:
                         if side:  # the inner edge, as a merged window's outer edges: the axis a radius beyond it
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
                         else:
-                            self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]) * cfg.plane_corr_frames)))
+                            self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
                         used[i] += 1
@@ -934,11 +724,8 @@ class JointTracker:
         for i, tr in enumerate(tracks):
             tr.wide_run = tr.wide_run + 1 if i in wide else 0
             speed = float(np.linalg.norm(tr.s[2:]))
-            self.motion_posterior(tr)
-            speed = float(np.linalg.norm(tr.s[2:]))
             if speed > cfg.max_speed:
                 tr.s[2:] *= cfg.max_speed / speed
-                tr.sync_motion()
             tr.n_used = used[i]
             tr.seen = seen[i]
             if tr.located:
@@ -985,8 +772,6 @@ class JointTracker:
         xy, support = proposals[best]
         new = self.birth(tr.tid, xy, support, frame)
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
-        tr.b = tr.B = tr.C = None  # a new state: its flow errors start afresh
-        tr.motion = None
         return {best}
 
     def wide_clutter(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, free: list[int]) -> list:
@@ -1134,9 +919,6 @@ class JointTracker:
             tr.S[:2, 2:] = 0.0
             tr.S[2:, :2] = 0.0
             tr.S[:2, :2] = np.eye(2) * cfg.radius**2
-            if tr.C is not None:
-                tr.C[:2] = 0.0
-            tr.sync_motion()
             new = self.birth(-1, xy_f, {c: k, c2: j2}, frame)
             new.split = True
             taken.add((c, k))
@@ -1181,9 +963,6 @@ class JointTracker:
             xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
         tr.s = np.r_[xy, 0.0, 0.0]
         tr.S = np.diag([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
-        if tr.C is not None:
-            tr.C[:] = 0.0
-        tr.sync_motion()
         tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
         return True
 
