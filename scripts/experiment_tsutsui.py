@@ -205,6 +205,16 @@ def parse_params(items: list[str]) -> dict:
     return out
 
 
+def recordings_and_params(doc: str, argv=None) -> tuple[list[str], dict]:
+    """The command line of the measurement scripts that run target_planes on recordings:
+    ``DIR [DIR ...] [--param KEY=VALUE ...]`` (``doc``: the script's docstring)."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR")
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
+    a = ap.parse_args(argv)
+    return a.recordings, parse_params(a.param)
+
+
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,
         params: dict | None = None, overrides: list[str] | None = None) -> tuple[Recording, TargetPlanesResult, dict]:
     scene = load_scene("occlusion_lab", overrides or None)

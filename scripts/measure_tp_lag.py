@@ -10,8 +10,6 @@ the reported velocity (negative: the track is behind its person) and across it. 
 along-track error is a lag: a flow that falls short of the person's motion drags the velocity,
 and the position with it. The truth is read here, by the experimenter.
 """
-import argparse
-
 import numpy as np
 
 from scripts import experiment_tsutsui as ts
@@ -37,14 +35,10 @@ def errors(d, params: dict) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("recordings", nargs="+", metavar="DIR")
-    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
-    a = ap.parse_args(argv)
-    params = ts.parse_params(a.param)
-    e = np.vstack([errors(d, params) for d in a.recordings])
+    recordings, params = ts.recordings_and_params(__doc__, argv)
+    e = np.vstack([errors(d, params) for d in recordings])
     along, across = e[:, 0], e[:, 1]
-    print(f"{len(e)} walking frames of the target track (>= 2 cameras, within 1 m) in {len(a.recordings)} recording(s)")
+    print(f"{len(e)} walking frames of the target track (>= 2 cameras, within 1 m) in {len(recordings)} recording(s)")
     print(f"along-track error: median {np.median(along):+.3f} m (negative: behind), rms {np.sqrt(np.mean(along**2)):.3f} m")
     print(f"across-track error: median {np.median(across):+.3f} m, rms {np.sqrt(np.mean(across**2)):.3f} m")
     return 0

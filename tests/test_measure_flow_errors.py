@@ -38,3 +38,22 @@ def test_runs_of_flows_far_short_of_the_motion_are_counted():
     n, share, run, long_runs = short_runs(_table(along))
     assert (n, long_runs) == (40, 1)
     assert share == pytest.approx(8 / 40) and run == pytest.approx(4.0)
+
+
+def test_the_consistency_probe_reads_the_target_track_and_puts_the_tracker_back(tmp_path, capsys):
+    """scripts/measure_tp_consistency.py on a short analytic occlusion_lab recording: it prints
+    the target track's error, spread and NEES, the update kinds it saw, and leaves
+    ``tp_joint.JointTracker`` as it found it."""
+    from scripts import measure_tp_consistency as mc
+    from trackroom.dataset import write_recording
+    from trackroom.estimators import tp_joint
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
+
+    out = tmp_path / "rec"
+    write_recording(simulate(load_scene("occlusion_lab"), 3, 10.0, "analytic"), out)
+    before = (tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow)
+    assert mc.main([str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "NEES position mean" in text and "centroid plane updates" in text and "flow updates" in text
+    assert (tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow) == before

@@ -1,0 +1,126 @@
+"""Is the target_planes track consistent? Its target track's errors against the spread it reports.
+
+    python scripts/measure_tp_consistency.py DIR [DIR ...] [--param KEY=VALUE ...]   # occlusion_lab recordings
+
+Runs target_planes on each recording with the experiment's click (``experiment_tsutsui.click``)
+and reads, frame by frame, the hand-chosen target's track inside the tracker (``tp_joint``): its
+state s and covariance S after the frame's updates, against the target's true position and
+velocity, where the track is within 1 m of the target (a lost track is an identity question).
+Prints the position error (median) against the reported standard deviation (median of
+sqrt(trace S_xy / 2)), the along-track error (negative: behind its person), and the normalised
+error squared e^T S^-1 e of the position and of the velocity: a consistent filter averages 2
+(chi^2 with 2 degrees of freedom; median 1.39). Also by the target's true turn rate (frames
+within 0.5 s of a turn), and, for each kind of update the track took (a window's centroid
+plane, an edge plane, a flow), the true measurement error against the sigma the tracker gave
+it: mean z^2 is 1 for a calibrated sigma. The truth is read here, by the experimenter.
+"""
+import numpy as np
+
+from scripts import experiment_tsutsui as ts
+from trackroom.dataset import read_recording
+from trackroom.estimators import tp_joint
+from trackroom.estimators.target_planes import TargetPlanes
+
+GATE_M = 1.0  # a track farther than this from the target is lost, not noisy
+TURN_BINS = ((0.0, 0.3), (0.3, 1.0), (1.0, np.inf))  # rad/s
+
+
+class Probe:
+    """Wraps ``tp_joint.JointTracker``'s per-frame methods for one run, recording what the
+    target's track (id 0) reports and the errors of the measurements it takes."""
+
+    def __init__(self):
+        self.truth: dict = {}
+        self.t = 0.0
+        self.frames: list = []  # (NEES position, NEES velocity, position error, reported sd, along-track error, turn rate)
+        self.updates: list = []  # (kind, z = true error / sigma)
+        JT = tp_joint.JointTracker
+        self.orig = JT.step, JT.update_plane, JT.update_flow
+        probe = self
+
+        def step(jt, tracks, frame, dt):
+            probe.t += dt
+            out = probe.orig[0](jt, tracks, frame, dt)
+            x = probe.now()
+            for tr in tracks:
+                if tr.tid == 0 and tr.located and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
+                    e = tr.s - x[:4]
+                    sp = float(np.linalg.norm(x[2:4]))
+                    probe.frames.append((float(e[:2] @ np.linalg.solve(tr.S[:2, :2], e[:2])), float(e[2:] @ np.linalg.solve(tr.S[2:, 2:], e[2:])),
+                                         float(np.linalg.norm(e[:2])), float(np.sqrt(np.trace(tr.S[:2, :2]) / 2)),
+                                         float(e[:2] @ x[2:4]) / sp if sp > 0.5 else np.nan, float(x[4])))
+            return out
+
+        def update_plane(jt, tr, c, p, u, sigma_px, offset_sign=0.0):
+            x = probe.now()
+            if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
+                a, b = jt._plane(c, u, p.row)
+                g = float(np.linalg.norm(p.J[0, :2]))
+                if offset_sign:
+                    b += jt.cfg.radius * offset_sign * np.sign(float(p.J[0, :2] @ a))
+                if g > 1e-9:
+                    probe.updates.append(("edge plane" if offset_sign else "centroid plane", float(b - a @ x[:2]) / (sigma_px / g)))
+            return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign)
+
+        def update_flow(jt, tr, c, p, flow, extra_var=0.0, **kw):
+            x = probe.now()
+            if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
+                r = np.asarray(flow, float) - p.J[:, :2] @ x[2:4]
+                var = jt.flow_sigma[c] ** 2 + jt.cfg.flow_model_sigma**2 + extra_var
+                probe.updates.append(("flow", float(r @ r / var) / 2.0))  # per component
+            return probe.orig[2](jt, tr, c, p, flow, extra_var, **kw)
+
+        JT.step, JT.update_plane, JT.update_flow = step, update_plane, update_flow
+
+    def close(self):
+        tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow = self.orig
+
+    def now(self):
+        return self.truth.get(round(self.t, 2))
+
+    def run(self, d, params: dict) -> None:
+        rec = read_recording(d)
+        people = rec.truth.people
+        g = people[people["person_id"] == ts.TARGET].sort_values("t")
+        t = g["t"].to_numpy(float)
+        xy, v = g[["x", "y"]].to_numpy(float), g[["vx", "vy"]].to_numpy(float)
+        acc = np.gradient(v, t, axis=0)
+        turn = np.abs(v[:, 0] * acc[:, 1] - v[:, 1] * acc[:, 0]) / np.maximum((v**2).sum(1), 0.04)
+        k = max(int(round(0.5 / max(float(np.median(np.diff(t))), 1e-3))), 1)
+        turn = np.convolve(turn, np.ones(2 * k + 1) / (2 * k + 1), mode="same")  # within 0.5 s of a turn
+        self.truth = {round(float(a), 2): np.r_[p, q, w] for a, p, q, w in zip(t, xy, v, turn)}
+        self.t = 0.0
+        TargetPlanes(initial_xy=ts.click(rec), **{**ts.estimator_config(rec), **params}).run(rec.observations, rec.calibration)
+
+
+def main(argv=None) -> int:
+    recordings, params = ts.recordings_and_params(__doc__, argv)
+    probe = Probe()
+    try:
+        for d in recordings:
+            probe.run(d, params)
+    finally:
+        probe.close()
+    if not probe.frames:
+        print("the target's track was never within 1 m of the target")
+        return 1
+    f = np.array(probe.frames)
+    print(f"{len(f)} frames of the target track within {GATE_M:g} m of the target in {len(recordings)} recording(s)")
+    print(f"position error median {np.median(f[:, 2]):.3f} m, reported sd median {np.median(f[:, 3]):.3f} m; "
+          f"along-track error median {np.nanmedian(f[:, 4]):+.3f} m (negative: behind)")
+    print(f"NEES position mean {f[:, 0].mean():.1f} (median {np.median(f[:, 0]):.2f}), velocity mean {f[:, 1].mean():.1f} "
+          f"(median {np.median(f[:, 1]):.2f}); consistent: mean 2, median 1.39")
+    for lo, hi in TURN_BINS:
+        m = (f[:, 5] >= lo) & (f[:, 5] < hi)
+        if m.any():
+            print(f"  turn rate {lo:g}-{hi:g} rad/s: {m.sum()} frames, error median {np.median(f[m, 2]):.3f} m, q90 {np.quantile(f[m, 2], 0.9):.3f} m, "
+                  f"NEES position mean {f[m, 0].mean():.1f}")
+    kinds = sorted({k for k, _ in probe.updates})
+    for kind in kinds:
+        z = np.array([v for k, v in probe.updates if k == kind])
+        print(f"  {kind} updates {len(z)}: true error against the tracker's sigma, mean z^2 per component {np.mean(z if kind == 'flow' else z**2):.2f} (1 if calibrated)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
