@@ -123,9 +123,6 @@ class TargetPlanes(Estimator):
                                           "slower in an image may have no window there, px/s")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
-        flow_fail_share: float = param(0.0, "share of frames whose flow window fails (far short of the motion) "
-                                            "in an episode, for the flow's two-state failure chain (0: off)")
-        flow_fail_run: float = param(2.2, "mean run of a failure episode, frames")
         area_margin: float = param(0.05, "allowance on target areas, m")
         window_margin_px: float = param(1.0, "allowance on windows, px (plus 3 sigma of the calibrated window noise)")
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "

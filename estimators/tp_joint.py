@@ -137,7 +137,6 @@ class JointTrack:
     xs: np.ndarray | None = None  # the standing mode's floor position (m) and its covariance Ps (2, 2)
     Ps: np.ndarray | None = None
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
-    flow_failing: dict = field(default_factory=dict)  # camera -> probability that its flow of this person is failing (``update_flow``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
 
@@ -600,37 +599,7 @@ class JointTracker:
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
         var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
-        if self.cfg.flow_fail_share <= 0.0:
-            kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
-            return
-        # the flow detector fails in episodes (a flow far short of the motion for a few frames):
-        # the flow is either J V plus noise, or a failing flow, alpha J V with alpha in [0, 1/2];
-        # weigh the update by the posterior probability beta that it is not failing
-        # (probabilistic data association between the two), which persists per camera as a
-        # two-state chain of the measured share and mean run of the failures
-        cfg = self.cfg
-        p_end = 1.0 / max(cfg.flow_fail_run, 1.0)
-        p_start = p_end * cfg.flow_fail_share / max(1.0 - cfg.flow_fail_share, 1e-9)
-        prev = tr.flow_failing.get(c, cfg.flow_fail_share)
-        pi = prev * (1.0 - p_end) + (1.0 - prev) * p_start
-        R = var * np.eye(2)
-        r = np.asarray(flow, float) - H @ tr.s
-        Sy = H @ tr.S @ H.T + R
-        fpred = H @ tr.s
-        Sf = Sy + (0.5 * float(np.linalg.norm(fpred))) ** 2 / 3.0 * np.eye(2)  # alpha's spread about its mean, both axes
-        rf = r + 0.75 * fpred  # the failing flow's mean, 1/4 J V
-        def dens(x, C):
-            return float(np.exp(-0.5 * x @ np.linalg.solve(C, x)) / (2 * np.pi * np.sqrt(np.linalg.det(C))))
-        ok, bad = (1.0 - pi) * dens(r, Sy), pi * dens(rf, Sf)
-        beta = ok / (ok + bad) if ok + bad > 0.0 else 0.0
-        tr.flow_failing[c] = 1.0 - beta
-        if float(r @ np.linalg.solve(Sy, r)) > gate or beta <= 0.0:
-            return
-        K = np.linalg.solve(Sy, H @ tr.S).T
-        Kr = K @ r
-        tr.s = tr.s + beta * Kr
-        tr.S = tr.S - beta * K @ Sy @ K.T + beta * (1.0 - beta) * np.outer(Kr, Kr)
-        tr.S = 0.5 * (tr.S + tr.S.T)
+        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
