@@ -382,14 +382,14 @@ class JointTracker:
         elif dw < 0:
             sw = 0.5 * w_narrow  # one person partly hidden (an obstacle, the image border) or a fragment
         df = boxes.flow[j] - f_pred
-        Sf = var_f + (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
+        Sf = var_f + self.flow_var(c) * np.eye(2)
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
         norm = 0.0
         if cfg.fit_normalised:
             # the Gaussian's normalisation, against a perfectly located track's (var0: the window
             # noise and silhouette alone; the calibrated flow noise alone): a prediction spread
             # wide fits any window near it, and is that much less likely to have made this one
-            Sf0 = (self.flow_sigma[c] ** 2 + cfg.flow_model_sigma**2) * np.eye(2)
+            Sf0 = self.flow_var(c) * np.eye(2)
             norm = 0.5 * float(np.log(var_u / var0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
         return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f), norm
 
@@ -575,14 +575,29 @@ class JointTracker:
         """The target plane of column u (eq. 4 at the predicted centroid row); with
         ``offset_sign`` = +1 / -1 the column is a window's left / right edge and the axis lies
         ``radius`` inwards (towards larger / smaller u)."""
+        row = self.plane_row(c, p, u, offset_sign)
+        if row is None:
+            return
+        a, b, g = row
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
+
+    def plane_row(self, c: str, p: Projection, u: float, offset_sign: float = 0.0) -> tuple[np.ndarray, float, float] | None:
+        """(a, b, g) of ``update_plane``'s measurement a [x, y]^T = b (m) for column u, and the
+        image's rate g = |du/dxy| (px/m) that turns its pixel sigma into metres; None where the
+        column does not move with the floor position."""
         a, b = self._plane(c, u, p.row)
         Ju = p.J[0, :2]
         g = float(np.linalg.norm(Ju))
         if g < 1e-9:
-            return
+            return None
         if offset_sign:
             b += self.cfg.radius * offset_sign * np.sign(float(Ju @ a))
-        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
+        return a, b, g
+
+    def flow_var(self, c: str) -> float:
+        """Variance (px^2/s^2, per image axis) of camera c's window flow about eq. 7's J V: the
+        calibrated flow noise and ``flow_model_sigma``."""
+        return self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2
 
     def update_depth(self, tr: JointTrack, c: str, boxes: CameraBoxes, j: int) -> None:
         """Section 3.2's depth range as an interval: pulls the track in only from outside it."""
@@ -598,7 +613,7 @@ class JointTracker:
         """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
-        var = self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2 + extra_var
+        var = self.flow_var(c) + extra_var
         kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:

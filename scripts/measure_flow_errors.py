@@ -10,8 +10,7 @@ window's flow against the image velocity of that person's body centre (0.85 m ab
 motion (negative: the flow is short of it) and across it, per bin of true image speed, with their
 median, robust standard deviation (1.4826 MAD), the robust one relative to the speed, and the
 90 % quantile of their size. Run it on rendered recordings to see how the flow detector's error
-grows with the image speed (``target_planes``' ``flow_rel_sigma``), and on their analytic twins
-to compare. The truth is read here, by the experimenter.
+grows with the image speed, and on their analytic twins to compare. The truth is read here, by the experimenter.
 
 ``--flow-window N``: each window's flow is first averaged over the last N frames of its camera
 track, as ``target_planes`` does (``flow_window``, default 1: the detector's own flows).
@@ -21,11 +20,11 @@ holding the same person, of the along-motion flow error and of the window centro
 column minus the projected body centre's), and their integrated autocorrelation time
 tau = 1 + 2 sum_L rho(L) (frames; the sum up to the first lag whose rho is not positive): a
 Kalman filter that takes one such measurement a frame as independent has taken about tau
-frames' worth of error as independent ones, and should multiply its variance by tau
-(``target_planes``' ``flow_corr_frames``, ``plane_corr_frames``). And the fit of
-rho(L) = w a^L over lags 1-10: an error that is a persistent part (share w of its variance,
-Gauss-Markov of correlation time -1 / (fps ln a) s) plus a part new each frame, which is how
-``target_planes`` models the flow's (``flow_bias_share``, ``flow_bias_tau``). Last, the
+frames' worth of error as independent ones, and should multiply its variance by tau. And the fit
+of rho(L) = w a^L over lags 1-10: an error that is a persistent part (share w of its variance,
+Gauss-Markov of correlation time -1 / (fps ln a) s) plus a part new each frame. (Both were
+tried as ``target_planes`` options in the experiment commit f93ffae and not kept:
+docs/target_planes.md, "Is the track consistent?".) Last, the
 episodes of flows far short of the motion (more than half of it, above 30 px/s): their share and
 how long they last (the rendered detector's come in runs; ``perception_fit.fit_flow_persist``).
 """
@@ -38,6 +37,7 @@ from scipy.optimize import curve_fit
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_frames import mean_flows
+from trackroom.sim.perception_fit import lagged_products
 
 MOVERS = ("target", "distractor")
 CENTRE_Z = 0.85
@@ -89,16 +89,7 @@ def autocorrelation(df: pd.DataFrame, col: str, max_lag: int = MAX_LAG) -> np.nd
     track holding the same person (the column's mean over all rows removed)."""
     x = df[col].to_numpy(float) - df[col].mean()
     key = df[["rec", "camera", "track", "pid"]].astype(str).agg("|".join, axis=1).to_numpy()
-    at = {(k, f): i for i, (k, f) in enumerate(zip(key, df["frame"].to_numpy()))}
-    rho = np.zeros(max_lag + 1)
-    for L in range(max_lag + 1):
-        pairs = [(i, j) for (k, f), i in at.items() if (j := at.get((k, f + L))) is not None]
-        if len(pairs) < 10:
-            rho[L:] = np.nan
-            break
-        a, b = np.array(pairs).T
-        rho[L] = float(np.mean(x[a] * x[b]) / np.mean(x**2))
-    return rho
+    return lagged_products(key, df["frame"].to_numpy(), x, max_lag, 10) / np.mean(x**2)
 
 
 def corr_time(rho: np.ndarray) -> float:

@@ -54,11 +54,9 @@ class Probe:
         def update_plane(jt, tr, c, p, u, sigma_px, offset_sign=0.0):
             x = probe.now()
             if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
-                a, b = jt._plane(c, u, p.row)
-                g = float(np.linalg.norm(p.J[0, :2]))
-                if offset_sign:
-                    b += jt.cfg.radius * offset_sign * np.sign(float(p.J[0, :2] @ a))
-                if g > 1e-9:
+                row = jt.plane_row(c, p, u, offset_sign)
+                if row is not None:
+                    a, b, g = row
                     probe.updates.append(("edge plane" if offset_sign else "centroid plane", float(b - a @ x[:2]) / (sigma_px / g)))
             return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign)
 
@@ -66,7 +64,7 @@ class Probe:
             x = probe.now()
             if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
                 r = np.asarray(flow, float) - p.J[:, :2] @ x[2:4]
-                var = jt.flow_sigma[c] ** 2 + jt.cfg.flow_model_sigma**2 + extra_var
+                var = jt.flow_var(c) + extra_var
                 probe.updates.append(("flow", float(r @ r / var) / 2.0))  # per component
             return probe.orig[2](jt, tr, c, p, flow, extra_var, **kw)
 

@@ -655,6 +655,28 @@ def fit_merge_rho(s: DetectorStats, merge: Table, seed: int = 0) -> float:
     return fit_run_rho(_sequences(s.pair_runs), p, merge_runs(s), True, seed)
 
 
+def normal_scores(v: np.ndarray) -> np.ndarray:
+    """Normal scores of ``v``: the standard normal quantiles of its ranks (the Gaussian copula's
+    view of a sample, whatever its marginal distribution)."""
+    from scipy.special import ndtri
+    from scipy.stats import rankdata
+
+    return ndtri((rankdata(v) - 0.5) / len(v))
+
+
+def lagged_products(keys, frames, x: np.ndarray, max_lag: int, min_pairs: int) -> np.ndarray:
+    """c(L), L = 0..max_lag: the mean of x_i x_j over the pairs of entries L frames apart in one
+    sequence (same key); NaN from the first lag with fewer than ``min_pairs`` pairs."""
+    at = {(k, f): i for i, (k, f) in enumerate(zip(keys, frames))}
+    out = np.full(max_lag + 1, np.nan)
+    for L in range(max_lag + 1):
+        pairs = np.array([(i, j) for (k, f), i in at.items() if (j := at.get((k, f + L))) is not None], int).reshape(-1, 2)
+        if len(pairs) < min_pairs:
+            break
+        out[L] = float(np.mean(x[pairs[:, 0]] * x[pairs[:, 1]]))
+    return out
+
+
 def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     """Lag-one correlation of a person's errors in consecutive frames, on normal scores (the
     Gaussian copula the sampler uses); 0 without enough pairs. Floor errors are (radial error,
@@ -662,13 +684,10 @@ def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     the fitted share of the head shift (``head_gain``)."""
     if len(s.err_seq) < 30:
         return 0.0
-    from scipy.special import ndtri
-    from scipy.stats import rankdata
-
     seq = sorted(s.err_seq, key=lambda r: (str(r[0]), r[1], r[2]))
     gain = head_gain or {}
     v = np.array([r[3][0] - gain.get(r[3][2], 0.0) * r[3][1] if isinstance(r[3], tuple) else r[3] for r in seq], float)
-    z = ndtri((rankdata(v) - 0.5) / len(v))
+    z = normal_scores(v)
     same = np.array([str(a[0]) == str(b[0]) and a[1] == b[1] and b[2] == a[2] + 1 for a, b in zip(seq[:-1], seq[1:])])
     if same.sum() < 30:
         return 0.0
@@ -690,19 +709,10 @@ def fit_flow_persist(s: DetectorStats) -> tuple[float, float, float] | None:
     if len(s.flow_seq) < MIN_FLOW_PAIRS:
         return None
     from scipy.optimize import curve_fit
-    from scipy.special import ndtri
-    from scipy.stats import rankdata
 
-    key = [str((r[0], r[1])) for r in s.flow_seq]
-    v = np.array([r[3] for r in s.flow_seq], float)
-    z = ndtri((rankdata(v) - 0.5) / len(v))
-    at = {(k, r[2]): i for i, (k, r) in enumerate(zip(key, s.flow_seq))}
-    rho = []
-    for L in range(1, FLOW_PERSIST_LAGS + 1):
-        pairs = np.array([(i, j) for (k, f), i in at.items() if (j := at.get((k, f + L))) is not None], int).reshape(-1, 2)
-        if len(pairs) < MIN_FLOW_PAIRS:
-            break
-        rho.append(float(np.mean(z[pairs[:, 0]] * z[pairs[:, 1]])))
+    z = normal_scores(np.array([r[3] for r in s.flow_seq], float))
+    c = lagged_products([str((r[0], r[1])) for r in s.flow_seq], [r[2] for r in s.flow_seq], z, FLOW_PERSIST_LAGS, MIN_FLOW_PAIRS)[1:]
+    rho = c[: np.flatnonzero(np.isnan(c))[0]] if np.isnan(c).any() else c
     if len(rho) < 3:
         return None
     lags = np.arange(1, len(rho) + 1)
