@@ -18,7 +18,10 @@ people start where two cameras' target planes cross (``tp_initiate``).
 
 The target is chosen by hand as in the paper: ``initial_xy`` (its floor position at the first
 frame, m) or ``initial_window`` (``[camera, u_left, u_right, v_top, v_bottom]`` at the first
-frame); it is one of the tracks, the one whose identity is reported. With ``multi_person = true``
+frame); it is one of the tracks, the one whose identity is reported. It is located by the first
+two-camera crossing near the click, or (``adopt``) it is the confirmed track that started on it
+when no crossing came near enough: the track whose first state, taken back to the first frame,
+is likelier at the click than someone anywhere on the floor. With ``multi_person = true``
 every confirmed track is reported (section 6's future work).
 
 The output is fixed-lag (``identity_lag_s``, 1 s): who is who after two tracks were ambiguous is
@@ -34,7 +37,7 @@ merged / unreliable / lost and why, Figs. 11-12); ``estimate`` returns the track
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -55,10 +58,16 @@ STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
 class TargetPlanesResult:
     """``tracks``: t, track_id, x, y, vx, vy (+ ``n_cameras``: reliable tracking cameras used,
     ``mode``: planes / area / predicted); ``status``: t, track_id, camera, status, reason, window (the camera's own track id it
-    follows while tracking)."""
+    follows while tracking). For diagnosis (``scripts/explain_tp_losses.py``): ``internal``, every
+    track the tracker held in every frame under its internal id (t, track_id, x, y, vx, vy,
+    n_cameras, mode, confirmed; before the identity decision's relabelling and the output's
+    selection), and ``ends``, each confirmed track the tracker dropped (t, track_id, x, y, reason:
+    unseen / existence / off floor / duplicate, other: the track it duplicated)."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
+    internal: pd.DataFrame = field(default_factory=pd.DataFrame)
+    ends: pd.DataFrame = field(default_factory=pd.DataFrame)
 
 
 @register
@@ -144,6 +153,11 @@ class TargetPlanes(Estimator):
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "
                                    "1 px of the projected cylinder's): compared with the projected cylinder clipped "
                                    "to the image, and its inner edge, not its centroid, is the measured column")
+        adopt: bool = param(True, "single-target mode: while the hand-chosen target is not yet located, a confirmed "
+                                  "track whose first state, taken back to the first frame by the walker model, is "
+                                  "likelier at the click than someone anywhere on the floor becomes the target "
+                                  "(``JointTracker.adopt``; no parameter value: the click's spread init_radius, "
+                                  "accel_sigma and the floor area)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
@@ -228,6 +242,7 @@ class TargetPlanes(Estimator):
             xy0, accept = self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}, inside_room)
             sv = 0.5 * cfg.max_speed
             tr = JointTrack(0, np.r_[xy0, 0.0, 0.0], np.diag([cfg.init_radius**2] * 2 + [sv**2] * 2), confirmed=True, seen=True, located=False)
+            click = (float(times[0]) if len(times) else 0.0, tr.s[:2].copy(), tr.S[:2, :2].copy())
             tracks.append(tr)
             keep = 0
         next_id = len(tracks)
@@ -236,7 +251,7 @@ class TargetPlanes(Estimator):
         floor_area = geo.polygon_area(jt.outline)
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.sigma_v, idl.hold_s, idl.walk_s = floor_area, 0.5 * cfg.max_speed, cfg.hold_s, cfg.walk_s
-        rows, status_rows = [], []
+        rows, status_rows, end_rows = [], [], []
         t_prev = float(times[0]) if len(times) else 0.0
         for t in times:
             t = float(t)
@@ -250,6 +265,7 @@ class TargetPlanes(Estimator):
                 if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
+                tracks[-1].born = (t, tracks[-1].s.copy(), tracks[-1].S.copy())
                 next_id += 1
             if cfg.split_births:
                 # a too-wide window's far side that one other camera's window confirms (tp_joint.JointTracker.split)
@@ -258,7 +274,12 @@ class TargetPlanes(Estimator):
                     new.tid = next_id
                     tracks.append(new)
                     next_id += 1
+            if cfg.adopt and target is not None and not target.located:
+                found = jt.adopt(target, tracks, click, floor_area)  # someone else's track started on the target: it is the target
+                if found is not None:
+                    tracks = [tr for tr in tracks if tr is not found]
             tracks = jt.prune(tracks, keep, inside_room)
+            end_rows += [(t, tr.tid, tr.s[0], tr.s[1], why, other) for tr, why, other in jt.ends]
             if idl is not None:
                 idl.update(t, tracks)
                 if keep is not None:
@@ -273,6 +294,8 @@ class TargetPlanes(Estimator):
                     status_rows.append((t, tr.tid, c, st, reason, win))
         tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
         status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
+        internal = tracks_df.copy()
+        ends = pd.DataFrame(end_rows, columns=["t", "track_id", "x", "y", "reason", "other"])
         # a track is reported once confirmed, and - the output being fixed-lag - from up to
         # identity_lag_s before its confirmation: its first frames, from its birth, when it was
         # confirmed within the lag (an unconfirmed track's frames are never reported otherwise)
@@ -291,7 +314,7 @@ class TargetPlanes(Estimator):
         if not cfg.multi_person:
             tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
             status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
-        return TargetPlanesResult(tracks_df, status_df)
+        return TargetPlanesResult(tracks_df, status_df, internal, ends)
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to

@@ -59,6 +59,8 @@ Per frame:
    of two tracks nearer than ``radius`` the younger is dropped (one person seen twice); a track
    off the floor plan is dropped, except the hand-chosen target's, which is put back on it
    (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
+   The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
+   or takes the confirmed track that started on it when none came near enough (``adopt``).
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
@@ -85,6 +87,8 @@ its id in ``window``), ``unreliable`` (reason ``width``: alone in a window wider
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
@@ -139,6 +143,7 @@ class JointTrack:
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
+    born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
 
     def estimate(self) -> np.ndarray:
         """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
@@ -789,6 +794,41 @@ class JointTracker:
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
         return {best}
 
+    def adopt(self, target: JointTrack, tracks: list[JointTrack], click: tuple[float, np.ndarray, np.ndarray],
+              floor_area: float) -> JointTrack | None:
+        """The hand-chosen target still not located, and a confirmed track (someone a two-camera
+        crossing found and five frames of windows of its own confirmed). ``click``: (t0, x0, P0),
+        the first frame's time and the target's position there with its spread. Each track's
+        first state (``born``: t_b, s_b, S_b) is taken back to t0 with the tracker's walker model
+        (constant velocity, white acceleration ``accel_sigma``): x = x_b - v_b (t_b - t0). The
+        track is the target when that start is likelier under the click, N(x; x0, P0 + its
+        spread), than under someone anywhere on the floor, 1 / ``floor_area`` (the choice
+        ``relink`` makes for a person found again); of several, the likeliest. The target's track
+        takes its state and that track is returned, for the caller to drop. A crossing just
+        outside ``locate``'s disc about the click (a click a few tenths of a metre off, a crossing
+        as much) otherwise starts someone else's track, on the target, and the target is never
+        located."""
+        if not floor_area > 0:
+            return None
+        t0, x0, P0 = click
+        best, best_llr = None, 0.0
+        for tr in tracks:
+            if tr is target or not (tr.confirmed and tr.located) or tr.born is None:
+                continue
+            tb, sb, Sb = tr.born
+            dt = tb - t0
+            B = np.hstack([np.eye(2), -dt * np.eye(2)])  # x(t0) = x_b - dt v_b
+            C = P0 + B @ Sb @ B.T + self.cfg.accel_sigma**2 * dt**3 / 3.0 * np.eye(2)
+            d = B @ sb - x0
+            llr = float(-0.5 * (d @ np.linalg.solve(C, d)) - 0.5 * np.linalg.slogdet(2 * np.pi * C)[1] + np.log(floor_area))
+            if llr > best_llr:
+                best, best_llr = tr, llr
+        if best is not None:
+            for f in dataclasses.fields(JointTrack):
+                if f.name != "tid":
+                    setattr(target, f.name, copy.deepcopy(getattr(best, f.name)))
+        return best
+
     def wide_clutter(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, free: list[int]) -> list:
         """Windows of camera c explained as clutter that hold one confirmed track's projected
         cylinder (within ``margin_px``) and are wider than it (eq. 8 ratio above
@@ -988,13 +1028,17 @@ class JointTracker:
         hand-chosen target), which is put back on the floor plan when it left it (``onto_floor``)."""
         cfg = self.cfg
         out = []
+        self.ends = []  # this frame's confirmed tracks dropped: (track, why, the track it duplicated or None)
         for tr in tracks:
             if tr.tid != keep:
                 if not ((tr.n_used or (tr.split and tr.seen)) if not tr.confirmed else tr.unseen_s <= cfg.hold_s):
+                    self.ends.append((tr, "unseen", None))
                     continue
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
+                    self.ends.append((tr, "existence", None))
                     continue
                 if not on_floor(inside_room, tr.xy):
+                    self.ends.append((tr, "off floor", None))
                     continue
             else:
                 self.onto_floor(tr, inside_room)  # the target is kept, on the floor plan
@@ -1007,5 +1051,8 @@ class JointTracker:
             if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
                 young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
                 if young.tid != keep:
+                    other = a if young is b else b
                     drop.add(young.tid)
+                    self.ends.append((young, "duplicate", other.tid))
+        self.ends = [e for e in self.ends if e[0].confirmed]
         return [tr for tr in out if tr.tid not in drop]

@@ -375,3 +375,80 @@ def test_a_window_cut_by_the_image_border_is_compared_with_the_projection_inside
         pulled[on] = jt.project("south", tr).u - r[0]
     assert cost[True] < 0.1 and cost[False] > 5.0 * cost[True]
     assert 0.0 < pulled[True] <= pulled[False]  # both into the image (the radius offset is shorter than the bounding box's half-width here)
+
+
+def test_prune_records_why_each_confirmed_track_ended():
+    """``prune`` says why it dropped each confirmed track (``TargetPlanesResult.ends``, read by
+    ``scripts/explain_tp_losses.py``): off the floor plan, unseen beyond ``hold_s``, rejected by
+    the existence test, or the younger of two tracks on one person (with the one it duplicated);
+    an unconfirmed track dropped is not recorded, and the target is never dropped."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    cal = calib(cams)
+    S = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])
+
+    def track(tid, s, **kw):
+        return JointTrack(tid, np.asarray(s, float), S.copy(), confirmed=kw.pop("confirmed", True), hits=kw.pop("hits", 50), **kw)
+
+    tracks = [track(0, [2.0, 2.0, 0.5, 0.0]), track(1, [2.1, 2.0, 0.5, 0.0], hits=60),  # 1 duplicates the target
+              track(2, [4.0, 9.0, 0.0, 0.0]), track(3, [5.0, 3.0, 0.0, 0.0], unseen_s=cfg.hold_s + 0.1),
+              track(4, [6.0, 5.0, 0.0, 0.0], exist=EXIST_REJECT - 1.0), track(5, [3.0, 5.0, 0.0, 0.0], confirmed=False),
+              track(6, [6.0, 2.0, 0.0, 0.0], hits=10), track(7, [6.05, 2.0, 0.0, 0.0], hits=30)]
+    out = jt.prune(tracks, 0, cal.floorplan.inside)
+    assert sorted(t.tid for t in out) == [0, 7]
+    assert sorted((tr.tid, why, other) for tr, why, other in jt.ends) == [
+        (1, "duplicate", 0), (2, "off floor", None), (3, "unseen", None), (4, "existence", None), (6, "duplicate", 7)]
+
+
+def test_a_target_clicked_beyond_the_locate_disc_is_found_by_the_track_started_on_it():
+    """The click lies 1.2 m from where the target starts, beyond ``locate``'s disc (``init_radius``
+    + 2 ``radius`` = 0.9 m): no two-camera crossing there ever locates the target, and the
+    crossings on the target start a track of its own. Once confirmed, that track lies inside the
+    99 % gate of the target's prediction from the click and becomes the target (``adopt``):
+    within a second the output is on the walker. A look-alike 3.5 m off, confirmed as early,
+    is not taken. With ``adopt`` off the target stays at the click."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 6.0, 0.1), 6)
+    tgt = line_path([2.0, 2.0], [6.5, 2.0], times)  # 0.75 m/s
+    other = line_path([2.0, 5.5], [6.5, 5.5], times)
+    boxes = _tagged(cams, {"target": tgt, "other": other}, times).drop(columns="is_target")
+    click = [2.0, 3.2]
+    for adopt in (True, False):
+        tr = TargetPlanes(initial_xy=click, adopt=adopt).run(Observations({"boxes": boxes}, 6.0), calib(cams)).tracks
+        err = np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1])
+        late = tr.t >= 1.5
+        if adopt:
+            assert err[late].max() < 0.15
+            assert (np.hypot(tr.x - other[:, 0], tr.y - other[:, 1]) > 1.0).all()
+        else:
+            assert np.allclose(tr[["x", "y"]].to_numpy()[late.to_numpy()], click)
+
+
+def test_adopt_takes_the_track_that_started_at_the_click_not_a_look_alike_nearby():
+    """``adopt`` compares where each confirmed track was at the first frame (its first state taken
+    back by the walker model) with the click: a track born 0.5 s in, 0.6 m from the click and
+    walking away from it at 1 m/s, started there (log-odds against someone anywhere on the floor
+    positive) and is taken; a look-alike born as early 1.8 m away is not, though the target's own
+    prediction has spread 1 m by then (analytic development seed 142: a gate on that prediction
+    took the look-alike)."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    area = 56.0
+    click = (0.0, np.array([2.4, 5.2]), cfg.init_radius**2 * np.eye(2))
+    Sb = np.diag([cfg.radius**2] * 2 + [cfg.birth_sigma_v**2] * 2)
+
+    def born(tid, s, tb=0.5):
+        tr = JointTrack(tid, np.asarray(s, float), Sb.copy(), confirmed=True, hits=5)
+        tr.born = (tb, tr.s.copy(), tr.S.copy())
+        return tr
+
+    def target():
+        return JointTrack(0, np.r_[click[1], 0.0, 0.0], np.diag([1.0, 1.0, 2.25, 2.25]), confirmed=True, located=False)
+
+    look_alike = born(2, [3.1, 6.9, 0.8, 0.1])
+    tgt = target()
+    assert jt.adopt(tgt, [tgt, look_alike], click, area) is None
+    walker = born(1, [2.6, 5.7, 0.0, 1.0])
+    tgt = target()
+    assert jt.adopt(tgt, [tgt, look_alike, walker], click, area) is walker
+    assert tgt.tid == 0 and tgt.located and tgt.s == pytest.approx(walker.s)
