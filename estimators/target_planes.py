@@ -19,8 +19,8 @@ people start where two cameras' target planes cross (``tp_initiate``).
 The target is chosen by hand as in the paper: ``initial_xy`` (its floor position at the first
 frame, m) or ``initial_window`` (``[camera, u_left, u_right, v_top, v_bottom]`` at the first
 frame); it is one of the tracks, the one whose identity is reported. It is located by the first
-two-camera crossing near the click, or (``adopt``) it is the confirmed track that started on it
-when no crossing came near enough: the track whose first state, taken back to the first frame,
+two-camera crossing near the click, or (``adopt``, off) it is the confirmed track that started on
+it when no crossing came near enough: the track whose first state, taken back to the first frame,
 is likelier at the click than someone anywhere on the floor. With ``multi_person = true``
 every confirmed track is reported (section 6's future work).
 
@@ -153,11 +153,13 @@ class TargetPlanes(Estimator):
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "
                                    "1 px of the projected cylinder's): compared with the projected cylinder clipped "
                                    "to the image, and its inner edge, not its centroid, is the measured column")
-        adopt: bool = param(True, "single-target mode: while the hand-chosen target is not yet located, a confirmed "
-                                  "track whose first state, taken back to the first frame by the walker model, is "
-                                  "likelier at the click than someone anywhere on the floor becomes the target "
-                                  "(``JointTracker.adopt``; no parameter value: the click's spread init_radius, "
-                                  "accel_sigma and the floor area)")
+        adopt: bool = param(False, "single-target mode: while the hand-chosen target is not yet located, a confirmed "
+                                   "track whose first state, taken back to the first frame by the walker model, is "
+                                   "likelier at the click than someone anywhere on the floor becomes the target "
+                                   "(``JointTracker.adopt``; no parameter value: the click's spread init_radius, "
+                                   "accel_sigma and the floor area); off: on development seeds it found the target "
+                                   "on 3 recordings and lost it on none, on fresh evaluation seeds 580-589 it took the "
+                                   "look-alike on analytic 586 (docs/target_planes.md)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "

@@ -60,7 +60,8 @@ Per frame:
    off the floor plan is dropped, except the hand-chosen target's, which is put back on it
    (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
-   or takes the confirmed track that started on it when none came near enough (``adopt``).
+   or (when ``adopt``, off by default) takes the confirmed track that started on it when none
+   came near enough.
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
