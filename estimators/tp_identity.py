@@ -70,6 +70,11 @@ import numpy as np
 EXCHANGE_LOG_ODDS = float(np.log(0.99 / 0.01))  # exchange identities only on 99:1 evidence
 
 
+def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
+    """log N(r; 0, C)."""
+    return float(-0.5 * (r @ np.linalg.solve(C, r) + np.linalg.slogdet(2 * np.pi * C)[1]))
+
+
 @dataclass
 class Episode:
     """An open encounter of tracks ``a`` and ``b``: their pre states (s, S, t) and, once they are
@@ -201,8 +206,8 @@ class IdentityLag:
                 dt = t - t_last
                 p, C = self._predict(s, S, dt)
                 stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
-                walked = np.log(max(1.0 - stop, 1e-300)) + self._loglik(tr.s - p, C + tr.S)
-                stood = np.log(max(stop, 1e-300)) + moving + self._loglik(
+                walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
+                stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
                     tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
                 llr = float(np.logaddexp(walked, stood)) - new
                 self.scores.append((t, tr.tid, tid, llr))
@@ -232,7 +237,7 @@ class IdentityLag:
                     continue
                 _, se, Se = at[0]
                 new = float(-np.log(self.relink_area)) + self._walking(sb, Sb)
-                llr = self._loglik(sb - se, Sb + Se) - new
+                llr = gauss_loglik(sb - se, Sb + Se) - new
                 self.scores.append((t, y.tid, e, llr))
                 if llr > best_llr:
                     best, best_llr = y.tid, llr
@@ -242,7 +247,7 @@ class IdentityLag:
     def _walking(self, s: np.ndarray, S: np.ndarray) -> float:
         """log N(v; 0, sigma_v^2 I + S[v]): a track's velocity as a walker's whose direction and
         pace are unknown (someone new, or someone setting off from where they stood)."""
-        return self._loglik(s[2:], self.sigma_v**2 * np.eye(2) + S[2:, 2:])
+        return gauss_loglik(s[2:], self.sigma_v**2 * np.eye(2) + S[2:, 2:])
 
     def _link(self, t: float, tid: int, ended: int, llr: float) -> None:
         """Track ``tid`` carries the identity of the ended track ``ended`` from that one's last
@@ -259,15 +264,11 @@ class IdentityLag:
         Q = self.accel_sigma**2 * np.kron(np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]), np.eye(2))
         return F @ s, F @ S @ F.T + Q
 
-    @staticmethod
-    def _loglik(r, C) -> float:
-        return float(-0.5 * (r @ np.linalg.solve(C, r) + np.linalg.slogdet(2 * np.pi * C)[1]))
-
     def exchange_log_odds(self, td: float, ep: Episode, ta, tb) -> float:
         """log L(X) - log L(K) of the module docstring."""
         pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2]) for k in (ep.a, ep.b))
-        keep = self._loglik(ta.s - pa[0], pa[1] + ta.S) + self._loglik(tb.s - pb[0], pb[1] + tb.S)
-        swap = self._loglik(tb.s - pa[0], pa[1] + tb.S) + self._loglik(ta.s - pb[0], pb[1] + ta.S)
+        keep = gauss_loglik(ta.s - pa[0], pa[1] + ta.S) + gauss_loglik(tb.s - pb[0], pb[1] + tb.S)
+        swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
         return swap - keep
 
     def decide(self, td: float, ep: Episode, ta, tb) -> None:

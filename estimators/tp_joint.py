@@ -101,6 +101,7 @@ from trackroom.scenes.spec import nearest_on_segment
 
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
+from .tp_identity import gauss_loglik
 
 BORDER_PX = 0.5  # a window edge this close to the image's edge is cut by it, px (a window reaching beyond the image was not cut)
 MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
@@ -821,7 +822,7 @@ class JointTracker:
             B = np.hstack([np.eye(2), -dt * np.eye(2)])  # x(t0) = x_b - dt v_b
             C = P0 + B @ Sb @ B.T + self.cfg.accel_sigma**2 * dt**3 / 3.0 * np.eye(2)
             d = B @ sb - x0
-            llr = float(-0.5 * (d @ np.linalg.solve(C, d)) - 0.5 * np.linalg.slogdet(2 * np.pi * C)[1] + np.log(floor_area))
+            llr = gauss_loglik(d, C) + float(np.log(floor_area))
             if llr > best_llr:
                 best, best_llr = tr, llr
         if best is not None:
