@@ -57,8 +57,9 @@ Per frame:
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
    of two tracks nearer than 2 ``radius`` with states alike the younger is dropped (one person
-   seen twice); a track off the floor plan is dropped, except the hand-chosen target's, which is put back on it
-   (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
+   seen twice); a track off the floor plan is dropped, except the hand-chosen target's, which
+   is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
+   largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
    or (when ``adopt``, off by default) takes the confirmed track that started on it when none
    came near enough.

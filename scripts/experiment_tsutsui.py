@@ -77,16 +77,32 @@ def truth_at(rec: Recording, times: np.ndarray) -> pd.DataFrame:
     return pd.concat(out, ignore_index=True)
 
 
+def person_distances(rec: Recording, tracks: pd.DataFrame) -> tuple[list[str], np.ndarray]:
+    """Each output row's distance to every true person at its time: (person ids, sorted;
+    D (rows, people), m)."""
+    tru = truth_at(rec, tracks["t"].to_numpy(float))
+    d = {pid: np.hypot(tracks["x"].to_numpy() - g["x"].to_numpy(), tracks["y"].to_numpy() - g["y"].to_numpy())
+         for pid, g in tru.groupby("person_id")}
+    names = sorted(d)
+    return names, np.stack([d[n] for n in names], 1)
+
+
+def target_held(names: list[str], D: np.ndarray) -> np.ndarray:
+    """The issue's identity held, per row: the nearest true person is the target, within 1 m."""
+    return (np.array(names)[D.argmin(1)] == TARGET) & (D[:, names.index(TARGET)] < 1.0)
+
+
+def run_target(rec: Recording, params: dict | None = None) -> TargetPlanesResult:
+    """The experiment's single-target run on a recording: the seeded click, the calibration's
+    noise, ``params`` (Config values) on top."""
+    return TargetPlanes(initial_xy=click(rec), **{**estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
+
+
 def single_target_metrics(rec: Recording, res: TargetPlanesResult) -> dict:
     tr = res.tracks
-    times = tr["t"].to_numpy(float)
-    tru = truth_at(rec, times)
-    d = {pid: np.hypot(tr["x"].to_numpy() - g["x"].to_numpy(), tr["y"].to_numpy() - g["y"].to_numpy()) for pid, g in tru.groupby("person_id")}
-    names = sorted(d)
-    D = np.stack([d[n] for n in names], 1)
-    nearest = np.array(names)[D.argmin(1)]
-    err = d[TARGET]
-    held = (nearest == TARGET) & (err < 1.0)
+    names, D = person_distances(rec, tr)
+    err = D[:, names.index(TARGET)]
+    held = target_held(names, D)
     n = tr["n_cameras"].to_numpy()
 
     def rmse(mask):
@@ -225,7 +241,7 @@ def run(sensing: str, duration: float, seed: int, progress: bool = False, record
         sensing, seed, duration = rec.meta.get("sensing", "?"), rec.meta.get("seed", "?"), rec.observations.duration
     t0 = time.time()
     kw = {**estimator_config(rec), **(params or {})}
-    res = TargetPlanes(initial_xy=click(rec), **kw).run(rec.observations, rec.calibration)
+    res = run_target(rec, params)
     t_est = time.time() - t0
     m = {"sensing": sensing, "seed": seed, "duration": duration, "sim_s": round(t_sim, 1), "estimate_s": round(t_est, 2)}
     m.update(single_target_metrics(rec, res))

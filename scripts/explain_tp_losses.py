@@ -38,9 +38,8 @@ import glob
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import TARGET, click, estimator_config, parse_params, truth_at
+from scripts.experiment_tsutsui import TARGET, parse_params, person_distances, run_target, target_held, truth_at
 from trackroom.dataset import read_recording
-from trackroom.estimators.target_planes import TargetPlanes
 
 JOIN_S = 1.0  # loss runs less than this apart are one episode
 NEAR_M = 1.5  # someone within this of the target is beside it
@@ -64,15 +63,14 @@ def positions(truth: pd.DataFrame) -> dict[str, np.ndarray]:
 
 def explain(d: str, params: dict | None = None) -> list[dict]:
     rec = read_recording(d)
-    res = TargetPlanes(initial_xy=click(rec), **{**estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
+    res = run_target(rec, params)
     out = res.tracks
     t = out["t"].to_numpy(float)
     P = positions(truth_at(rec, t))
     est = out[["x", "y"]].to_numpy(float)
-    dist = {pid: np.hypot(*(est - xy).T) for pid, xy in P.items()}
-    names = sorted(dist)
-    nearest = np.array(names)[np.stack([dist[n] for n in names], 1).argmin(1)]
-    held = (nearest == TARGET) & (dist[TARGET] < 1.0)
+    names, D = person_distances(rec, out)
+    nearest = np.array(names)[D.argmin(1)]
+    held = target_held(names, D)
     internal = res.internal[res.internal["confirmed"].astype(bool)]
     by_t = {round(k, 6): g for k, g in internal.groupby(internal["t"].round(6))}
     ends = res.ends
@@ -81,8 +79,7 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
         t0 = t[i0]
         # the person the track went to: the one most often nearest its output over the episode
         # (within 1 m; none: it drifted off everyone)
-        took = [n for n, dn in zip(nearest[i0:i1 + 1], np.stack([dist[n] for n in names], 1)[i0:i1 + 1].min(1))
-                if n != TARGET and dn < 1.0]
+        took = [n for n, dn in zip(nearest[i0:i1 + 1], D[i0:i1 + 1].min(1)) if n != TARGET and dn < 1.0]
         other = max(set(took), key=took.count) if took else ""
         gap = float(np.hypot(*(P[other][i0] - P[TARGET][i0]))) if other else np.inf
         before = (t >= t0 - 1.0) & (t < t0)

@@ -19,7 +19,6 @@ import numpy as np
 from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_joint
-from trackroom.estimators.target_planes import TargetPlanes
 
 GATE_M = 1.0  # a track farther than this from the target is lost, not noisy
 TURN_BINS = ((0.0, 0.3), (0.3, 1.0), (1.0, np.inf))  # rad/s
@@ -88,7 +87,7 @@ class Probe:
         turn = np.convolve(turn, np.ones(2 * k + 1) / (2 * k + 1), mode="same")  # within 0.5 s of a turn
         self.truth = {round(float(a), 2): np.r_[p, q, w] for a, p, q, w in zip(t, xy, v, turn)}
         self.t = 0.0
-        TargetPlanes(initial_xy=ts.click(rec), **{**ts.estimator_config(rec), **params}).run(rec.observations, rec.calibration)
+        ts.run_target(rec, params)
 
 
 def main(argv=None) -> int:

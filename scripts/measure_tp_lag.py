@@ -14,13 +14,12 @@ import numpy as np
 
 from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
-from trackroom.estimators.target_planes import TargetPlanes
 
 
 def errors(d, params: dict) -> np.ndarray:
     """(n, 2) along- and across-track errors (m) of the target track in recording ``d``."""
     rec = read_recording(d)
-    res = TargetPlanes(initial_xy=ts.click(rec), **{**ts.estimator_config(rec), **params}).run(rec.observations, rec.calibration)
+    res = ts.run_target(rec, params)
     tr = res.tracks
     times = tr["t"].to_numpy(float)
     tru = ts.truth_at(rec, times)

@@ -78,12 +78,10 @@ def figures(case: str, rec, tp_params: dict | None = None) -> dict:
     from trackroom.metrics.score import evaluate
     from trackroom.scenes.loader import load_scene
 
-    if case.startswith("target_planes"):
-        kw = {**ts.estimator_config(rec), **(tp_params or {})}
     if case == "target_planes (target)":
-        res = TargetPlanes(initial_xy=ts.click(rec), **kw).run(rec.observations, rec.calibration)
-        return ts.single_target_metrics(rec, res)
+        return ts.single_target_metrics(rec, ts.run_target(rec, tp_params))
     if case == "target_planes (multi)":
+        kw = {**ts.estimator_config(rec), **(tp_params or {})}
         tracks = TargetPlanes(multi_person=True, **kw).estimate(rec.observations, rec.calibration)
         scene = load_scene(rec.meta["scene"])
         return evaluate(ts.movers_only(rec, scene), tracks, gate=1.0).metrics()
