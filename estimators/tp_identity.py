@@ -11,7 +11,9 @@ of the pair's states before and after it, with both assignments kept until then:
   bodies side by side, each a window width: any nearer and one's window can be taken for the
   other's). An **episode** starts at the first ambiguous frame; each track's *pre* state is its
   filtered state s, S (``[x, y, vx, vy]``, m, m/s) in the frame before (a track born during the
-  episode: its first state).
+  episode: its first state), refreshed while the pair, merged in some view, is still at least
+  ``4 radius`` apart on the floor (the other views see them apart: who is who is not in doubt
+  yet, and the prediction to the decision is that much shorter).
 - **Decision**: the episode ends at the first frame the pair is not ambiguous, t1; the decision
   waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the episode), so
   the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
@@ -32,6 +34,22 @@ of the pair's states before and after it, with both assignments kept until then:
   encounter itself, where the two are within a body width or two of each other) keep what was
   reported: the decision never reaches back further than ``lag_s``.
 
+- **Hand-over (``handover``)**: a pair one of whose tracks ends during the encounter (dropped as
+  a duplicate of the other, rejected by the existence test) has nothing left to exchange with,
+  yet the survivor may have come out of it on the other person - and the tracker starts a new
+  track on its own person. ``lag_s`` after the end, each track confirmed since the encounter
+  began (under its own identity, the gone identity not carried on by ``relink``; the gone track
+  once confirmed) is scored with the survivor as the pair's continuation:
+
+      log L(X) = log N(s_sv; F s_gone^pre, ...) + log N(s_new; F s_sv^pre, ...)
+      log L(K) = log N(s_sv; F s_sv^pre, ...) + max(log N(s_new; F s_gone^pre, ...),
+                                                    log(1 / floor area) + log N(v_new; 0, sigma_v^2 I + S_new[v]))
+
+  (kept: the new track is the gone person found again, or someone new). The new track of the
+  largest log L(X) - log L(K) above ``HANDOVER_LOG_ODDS`` takes the survivor's identity, and the
+  survivor the gone one's, from the end on: Bayes' decision at the prior measured on
+  development seeds (``HANDOVER_PRIOR``; an encounter that broke a track has no tracker
+  continuity to trust, unlike the pair exchange above, held to the 1 % level).
 - **A person found again (multi-person mode, ``relink``)**: a confirmed track that ends (the
   tracker's existence test rejected it, or ``hold_s`` passed unseen) leaves its identity, last
   state s_e, S_e, standing probability mu_e and time. When a track is confirmed for the first
@@ -68,6 +86,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 EXCHANGE_LOG_ODDS = float(np.log(0.99 / 0.01))  # exchange identities only on 99:1 evidence
+# a hand-over's prior probability of an exchange, measured on development seeds by
+# scripts/measure_tp_handover.py with hand-overs off (rendered 100-159, analytic and head-on
+# 100-199: of 50 hand-overs the truth decides, 8 were exchanges); the decision is Bayes' under it
+HANDOVER_PRIOR = 8 / 50
+HANDOVER_LOG_ODDS = float(np.log((1.0 - HANDOVER_PRIOR) / HANDOVER_PRIOR))
 
 
 def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
@@ -84,6 +107,8 @@ class Episode:
     b: int
     pre: dict
     t1: float | None = None
+    gone: int | None = None  # the track of the pair that ended during the encounter (``handover``)
+    t_end: float | None = None  # when it ended
 
 
 @dataclass
@@ -114,6 +139,10 @@ class IdentityLag:
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of an ended confirmed track
     links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(someone new)) of each link
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
+    area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
+    confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
+    handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
+    handovers: list = field(default_factory=list)  # each new track scored by ``hand_over``: its time, tracks, log-odds and states
 
     def identity(self, tid: int) -> int:
         return self.ident.setdefault(tid, tid)
@@ -144,6 +173,8 @@ class IdentityLag:
         for tr in tracks:
             self.identity(tr.tid)
             self.born.setdefault(tr.tid, t)
+            if tr.confirmed:
+                self.confirmed_ids.add(tr.tid)
         alive = {tr.tid: tr for tr in tracks}
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
@@ -156,11 +187,20 @@ class IdentityLag:
                     self.episodes[key] = Episode(key[0], key[1], pre)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
+                    if ep.gone is None and float(np.linalg.norm(a.s[:2] - b.s[:2])) >= 4.0 * self.radius and all(k in self.last for k in (a.tid, b.tid)):
+                        ep.pre = {k: self.last[k] for k in (a.tid, b.tid)}
             elif ep is not None and ep.t1 is None:
                 ep.t1 = t
         for key, ep in list(self.episodes.items()):
-            if ep.a not in alive or ep.b not in alive:
-                del self.episodes[key]  # a track of the pair is gone: nothing to exchange
+            if ep.gone is not None:
+                if t - ep.t_end >= self.lag_s - 1e-9:
+                    del self.episodes[key]
+                    self.hand_over(t, ep, alive)
+            elif ep.a not in alive or ep.b not in alive:
+                if ep.a in alive or ep.b in alive:
+                    ep.gone, ep.t_end = (ep.a if ep.a not in alive else ep.b), t  # decided with a new track, lag_s on
+                else:
+                    del self.episodes[key]  # a track of the pair is gone: nothing to exchange
             elif ep.t1 is not None and t - ep.t1 >= self.lag_s - 1e-9:
                 del self.episodes[key]
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
@@ -283,6 +323,47 @@ class IdentityLag:
         self.events.append((ep.t1, {ep.a: ib, ep.b: ia}))
         for key in [k for k in self.episodes if ep.a in k or ep.b in k]:
             del self.episodes[key]  # their other encounters were scored with the old identities
+
+    def hand_over(self, td: float, ep: Episode, alive: dict) -> None:
+        """An encounter one of whose tracks ended (``gone``), ``lag_s`` after its end: the survivor
+        and each track confirmed since the encounter began (a person the tracker found again)
+        are scored as the pair's continuation, kept (the survivor continues its own pre state,
+        the new track the gone one's) against exchanged, as ``exchange_log_odds``; the new track
+        of the largest log-odds exchanges when they exceed ``EXCHANGE_LOG_ODDS``: the survivor
+        takes the gone track's identity and the new track the survivor's, from the end on."""
+        sv = ep.b if ep.gone == ep.a else ep.a
+        if sv not in alive or not alive[sv].confirmed:
+            return
+        if self.ident.get(ep.gone, ep.gone) in {self.ident.get(k, k) for k in alive}:
+            return  # the gone identity was found again (``relink``)
+        if ep.gone not in self.confirmed_ids:
+            return  # a track never confirmed (a fragment's): no one to hand over
+        ts = alive[sv]
+        t_pre = min(v[2] for v in ep.pre.values())
+        best, best_llr = None, HANDOVER_LOG_ODDS
+        for tid, tr in alive.items():
+            if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
+                continue
+            pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2])
+            ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2])
+            # kept: the survivor continues itself, the new track the gone one, or someone new
+            new = float(-np.log(self.area)) + self._walking(tr.s, tr.S) if self.area else -np.inf
+            keep = gauss_loglik(ts.s - ps[0], ps[1] + ts.S) + max(gauss_loglik(tr.s - pg[0], pg[1] + tr.S), new)
+            swap = gauss_loglik(ts.s - pg[0], pg[1] + ts.S) + gauss_loglik(tr.s - ps[0], ps[1] + tr.S)
+            llr = swap - keep
+            self.handovers.append({"t": td, "survivor": sv, "new": tid, "gone": ep.gone, "log_odds": llr,
+                                   "t_pre": t_pre, "survivor_pre": ep.pre[sv][0][:2].copy(), "gone_pre": ep.pre[ep.gone][0][:2].copy(),
+                                   "survivor_xy": ts.s[:2].copy(), "new_xy": tr.s[:2].copy()})
+            if llr > best_llr:
+                best, best_llr = tid, llr
+        if best is None or not self.handover:
+            return  # (without ``handover`` the pairs are scored, for diagnosis, and never exchanged)
+        i_sv, i_gone = self.identity(sv), self.identity(ep.gone)
+        self.ident[sv], self.ident[best] = i_gone, i_sv
+        self.events.append((ep.t_end, {sv: i_gone, best: i_sv}))
+        self.ended.pop(ep.gone, None)  # its identity is carried on: not to be found again
+        for key in [k for k in self.episodes if sv in k or best in k]:
+            del self.episodes[key]
 
     def relabel(self, t: np.ndarray, tid: np.ndarray) -> np.ndarray:
         """Identity of each output row (time ``t``, internal track ``tid``): its own id, changed

@@ -30,8 +30,8 @@ camera), multi-person MOTA >= 0.9 on the movers, rendered and analytic.
 from __future__ import annotations
 
 import argparse
-import glob
 import dataclasses
+import glob
 import json
 import os
 import sys
@@ -221,14 +221,19 @@ def parse_params(items: list[str]) -> dict:
     return out
 
 
-def recordings_and_params(doc: str, argv=None) -> tuple[list[str], dict]:
+def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
     """The command line of the measurement scripts that run target_planes on recordings:
-    ``DIR [DIR ...] [--param KEY=VALUE ...]`` (``doc``: the script's docstring)."""
+    ``DIR [DIR ...] [--param KEY=VALUE ...]``, and ``[--csv FILE]`` with ``csv_help`` (``doc``:
+    the script's docstring). Returns the folders (quoted globs expanded), the Config values and
+    the CSV path (None: not asked for)."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    ap.add_argument("recordings", nargs="+", metavar="DIR")
+    ap.add_argument("recordings", nargs="+", metavar="DIR", help="recording folders (globs allowed)")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
+    if csv_help:
+        ap.add_argument("--csv", help=csv_help)
     a = ap.parse_args(argv)
-    return a.recordings, parse_params(a.param)
+    dirs = [d for pat in a.recordings for d in (sorted(glob.glob(pat)) or [pat])]
+    return dirs, parse_params(a.param), getattr(a, "csv", None)
 
 
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,

@@ -1,6 +1,6 @@
 """Why `target_planes` loses its target: each loss episode of a recording, classified.
 
-    python scripts/explain_tp_losses.py DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+    python -m scripts.explain_tp_losses DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
 
 Runs the single-target tracker as ``scripts/experiment_tsutsui.py`` does (the same click) and
 reads its output against the truth, by the experimenter. A frame is *held* as in the issue's
@@ -13,6 +13,9 @@ confirmed track it dropped, and why):
   over the episode; the look-alike, mostly; none: it drifted off everyone), and ``gap``: how far
   that person was from the target when the episode started, m;
 - ``cams``: the target's tracking cameras (``n_cameras``) over the second before the episode, mean;
+  ``views``: the cameras that truly see it then (the truth's visibility: in view and not hidden by
+  the floor plan's boxes or another person), mean - fewer than two: depth from one camera alone;
+- ``x``, ``y``: where the target was when the episode started (floor, m);
 - ``other_track``: whether that person had a confirmed track of its own (within 0.5 m) in the
   frame before the episode - ``tracked`` - or not; if not, how the last track on it ended in the
   10 s before: ``duplicate`` (dropped as one person seen twice; ``of target``: as a duplicate of
@@ -32,13 +35,10 @@ the two exchanged). The summary counts them over the recordings.
 """
 from __future__ import annotations
 
-import argparse
-import glob
-
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import TARGET, parse_params, person_distances, run_target, target_held, truth_at
+from scripts.experiment_tsutsui import TARGET, person_distances, recordings_and_params, run_target, target_held, truth_at
 from trackroom.dataset import read_recording
 
 JOIN_S = 1.0  # loss runs less than this apart are one episode
@@ -61,6 +61,15 @@ def positions(truth: pd.DataFrame) -> dict[str, np.ndarray]:
     return {pid: g[["x", "y"]].to_numpy(float) for pid, g in truth.groupby("person_id")}
 
 
+def views_before(visibility: pd.DataFrame, person: str, t0: float, span: float = 1.0) -> float:
+    """Mean number of cameras that truly see ``person`` (the truth's ``visible``) over the ``span``
+    seconds before ``t0``; NaN without visibility rows there."""
+    v = visibility[(visibility["person_id"] == person) & (visibility["t"] >= t0 - span - 1e-9) & (visibility["t"] < t0 - 1e-9)]
+    if not len(v):
+        return float("nan")
+    return float(v.groupby("t")["visible"].sum().mean())
+
+
 def explain(d: str, params: dict | None = None) -> list[dict]:
     rec = read_recording(d)
     res = run_target(rec, params)
@@ -74,6 +83,7 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
     internal = res.internal[res.internal["confirmed"].astype(bool)]
     by_t = {round(k, 6): g for k, g in internal.groupby(internal["t"].round(6))}
     ends = res.ends
+    vis = rec.truth.tables.get("visibility")
     rows = []
     for i0, i1 in episodes(held, t):
         t0 = t[i0]
@@ -84,6 +94,7 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
         gap = float(np.hypot(*(P[other][i0] - P[TARGET][i0]))) if other else np.inf
         before = (t >= t0 - 1.0) & (t < t0)
         cams = float(out["n_cameras"].to_numpy()[before].mean()) if before.any() else float("nan")
+        views = views_before(vis, TARGET, t0) if vis is not None else float("nan")
         # the target's internal track in the frame before: the one at the output's position
         ib = max(i0 - 1, 0)
         g = by_t.get(round(t[ib], 6), internal.iloc[:0])
@@ -115,7 +126,8 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
             cause = "beside, untracked"
         rows.append({"recording": d, "seed": rec.seed, "t0": round(float(t0), 1), "t1": round(float(t[i1]), 1),
                      "frames": int((~held[i0:i1 + 1]).sum()), "other": other, "gap": round(gap, 2),
-                     "cams": round(cams, 1), "other_track": other_track, "follower": follower, "followed_frames": fol,
+                     "cams": round(cams, 1), "views": round(views, 1),
+                     "x": round(float(P[TARGET][i0][0]), 2), "y": round(float(P[TARGET][i0][1]), 2), "other_track": other_track, "follower": follower, "followed_frames": fol,
                      "cause": cause,
                      "identity_held": float(held.mean()), "n_frames": len(t)})
     return rows
@@ -143,23 +155,18 @@ def why_untracked(ends: pd.DataFrame, internal: pd.DataFrame, t: np.ndarray, xy:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("recordings", nargs="+", metavar="DIR", help="recording folders (globs allowed)")
-    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
-    ap.add_argument("--csv", help="write the episodes here")
-    a = ap.parse_args(argv)
-    dirs = [d for pat in a.recordings for d in (sorted(glob.glob(pat)) or [pat])]
+    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write the episodes here")
     rows = []
     for d in dirs:
-        ep = explain(d, parse_params(a.param))
+        ep = explain(d, params)
         for r in ep:
             print(f"seed {r['seed']!s:>4} {r['t0']:5.1f}-{r['t1']:5.1f} s  {r['frames']:3d} frames  other {r['other']} "
-                  f"{r['gap']:.2f} m  cams {r['cams']:.1f}  other's track {r['other_track']:18s} "
+                  f"{r['gap']:.2f} m  cams {r['cams']:.1f} of {r['views']:.1f} seeing  at ({r['x']:.1f}, {r['y']:.1f})  other's track {r['other_track']:18s} "
                   f"follower {'yes' if r['follower'] else 'no '}  {r['cause']}", flush=True)
         rows += ep
     df = pd.DataFrame(rows)
-    if a.csv:
-        df.to_csv(a.csv, index=False)
+    if csv:
+        df.to_csv(csv, index=False)
     if not len(df):
         print(f"{len(dirs)} recordings: the target is never lost")
         return 0

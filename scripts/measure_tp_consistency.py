@@ -1,6 +1,6 @@
 """Is the target_planes track consistent? Its target track's errors against the spread it reports.
 
-    python scripts/measure_tp_consistency.py DIR [DIR ...] [--param KEY=VALUE ...]   # occlusion_lab recordings
+    python -m scripts.measure_tp_consistency DIR [DIR ...] [--param KEY=VALUE ...]   # occlusion_lab recordings
 
 Runs target_planes on each recording with the experiment's click (``experiment_tsutsui.click``)
 and reads, frame by frame, the hand-chosen target's track inside the tracker (``tp_joint``): its
@@ -91,7 +91,7 @@ class Probe:
 
 
 def main(argv=None) -> int:
-    recordings, params = ts.recordings_and_params(__doc__, argv)
+    recordings, params, _ = ts.recordings_and_params(__doc__, argv)
     probe = Probe()
     try:
         for d in recordings:

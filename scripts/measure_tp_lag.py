@@ -1,6 +1,6 @@
 """Does the target_planes track lag behind its person? Along- and across-track error of the target.
 
-    python scripts/measure_tp_lag.py DIR [DIR ...] [--param KEY=VALUE ...]   # occlusion_lab recordings
+    python -m scripts.measure_tp_lag DIR [DIR ...] [--param KEY=VALUE ...]   # occlusion_lab recordings
 
 Runs target_planes on each recording with the experiment's click (``experiment_tsutsui.click``)
 and compares the reported target track with the target's true position, frame by frame, where
@@ -34,7 +34,7 @@ def errors(d, params: dict) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    recordings, params = ts.recordings_and_params(__doc__, argv)
+    recordings, params, _ = ts.recordings_and_params(__doc__, argv)
     e = np.vstack([errors(d, params) for d in recordings])
     along, across = e[:, 0], e[:, 1]
     print(f"{len(e)} walking frames of the target track (>= 2 cameras, within 1 m) in {len(recordings)} recording(s)")

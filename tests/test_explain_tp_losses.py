@@ -1,8 +1,8 @@
 """scripts/explain_tp_losses.py: loss episodes of target_planes' single-target output."""
 import numpy as np
-
-from scripts.explain_tp_losses import episodes, why_untracked
 import pandas as pd
+
+from scripts.explain_tp_losses import episodes, views_before, why_untracked
 
 
 def test_loss_runs_less_than_a_second_apart_are_one_episode():
@@ -29,3 +29,16 @@ def test_the_last_track_on_the_other_person_and_how_it_ended():
     assert why_untracked(ends.iloc[:0], internal, t, xy, 4.0, own=0) == "alive"
     far = np.c_[t * 0 + 9.0, t * 0 + 9.0]
     assert why_untracked(ends, internal, t, far, 4.0, own=0) == "never"
+
+
+def test_views_before_counts_the_cameras_that_truly_see_the_person():
+    # two frames in the second before t0 = 1.0: 2 cameras then 1 see the target; the distractor
+    # and frames at or after t0 do not count
+    vis = pd.DataFrame({
+        "t": [0.5, 0.5, 0.5, 0.9, 0.9, 0.9, 1.0, 0.5],
+        "camera": ["a", "b", "c", "a", "b", "c", "a", "a"],
+        "person_id": ["target"] * 7 + ["distractor"],
+        "visible": [True, True, False, True, False, False, True, True],
+    })
+    assert views_before(vis, "target", 1.0) == 1.5
+    assert np.isnan(views_before(vis, "target", 10.0))

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
+from trackroom.estimators.tp_identity import EXCHANGE_LOG_ODDS, HANDOVER_LOG_ODDS, IdentityLag
 from trackroom.estimators.tp_joint import JointTrack
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, right_angle_pair
@@ -251,3 +251,58 @@ def test_an_identity_still_carried_is_not_given_to_a_new_track():
                JointTrack(2, np.array([1.0, 1.05, 0.0, 0.0]), S0.copy(), confirmed=t >= 0.5, seen=True)]
         idl.update(float(t), trs)
     assert idl.links == [] and idl.identity(2) == 2
+
+
+def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0):
+    """As ``run``, but track 1 (on "B", the target's track 0 on "A") ends at ``end_at`` (dropped
+    by the tracker, e.g. as a duplicate of track 0) and a new confirmed track 2 follows
+    ``new_on`` from ``new_from``; track 0 is on "B" from ``swap_at``. Returns as ``run``."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=area, sigma_v=1.5, handover=handover)
+    rows = []
+    for t in TIMES:
+        trs = [JointTrack(0, np.array(paths["A" if t < swap_at else "B"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if t < end_at - 1e-9:
+            trs.append(JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=gone_confirmed, seen=True))
+        if t >= new_from - 1e-9:
+            trs.append(JointTrack(2, np.array(paths[new_on](t), float), S0.copy(), confirmed=True, seen=True))
+        idl.update(float(t), trs)
+        rows += [(t, tr.tid) for tr in trs]
+    t, tid = np.array(rows).T
+    return idl, t, tid.astype(int), idl.relabel(t, tid.astype(int))
+
+
+def test_a_target_track_left_on_the_look_alike_when_its_track_ends_hands_the_identity_to_the_new_track_on_the_target():
+    """Head-on: the target's track leaves the encounter on B (2.05 s), B's own track is dropped
+    (2.1 s: nothing left to exchange with), and a new track starts on A (2.3 s). A lag after the
+    end (3.1 s) the new track takes the target's identity, from the end on, and the survivor B's."""
+    idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A")
+    assert idl.holder(0) == 2 and idl.holder(1) == 0
+    (h,) = idl.handovers
+    assert abs(h["t"] - 3.1) < 1e-6 and h["survivor"] == 0 and h["new"] == 2 and h["gone"] == 1 and h["log_odds"] > HANDOVER_LOG_ODDS
+    target_rows = ident == 0
+    assert set(tid[target_rows & (t >= 2.1 - 1e-9)]) == {2}
+    assert set(tid[target_rows & (t < 2.1 - 1e-9)]) == {0}  # never further back than the lag
+
+
+def test_a_survivor_on_its_own_person_keeps_its_identity_when_the_other_track_ends():
+    idl, t, tid, ident = run_gone(head_on(), swap_at=np.inf, end_at=2.1, new_from=2.3, new_on="B")
+    assert idl.holder(0) == 0
+    assert idl.handovers and all(h["log_odds"] < 0 for h in idl.handovers)
+    assert (ident == tid).all()
+
+
+def test_a_new_track_on_someone_else_is_not_handed_the_identity():
+    """The new track walks far from where either person of the encounter could be: someone new
+    (anywhere on the 48 m^2 floor) explains it better than the target does."""
+    paths = {**head_on(), "C": lambda t: (0.5, 0.5 + 0.8 * t, 0.0, 0.8)}
+    idl, t, tid, ident = run_gone(paths, swap_at=2.05, end_at=2.1, new_from=2.3, new_on="C")
+    assert idl.holder(0) == 0
+    assert (ident == tid).all()
+
+
+def test_no_hand_over_after_a_track_never_confirmed_ends_or_with_handover_off():
+    idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A", gone_confirmed=False)
+    assert idl.holder(0) == 0 and not idl.handovers
+    idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A", handover=False)
+    assert idl.holder(0) == 0 and (ident == tid).all()
+    assert idl.handovers and idl.handovers[0]["log_odds"] > HANDOVER_LOG_ODDS  # scored, for diagnosis, not exchanged
