@@ -62,16 +62,16 @@ class TargetPlanesResult:
     track the tracker held in every frame under its internal id (t, track_id, x, y, vx, vy,
     n_cameras, mode, confirmed; before the identity decision's relabelling and the output's
     selection), and ``ends``, each confirmed track the tracker dropped (t, track_id, x, y, reason:
-    unseen / existence / off floor / duplicate, other: the track it duplicated), and ``handovers``,
-    each new track the identity decision scored as a hand-over (``tp_identity.IdentityLag.hand_over``:
-    t, survivor, new, gone, log_odds, t_pre, and the floor positions survivor_pre, gone_pre then and
-    survivor_xy, new_xy at t, as x, y columns)."""
+    unseen / existence / off floor / duplicate, other: the track it duplicated), and ``decisions``,
+    each identity decision scored (``tp_identity.IdentityLag.record``: t, kind - pair or handover -,
+    a, b, gone, log_odds, t_pre, and the floor positions a_pre, b_pre then and a_post, b_post at t,
+    as x, y columns)."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
     internal: pd.DataFrame = field(default_factory=pd.DataFrame)
     ends: pd.DataFrame = field(default_factory=pd.DataFrame)
-    handovers: pd.DataFrame = field(default_factory=pd.DataFrame)
+    decisions: pd.DataFrame = field(default_factory=pd.DataFrame)
 
 
 @register
@@ -167,10 +167,15 @@ class TargetPlanes(Estimator):
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         handover: bool = param(True, "an encounter one of whose tracks ended is decided identity_lag_s after the "
                                      "end with the tracks confirmed since it began: the survivor may have come out "
-                                     "on the other person, and a new track on its own (tp_identity); on: head-on "
-                                     "development identity 92.8 -> 94.3 % mean, no recording worse, rendered and "
-                                     "analytic development identical (docs/target_planes.md)")
+                                     "on the other person, and a new track on its own (tp_identity); on, with "
+                                     "identity_accel: head-on development identity 92.8 -> 97.7 % mean, no "
+                                     "recording worse, rendered and analytic development identical "
+                                     "(docs/target_planes.md)")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
+        identity_accel: float = param(0.35, "white acceleration of the walker model that predicts a pair's states "
+                                           "across an encounter in the identity decision (exchanges, hand-overs), "
+                                           "m/s^2/sqrt(Hz): the largest the scenes' walkers show on development truth "
+                                           "(0.14-0.35; the tracker's accel_sigma also absorbs its own model errors)")
         identity_lag_s: float = param(1.0, "fixed lag of the output, s (the issue: a smoother over the last "
                                            "second, 10 frames at the cameras' 10 fps): identities after two tracks "
                                            "were ambiguous are decided this long after they part (``tp_identity``), "
@@ -263,6 +268,7 @@ class TargetPlanes(Estimator):
         if idl is not None:
             # someone new: anywhere on the floor, at a walker's velocity (the new-track spread)
             idl.handover, idl.area, idl.sigma_v = cfg.handover, (floor_area if floor_area > 0 else None), 0.5 * cfg.max_speed
+            idl.decide_accel = cfg.identity_accel
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         rows, status_rows, end_rows = [], [], []
@@ -328,10 +334,10 @@ class TargetPlanes(Estimator):
         if not cfg.multi_person:
             tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
             status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
-        ho = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
+        decisions = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
-                           for h in (idl.handovers if idl is not None else [])])
-        return TargetPlanesResult(tracks_df, status_df, internal, ends, ho)
+                           for h in (idl.decisions if idl is not None else [])])
+        return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions)
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to

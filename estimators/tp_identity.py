@@ -11,9 +11,9 @@ of the pair's states before and after it, with both assignments kept until then:
   bodies side by side, each a window width: any nearer and one's window can be taken for the
   other's). An **episode** starts at the first ambiguous frame; each track's *pre* state is its
   filtered state s, S (``[x, y, vx, vy]``, m, m/s) in the frame before (a track born during the
-  episode: its first state), refreshed while the pair, merged in some view, is still at least
-  ``4 radius`` apart on the floor (the other views see them apart: who is who is not in doubt
-  yet, and the prediction to the decision is that much shorter).
+  episode: its first state), refreshed while the pair, merged in some view, has not yet come
+  nearer than ``4 radius`` on the floor (the other views see them apart: who is who is not in
+  doubt yet, and the prediction to the decision is that much shorter).
 - **Decision**: the episode ends at the first frame the pair is not ambiguous, t1; the decision
   waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the episode), so
   the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
@@ -23,11 +23,12 @@ of the pair's states before and after it, with both assignments kept until then:
       log L(K) = log N(s_a(td); F s_a^pre, F S_a^pre F^T + Q + S_a(td)) + (the same for b)
       log L(X) = log N(s_b(td); F s_a^pre, F S_a^pre F^T + Q + S_b(td)) + (a with b's prediction)
 
-  F and Q the constant-velocity model over td - t_pre with the tracker's white-acceleration
-  density ``accel_sigma``^2 (``tp_joint``'s predict step): the paper's velocity discrimination
-  over position and velocity together, for the pair. The identities are exchanged when
-  log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01) (the design's 1 % error level,
-  as the existence test's); otherwise, and whenever a track of the pair is gone, they are kept.
+  F and Q the constant-velocity model over td - t_pre with white acceleration ``decide_accel``
+  (the walkers' own, measured on development truth; the tracker's ``accel_sigma`` without it):
+  the paper's velocity discrimination over position and velocity together, for the pair. The
+  identities are exchanged when log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01)
+  (the design's 1 % error level, as the existence test's); otherwise they are kept (a pair
+  whose track is gone: the hand-over below).
 - **Retroactive relabelling, within the lag**: an exchange holds from t1 (``lag_s`` before the
   decision) on: the output for those frames follows the winning hypothesis, so the reported
   target's path after the separation is the track the decision gave it. Frames before t1 (the
@@ -46,10 +47,8 @@ of the pair's states before and after it, with both assignments kept until then:
                                                     log(1 / floor area) + log N(v_new; 0, sigma_v^2 I + S_new[v]))
 
   (kept: the new track is the gone person found again, or someone new). The new track of the
-  largest log L(X) - log L(K) above ``HANDOVER_LOG_ODDS`` takes the survivor's identity, and the
-  survivor the gone one's, from the end on: Bayes' decision at the prior measured on
-  development seeds (``HANDOVER_PRIOR``; an encounter that broke a track has no tracker
-  continuity to trust, unlike the pair exchange above, held to the 1 % level).
+  largest log L(X) - log L(K) above ``EXCHANGE_LOG_ODDS`` takes the survivor's identity, and the
+  survivor the gone one's, from the end on.
 - **A person found again (multi-person mode, ``relink``)**: a confirmed track that ends (the
   tracker's existence test rejected it, or ``hold_s`` passed unseen) leaves its identity, last
   state s_e, S_e, standing probability mu_e and time. When a track is confirmed for the first
@@ -86,11 +85,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 EXCHANGE_LOG_ODDS = float(np.log(0.99 / 0.01))  # exchange identities only on 99:1 evidence
-# a hand-over's prior probability of an exchange, measured on development seeds by
-# scripts/measure_tp_handover.py with hand-overs off (rendered 100-159, analytic and head-on
-# 100-199: of 50 hand-overs the truth decides, 8 were exchanges); the decision is Bayes' under it
-HANDOVER_PRIOR = 8 / 50
-HANDOVER_LOG_ODDS = float(np.log((1.0 - HANDOVER_PRIOR) / HANDOVER_PRIOR))
 
 
 def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
@@ -107,6 +101,7 @@ class Episode:
     b: int
     pre: dict
     t1: float | None = None
+    near: bool = False  # the pair has been nearer than 4 radius (the pre states stay as they were then)
     gone: int | None = None  # the track of the pair that ended during the encounter (``handover``)
     t_end: float | None = None  # when it ended
 
@@ -139,10 +134,23 @@ class IdentityLag:
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of an ended confirmed track
     links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(someone new)) of each link
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
+    decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
-    handovers: list = field(default_factory=list)  # each new track scored by ``hand_over``: its time, tracks, log-odds and states
+    decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
+
+    def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None) -> None:
+        """Log a scored decision: ``kind`` "pair" (tracks a and b of an encounter, exchanged or
+        kept) or "handover" (a: the survivor, b: a new track, scored against the gone track's
+        pre state ``pre_b``); log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
+        self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr,
+                               "t_pre": min(pre_a[2], pre_b[2]), "a_pre": pre_a[0][:2].copy(), "b_pre": pre_b[0][:2].copy(),
+                               "a_post": post_a.s[:2].copy(), "b_post": post_b.s[:2].copy()})
+
+    @property
+    def handovers(self) -> list:
+        return [d for d in self.decisions if d["kind"] == "handover"]
 
     def identity(self, tid: int) -> int:
         return self.ident.setdefault(tid, tid)
@@ -181,17 +189,21 @@ class IdentityLag:
         for a, b in self._candidates(tracks):
             key = (min(a.tid, b.tid), max(a.tid, b.tid))
             ep = self.episodes.get(key)
+            apart = float(np.linalg.norm(a.s[:2] - b.s[:2])) >= 4.0 * self.radius
             if self.ambiguous(a, b):
                 if ep is None:
                     pre = {tr.tid: self.last.get(tr.tid, (tr.s.copy(), tr.S.copy(), t)) for tr in (a, b)}
-                    self.episodes[key] = Episode(key[0], key[1], pre)
+                    self.episodes[key] = Episode(key[0], key[1], pre, near=not apart)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
-                    if ep.gone is None and float(np.linalg.norm(a.s[:2] - b.s[:2])) >= 4.0 * self.radius and all(k in self.last for k in (a.tid, b.tid)):
+                    ep.near |= not apart
+                    if apart and not ep.near and ep.gone is None and all(k in self.last for k in (a.tid, b.tid)):
                         ep.pre = {k: self.last[k] for k in (a.tid, b.tid)}
             elif ep is not None and ep.t1 is None:
                 ep.t1 = t
         for key, ep in list(self.episodes.items()):
+            if self.episodes.get(key) is not ep:
+                continue  # closed by a decision earlier in this loop (its tracks' other encounters)
             if ep.gone is not None:
                 if t - ep.t_end >= self.lag_s - 1e-9:
                     del self.episodes[key]
@@ -298,15 +310,22 @@ class IdentityLag:
         self.links.append((t, tid, ended, llr))
         del self.ended[ended]
 
-    def _predict(self, s, S, dt):
+    def _predict(self, s, S, dt, accel: float | None = None):
+        """Constant velocity over dt with white acceleration ``accel`` (default ``accel_sigma``)."""
         F = np.eye(4)
         F[0, 2] = F[1, 3] = dt
-        Q = self.accel_sigma**2 * np.kron(np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]), np.eye(2))
+        q = (self.accel_sigma if accel is None else accel) ** 2
+        Q = q * np.kron(np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]), np.eye(2))
         return F @ s, F @ S @ F.T + Q
+
+    @property
+    def walker_accel(self) -> float:
+        """The white acceleration of the decisions' walker model (``decide_accel``, else ``accel_sigma``)."""
+        return self.accel_sigma if self.decide_accel is None else self.decide_accel
 
     def exchange_log_odds(self, td: float, ep: Episode, ta, tb) -> float:
         """log L(X) - log L(K) of the module docstring."""
-        pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2]) for k in (ep.a, ep.b))
+        pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2], self.walker_accel) for k in (ep.a, ep.b))
         keep = gauss_loglik(ta.s - pa[0], pa[1] + ta.S) + gauss_loglik(tb.s - pb[0], pb[1] + tb.S)
         swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
         return swap - keep
@@ -316,6 +335,7 @@ class IdentityLag:
             return
         llr = self.exchange_log_odds(td, ep, ta, tb)
         self.log.append((td, ep.a, ep.b, llr))
+        self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb)
         if llr <= EXCHANGE_LOG_ODDS:
             return
         ia, ib = self.identity(ep.a), self.identity(ep.b)
@@ -340,20 +360,18 @@ class IdentityLag:
             return  # a track never confirmed (a fragment's): no one to hand over
         ts = alive[sv]
         t_pre = min(v[2] for v in ep.pre.values())
-        best, best_llr = None, HANDOVER_LOG_ODDS
+        best, best_llr = None, EXCHANGE_LOG_ODDS
         for tid, tr in alive.items():
             if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
                 continue
-            pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2])
-            ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2])
+            pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2], self.walker_accel)
+            ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2], self.walker_accel)
             # kept: the survivor continues itself, the new track the gone one, or someone new
             new = float(-np.log(self.area)) + self._walking(tr.s, tr.S) if self.area else -np.inf
             keep = gauss_loglik(ts.s - ps[0], ps[1] + ts.S) + max(gauss_loglik(tr.s - pg[0], pg[1] + tr.S), new)
             swap = gauss_loglik(ts.s - pg[0], pg[1] + ts.S) + gauss_loglik(tr.s - ps[0], ps[1] + tr.S)
             llr = swap - keep
-            self.handovers.append({"t": td, "survivor": sv, "new": tid, "gone": ep.gone, "log_odds": llr,
-                                   "t_pre": t_pre, "survivor_pre": ep.pre[sv][0][:2].copy(), "gone_pre": ep.pre[ep.gone][0][:2].copy(),
-                                   "survivor_xy": ts.s[:2].copy(), "new_xy": tr.s[:2].copy()})
+            self.record(td, "handover", sv, tid, llr, ep.pre[sv], ep.pre[ep.gone], ts, tr, gone=ep.gone)
             if llr > best_llr:
                 best, best_llr = tid, llr
         if best is None or not self.handover:

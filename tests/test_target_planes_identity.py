@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_identity import EXCHANGE_LOG_ODDS, HANDOVER_LOG_ODDS, IdentityLag
+from trackroom.estimators.tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from trackroom.estimators.tp_joint import JointTrack
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, right_angle_pair
@@ -278,7 +278,7 @@ def test_a_target_track_left_on_the_look_alike_when_its_track_ends_hands_the_ide
     idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A")
     assert idl.holder(0) == 2 and idl.holder(1) == 0
     (h,) = idl.handovers
-    assert abs(h["t"] - 3.1) < 1e-6 and h["survivor"] == 0 and h["new"] == 2 and h["gone"] == 1 and h["log_odds"] > HANDOVER_LOG_ODDS
+    assert abs(h["t"] - 3.1) < 1e-6 and h["a"] == 0 and h["b"] == 2 and h["gone"] == 1 and h["log_odds"] > EXCHANGE_LOG_ODDS
     target_rows = ident == 0
     assert set(tid[target_rows & (t >= 2.1 - 1e-9)]) == {2}
     assert set(tid[target_rows & (t < 2.1 - 1e-9)]) == {0}  # never further back than the lag
@@ -305,4 +305,21 @@ def test_no_hand_over_after_a_track_never_confirmed_ends_or_with_handover_off():
     assert idl.holder(0) == 0 and not idl.handovers
     idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A", handover=False)
     assert idl.holder(0) == 0 and (ident == tid).all()
-    assert idl.handovers and idl.handovers[0]["log_odds"] > HANDOVER_LOG_ODDS  # scored, for diagnosis, not exchanged
+    assert idl.handovers and idl.handovers[0]["log_odds"] > EXCHANGE_LOG_ODDS  # scored, for diagnosis, not exchanged
+
+
+def test_a_decision_that_closes_another_encounter_of_its_tracks_in_the_same_frame():
+    """Two encounters of the target's track decided in one frame: the first exchanges and closes
+    the second (scored with the old identities); the frame's loop goes on without it."""
+    from trackroom.estimators.tp_identity import Episode
+
+    def state(x, y, vx, vy):
+        return np.array([x, y, vx, vy], float)
+
+    now = {0: state(5, 0, 1, 0), 1: state(0, 0, -1, 0), 2: state(0, 5, 0, 1)}
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0)
+    # encounter (0, 1): each track's pre state is the other's present one, a second back: exchanged
+    idl.episodes[(0, 1)] = Episode(0, 1, {0: (state(1, 0, -1, 0), S0, 0.0), 1: (state(4, 0, 1, 0), S0, 0.0)}, t1=0.0)
+    idl.episodes[(0, 2)] = Episode(0, 2, {0: (state(4, 0, 1, 0), S0, 0.0), 2: (state(0, 4, 0, 1), S0, 0.0)}, t1=0.0)
+    idl.update(1.0, [JointTrack(k, now[k], S0.copy(), confirmed=True, seen=True) for k in (0, 1, 2)])
+    assert idl.holder(0) == 1 and not idl.episodes

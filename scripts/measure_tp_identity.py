@@ -1,0 +1,100 @@
+"""How often `target_planes`' identity decisions are right: each scored decision, against the truth.
+
+    python -m scripts.measure_tp_identity DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+
+The single-target tracker's identity decision (``tp_identity``) scores two kinds of decision,
+each in ``TargetPlanesResult.decisions``: a **pair** - two tracks after an encounter, exchanged
+or kept - and a **hand-over** - the survivor of an encounter one of whose tracks ended, and a
+track confirmed since, scored against the gone track's pre state. Each is labelled here from
+the truth, by the experimenter: the person nearest each pre state at the encounter's start (a's,
+p_a, and b's, p_b - for a hand-over, the gone track's) and nearest each track at the decision
+(q_a, q_b):
+
+- ``exchanged``: q_a = p_b and q_b = p_a (each track came out on the other's person): the
+  identities should be exchanged;
+- ``kept``: q_a = p_a (track a is still on its own person): they should not;
+- ``same``: p_a = p_b (both on one person: a duplicate), or ``other`` (anything else).
+
+It prints, per kind and label, the count and the log-odds' spread, and how many decisions each
+threshold on the log-odds gets right (exchange above it): 0 (Bayes' decision at even prior
+odds), Bayes' at the prior measured here (the share of exchanges among the labelled decisions)
+and log 99 (the 1 % level). Run it with the exchanges off (``--param handover=false``; pairs:
+the measurement is of what the tracker does, whatever the threshold) on development seeds only
+(docs/target_planes.md).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from scripts.experiment_tsutsui import recordings_and_params, run_target
+from trackroom.dataset import read_recording
+
+
+def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
+    """The true person nearest floor point ``xy`` at the truth frame nearest ``t``."""
+    times = people["t"].to_numpy(float)
+    tk = times[np.argmin(np.abs(times - t))]
+    g = people[people["t"] == tk]
+    d = np.hypot(g["x"].to_numpy(float) - xy[0], g["y"].to_numpy(float) - xy[1])
+    return str(g["person_id"].to_numpy()[np.argmin(d)])
+
+
+def label(row, people: pd.DataFrame) -> str:
+    p_a = nearest_person(people, row.t_pre, (row.a_pre_x, row.a_pre_y))
+    p_b = nearest_person(people, row.t_pre, (row.b_pre_x, row.b_pre_y))
+    q_a = nearest_person(people, row.t, (row.a_post_x, row.a_post_y))
+    q_b = nearest_person(people, row.t, (row.b_post_x, row.b_post_y))
+    if p_a == p_b:
+        return "same"
+    if q_a == p_b and q_b == p_a:
+        return "exchanged"
+    if q_a == p_a:
+        return "kept"
+    return "other"
+
+
+def measure(d: str, params: dict | None = None) -> pd.DataFrame:
+    rec = read_recording(d)
+    dec = run_target(rec, params).decisions
+    if not len(dec):
+        return pd.DataFrame()
+    people = rec.truth.tables["people"]
+    dec = dec.assign(recording=d, seed=rec.seed)
+    dec["label"] = [label(r, people) for r in dec.itertuples()]
+    return dec
+
+
+def thresholds(decided: pd.DataFrame) -> dict[str, float]:
+    p = float((decided["label"] == "exchanged").mean()) if len(decided) else 0.0
+    out = {"0 (even odds)": 0.0}
+    if 0.0 < p < 1.0:
+        out[f"log((1 - p) / p) = {np.log((1 - p) / p):.2f} (the prior here, p = {p:.3f})"] = float(np.log((1 - p) / p))
+    out["log 99 (1 % level)"] = float(np.log(99.0))
+    return out
+
+
+def main(argv=None) -> int:
+    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write the scored decisions here")
+    parts = [p for p in (measure(d, params) for d in dirs) if len(p)]
+    df = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    if csv:
+        df.to_csv(csv, index=False)
+    if not len(df):
+        print(f"{len(dirs)} recordings: no identity decision was scored")
+        return 0
+    for kind, sub in df.groupby("kind"):
+        print(f"\n{kind}: {len(sub)} scored in {len(dirs)} recordings")
+        print(sub.groupby("label")["log_odds"].describe()[["count", "min", "25%", "50%", "75%", "max"]].round(2).to_string())
+        decided = sub[sub["label"].isin(["exchanged", "kept"])]
+        for name, thr in thresholds(decided).items():
+            x = decided["log_odds"] > thr
+            right = int(((decided["label"] == "exchanged") & x).sum() + ((decided["label"] == "kept") & ~x).sum())
+            wrong_x = int(((decided["label"] == "kept") & x).sum())
+            missed = int(((decided["label"] == "exchanged") & ~x).sum())
+            print(f"threshold {name}: {right} of {len(decided)} right; exchanged wrongly {wrong_x}, exchange missed {missed}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,31 @@
+"""scripts/measure_tp_identity.py: each scored identity decision labelled from the truth."""
+import pandas as pd
+
+from scripts.measure_tp_identity import label, thresholds
+
+# two people at t = 0 and t = 2: A walks east from (1, 1) to (3, 1), B west from (3, 1.4) to (1, 1.4)
+PEOPLE = pd.DataFrame({"t": [0.0, 0.0, 2.0, 2.0], "person_id": ["A", "B", "A", "B"],
+                       "x": [1.0, 3.0, 3.0, 1.0], "y": [1.0, 1.4, 1.0, 1.4]})
+
+
+def row(a_pre, b_pre, a_post, b_post):
+    (apx, apy), (bpx, bpy), (ax, ay), (bx, by) = a_pre, b_pre, a_post, b_post
+    return pd.Series({"t": 2.0, "t_pre": 0.0, "a_pre_x": apx, "a_pre_y": apy, "b_pre_x": bpx, "b_pre_y": bpy,
+                      "a_post_x": ax, "a_post_y": ay, "b_post_x": bx, "b_post_y": by})
+
+
+def test_labels():
+    # track a started on A and ended on B, track b (or the new track) is on A: an exchange was due
+    assert label(row((1, 1), (3, 1.4), (1, 1.4), (3, 1)), PEOPLE) == "exchanged"
+    # a stayed on A
+    assert label(row((1, 1), (3, 1.4), (3, 1), (1, 1.4)), PEOPLE) == "kept"
+    # both started on A: one person seen twice
+    assert label(row((1, 1), (1.1, 1), (3, 1), (1, 1.4)), PEOPLE) == "same"
+    # a went to B, b is on B too: neither
+    assert label(row((1, 1), (3, 1.4), (1, 1.4), (1.1, 1.4)), PEOPLE) == "other"
+
+
+def test_thresholds_include_bayes_at_the_measured_prior():
+    decided = pd.DataFrame({"label": ["exchanged"] + ["kept"] * 4})
+    thr = thresholds(decided)
+    assert sorted(round(v, 3) for v in thr.values()) == [0.0, 1.386, 4.595]
