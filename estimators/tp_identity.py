@@ -121,7 +121,6 @@ class IdentityLag:
     events: list = field(default_factory=list)
     episodes: dict = field(default_factory=dict)
     last: dict = field(default_factory=dict)  # internal id -> (s, S, t) of the previous frame
-    log: list = field(default_factory=list)  # (td, a, b, log L(X) - log L(K)) of every decision
     relink_area: float | None = None  # floor area, m^2: found-again links on (module docstring); None: off
     sigma_v: float = 1.5  # a new person's velocity spread, m/s (the tracker's, for an unknown velocity)
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
@@ -149,7 +148,13 @@ class IdentityLag:
                                "a_post": post_a.s[:2].copy(), "b_post": post_b.s[:2].copy()})
 
     @property
+    def log(self) -> list:
+        """(td, a, b, log L(X) - log L(K)) of every pair decision."""
+        return [(d["t"], d["a"], d["b"], d["log_odds"]) for d in self.decisions if d["kind"] == "pair"]
+
+    @property
     def handovers(self) -> list:
+        """The hand-over decisions' records (``record``)."""
         return [d for d in self.decisions if d["kind"] == "handover"]
 
     def identity(self, tid: int) -> int:
@@ -334,7 +339,6 @@ class IdentityLag:
         if not (ta.confirmed and tb.confirmed):
             return
         llr = self.exchange_log_odds(td, ep, ta, tb)
-        self.log.append((td, ep.a, ep.b, llr))
         self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb)
         if llr <= EXCHANGE_LOG_ODDS:
             return
@@ -348,7 +352,8 @@ class IdentityLag:
         """An encounter one of whose tracks ended (``gone``), ``lag_s`` after its end: the survivor
         and each track confirmed since the encounter began (a person the tracker found again)
         are scored as the pair's continuation, kept (the survivor continues its own pre state,
-        the new track the gone one's) against exchanged, as ``exchange_log_odds``; the new track
+        the new track the gone one's or is someone new) against exchanged, as
+        ``exchange_log_odds``; the new track
         of the largest log-odds exchanges when they exceed ``EXCHANGE_LOG_ODDS``: the survivor
         takes the gone track's identity and the new track the survivor's, from the end on."""
         sv = ep.b if ep.gone == ep.a else ep.a
@@ -360,12 +365,12 @@ class IdentityLag:
             return  # a track never confirmed (a fragment's): no one to hand over
         ts = alive[sv]
         t_pre = min(v[2] for v in ep.pre.values())
+        pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2], self.walker_accel)
+        ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2], self.walker_accel)
         best, best_llr = None, EXCHANGE_LOG_ODDS
         for tid, tr in alive.items():
             if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
                 continue
-            pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2], self.walker_accel)
-            ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2], self.walker_accel)
             # kept: the survivor continues itself, the new track the gone one, or someone new
             new = float(-np.log(self.area)) + self._walking(tr.s, tr.S) if self.area else -np.inf
             keep = gauss_loglik(ts.s - ps[0], ps[1] + ts.S) + max(gauss_loglik(tr.s - pg[0], pg[1] + tr.S), new)
