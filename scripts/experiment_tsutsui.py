@@ -68,7 +68,12 @@ def click(rec: Recording) -> list[float]:
 
 def truth_at(rec: Recording, times: np.ndarray) -> pd.DataFrame:
     """Truth positions of every person at the given times (nearest simulation step)."""
-    ppl = rec.truth.people
+    return people_at(rec.truth.people, times)
+
+
+def people_at(ppl: pd.DataFrame, times: np.ndarray) -> pd.DataFrame:
+    """``truth_at`` on a truth people table (t, person_id, x, y)."""
+    times = np.asarray(times, float)
     out = []
     for pid, g in ppl.groupby("person_id"):
         t = g["t"].to_numpy(float)

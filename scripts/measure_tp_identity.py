@@ -27,15 +27,13 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import recordings_and_params, run_target
+from scripts.experiment_tsutsui import people_at, recordings_and_params, run_target
 from trackroom.dataset import read_recording
 
 
 def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
-    """The true person nearest floor point ``xy`` at the truth frame nearest ``t``."""
-    times = people["t"].to_numpy(float)
-    tk = times[np.argmin(np.abs(times - t))]
-    g = people[people["t"] == tk]
+    """The true person nearest floor point ``xy`` at time ``t`` (the experiment's ``truth_at``)."""
+    g = people_at(people, [t])
     d = np.hypot(g["x"].to_numpy(float) - xy[0], g["y"].to_numpy(float) - xy[1])
     return str(g["person_id"].to_numpy()[np.argmin(d)])
 
