@@ -182,6 +182,12 @@ class TargetPlanes(Estimator):
                                            "and a track is reported from this long before its confirmation (in "
                                            "multi-person mode moved back along its velocity before its birth); "
                                            "0: no lag (the tracker's own identities, tracks from confirmation)")
+        output_lag_s: float = param(3.5, "how long after a frame the output may still change, s (at least "
+                                         "identity_lag_s): an exchange decided identity_lag_s after a pair parted "
+                                         "holds from the pair's nearest approach within this reach, not from their "
+                                         "parting; 3.5 s = the decision's 1 s + 2.5 s, the most by which the true "
+                                         "swap came before the parting on the development exchanges (0.4-2.5 s; "
+                                         "tp_identity.IdentityLag.reach, docs/target_planes.md)")
         relink: bool = param(True, "multi-person mode: a newly confirmed track takes the identity of a confirmed "
                                    "track that ended within hold_s when it likelier continues that person's "
                                    "predicted state than it is someone new on the floor (``tp_identity``; needs "
@@ -269,6 +275,7 @@ class TargetPlanes(Estimator):
             # someone new: anywhere on the floor, at a walker's velocity (the new-track spread)
             idl.handover, idl.area, idl.sigma_v = cfg.handover, (floor_area if floor_area > 0 else None), 0.5 * cfg.max_speed
             idl.decide_accel = cfg.identity_accel
+            idl.output_lag_s = cfg.output_lag_s
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         rows, status_rows, end_rows = [], [], []

@@ -29,11 +29,13 @@ of the pair's states before and after it, with both assignments kept until then:
   identities are exchanged when log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01)
   (the design's 1 % error level, as the existence test's); otherwise they are kept (a pair
   whose track is gone: the hand-over below).
-- **Retroactive relabelling, within the lag**: an exchange holds from t1 (``lag_s`` before the
-  decision) on: the output for those frames follows the winning hypothesis, so the reported
-  target's path after the separation is the track the decision gave it. Frames before t1 (the
-  encounter itself, where the two are within a body width or two of each other) keep what was
-  reported: the decision never reaches back further than ``lag_s``.
+- **Retroactive relabelling, within the output lag**: the output is final ``output_lag_s`` after
+  each frame (at least ``lag_s``). An exchange holds from the frame of the encounter where the
+  two tracks were nearest on the floor, no earlier than ``output_lag_s`` before the decision (nor
+  than an earlier exchange of either track), else from t1 (``reach``): tracks that swap people
+  do so where they cross, and the frames between the crossing and t1 - the two still within a
+  body width or two, or merged in some view - follow the winning hypothesis too. With
+  ``output_lag_s`` = ``lag_s`` it holds from t1 on, and frames before t1 keep what was tracked.
 
 - **Hand-over (``handover``)**: a pair one of whose tracks ends during the encounter (dropped as
   a duplicate of the other, rejected by the existence test) has nothing left to exchange with,
@@ -104,6 +106,7 @@ class Episode:
     near: bool = False  # the pair has been nearer than 4 radius (the pre states stay as they were then)
     gone: int | None = None  # the track of the pair that ended during the encounter (``handover``)
     t_end: float | None = None  # when it ended
+    dist: list = field(default_factory=list)  # (t, floor distance of the pair) of each frame of the encounter
 
 
 @dataclass
@@ -138,12 +141,14 @@ class IdentityLag:
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
+    output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
 
-    def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None) -> None:
+    def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None,
+               t1: float | None = None, t_from: float | None = None) -> None:
         """Log a scored decision: ``kind`` "pair" (tracks a and b of an encounter, exchanged or
         kept) or "handover" (a: the survivor, b: a new track, scored against the gone track's
         pre state ``pre_b``); log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
-        self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr,
+        self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr, "t1": t1, "t_from": t_from,
                                "t_pre": min(pre_a[2], pre_b[2]), "a_pre": pre_a[0][:2].copy(), "b_pre": pre_b[0][:2].copy(),
                                "a_post": post_a.s[:2].copy(), "b_post": post_b.s[:2].copy()})
 
@@ -194,11 +199,12 @@ class IdentityLag:
         for a, b in self._candidates(tracks):
             key = (min(a.tid, b.tid), max(a.tid, b.tid))
             ep = self.episodes.get(key)
-            apart = float(np.linalg.norm(a.s[:2] - b.s[:2])) >= 4.0 * self.radius
+            d_ab = float(np.linalg.norm(a.s[:2] - b.s[:2]))
+            apart = d_ab >= 4.0 * self.radius
             if self.ambiguous(a, b):
                 if ep is None:
                     pre = {tr.tid: self.last.get(tr.tid, (tr.s.copy(), tr.S.copy(), t)) for tr in (a, b)}
-                    self.episodes[key] = Episode(key[0], key[1], pre, near=not apart)
+                    self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
                     ep.near |= not apart
@@ -206,6 +212,8 @@ class IdentityLag:
                         ep.pre = {k: self.last[k] for k in (a.tid, b.tid)}
             elif ep is not None and ep.t1 is None:
                 ep.t1 = t
+            if ep is not None and ep.gone is None:
+                ep.dist.append((t, d_ab))
         for key, ep in list(self.episodes.items()):
             if self.episodes.get(key) is not ep:
                 continue  # closed by a decision earlier in this loop (its tracks' other encounters)
@@ -339,12 +347,13 @@ class IdentityLag:
         if not (ta.confirmed and tb.confirmed):
             return
         llr = self.exchange_log_odds(td, ep, ta, tb)
-        self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb)
+        t_from = self.reach(td, ep, ep.t1, (ep.a, ep.b))
+        self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb, t1=ep.t1, t_from=t_from)
         if llr <= EXCHANGE_LOG_ODDS:
             return
         ia, ib = self.identity(ep.a), self.identity(ep.b)
         self.ident[ep.a], self.ident[ep.b] = ib, ia
-        self.events.append((ep.t1, {ep.a: ib, ep.b: ia}))
+        self.events.append((t_from, {ep.a: ib, ep.b: ia}))
         for key in [k for k in self.episodes if ep.a in k or ep.b in k]:
             del self.episodes[key]  # their other encounters were scored with the old identities
 
@@ -376,7 +385,7 @@ class IdentityLag:
             keep = gauss_loglik(ts.s - ps[0], ps[1] + ts.S) + max(gauss_loglik(tr.s - pg[0], pg[1] + tr.S), new)
             swap = gauss_loglik(ts.s - pg[0], pg[1] + ts.S) + gauss_loglik(tr.s - ps[0], ps[1] + tr.S)
             llr = swap - keep
-            self.record(td, "handover", sv, tid, llr, ep.pre[sv], ep.pre[ep.gone], ts, tr, gone=ep.gone)
+            self.record(td, "handover", sv, tid, llr, ep.pre[sv], ep.pre[ep.gone], ts, tr, gone=ep.gone, t1=ep.t_end)
             if llr > best_llr:
                 best, best_llr = tid, llr
         if best is None or not self.handover:
@@ -387,6 +396,15 @@ class IdentityLag:
         self.ended.pop(ep.gone, None)  # its identity is carried on: not to be found again
         for key in [k for k in self.episodes if sv in k or best in k]:
             del self.episodes[key]
+
+    def reach(self, td: float, ep: Episode, t_last: float, tids) -> float:
+        """When a decision at ``td`` takes effect: the frame of the pair's nearest approach in the
+        encounter, no earlier than ``output_lag_s`` before td (what the output has not yet
+        reported) nor than an earlier decision on these tracks, no later than ``t_last``."""
+        lag = max(self.lag_s, self.output_lag_s or 0.0)
+        lo = max([td - lag] + [t0 for t0, ch in self.events if any(k in ch for k in tids)])
+        cand = [(d, t) for t, d in ep.dist if lo - 1e-9 <= t <= t_last + 1e-9]
+        return min(cand)[1] if cand else t_last
 
     def relabel(self, t: np.ndarray, tid: np.ndarray) -> np.ndarray:
         """Identity of each output row (time ``t``, internal track ``tid``): its own id, changed

@@ -52,14 +52,29 @@ def label(row, people: pd.DataFrame) -> str:
     return "other"
 
 
+def swap_time(row, internal: pd.DataFrame, people: pd.DataFrame) -> float:
+    """An exchanged decision's true swap: the first frame from which track a (the survivor, for a
+    hand-over) is nearest the other person of the pair (b's at the start) through to the
+    decision; NaN when it never is."""
+    p_b = nearest_person(people, row.t_pre, (row.b_pre_x, row.b_pre_y))
+    g = internal[(internal["track_id"] == row.a) & (internal["t"] >= row.t_pre - 1e-9) & (internal["t"] <= row.t + 1e-9)]
+    on_b = np.array([nearest_person(people, t, (x, y)) == p_b for t, x, y in zip(g["t"], g["x"], g["y"])], bool)
+    if not len(on_b) or not on_b[-1]:
+        return float("nan")
+    off = np.flatnonzero(~on_b)
+    return float(g["t"].to_numpy()[off[-1] + 1 if len(off) else 0])
+
+
 def measure(d: str, params: dict | None = None) -> pd.DataFrame:
     rec = read_recording(d)
-    dec = run_target(rec, params).decisions
+    res = run_target(rec, params)
+    dec = res.decisions
     if not len(dec):
         return pd.DataFrame()
     people = rec.truth.tables["people"]
     dec = dec.assign(recording=d, seed=rec.seed)
     dec["label"] = [label(r, people) for r in dec.itertuples()]
+    dec["t_swap"] = [swap_time(r, res.internal, people) if r.label == "exchanged" else np.nan for r in dec.itertuples()]
     return dec
 
 
@@ -91,6 +106,12 @@ def main(argv=None) -> int:
             wrong_x = int(((decided["label"] == "kept") & x).sum())
             missed = int(((decided["label"] == "exchanged") & ~x).sum())
             print(f"threshold {name}: {right} of {len(decided)} right; exchanged wrongly {wrong_x}, exchange missed {missed}")
+        ex = sub[(sub["label"] == "exchanged") & sub["t_swap"].notna()]
+        if len(ex):
+            print(f"exchanged, the true swap before the pair parted (t1 - t_swap, s): "
+                  + ", ".join(f"{v:.1f}" for v in sorted((ex["t1"] - ex["t_swap"]).round(2))))
+            print(f"  the decision's effect (t_from - t_swap, s; > 0: frames left on the wrong person): "
+                  + ", ".join(f"{v:.1f}" for v in sorted((ex["t_from"] - ex["t_swap"]).round(2)) if v == v))
     return 0
 
 

@@ -1,7 +1,9 @@
 """scripts/measure_tp_identity.py: each scored identity decision labelled from the truth."""
 import pandas as pd
 
-from scripts.measure_tp_identity import label, thresholds
+import numpy as np
+
+from scripts.measure_tp_identity import label, swap_time, thresholds
 
 # two people at t = 0 and t = 2: A walks east from (1, 1) to (3, 1), B west from (3, 1.4) to (1, 1.4)
 PEOPLE = pd.DataFrame({"t": [0.0, 0.0, 2.0, 2.0], "person_id": ["A", "B", "A", "B"],
@@ -29,3 +31,19 @@ def test_thresholds_include_bayes_at_the_measured_prior():
     decided = pd.DataFrame({"label": ["exchanged"] + ["kept"] * 4})
     thr = thresholds(decided)
     assert sorted(round(v, 3) for v in thr.values()) == [0.0, 1.386, 4.595]
+
+
+def test_swap_time_is_the_first_frame_the_track_stays_on_the_other_person():
+    """A and B pass each other at t = 1 s. Track 0 starts on A, strays onto B at 0.5 s, is back
+    on A at 1.0 s and on B from 1.5 s for good: its swap is at 1.5 s (the first frame of the last
+    run on the other person). A track that ends on its own person has no swap."""
+    people = pd.DataFrame({"t": np.repeat([0.0, 0.5, 1.0, 1.5, 2.0], 2), "person_id": ["A", "B"] * 5,
+                           "x": [1.0, 3.0, 1.5, 2.5, 2.0, 2.0, 2.5, 1.5, 3.0, 1.0], "y": [1.0, 1.4] * 5})
+    internal = pd.DataFrame({"t": [0.0, 0.5, 1.0, 1.5, 2.0], "track_id": 0,
+                             "x": [1.0, 2.4, 2.0, 1.5, 1.0], "y": [1.0, 1.4, 1.0, 1.4, 1.4]})
+    r = row((1, 1), (3, 1.4), (1, 1.4), (3, 1))
+    r["a"] = 0
+    assert swap_time(r, internal, people) == 1.5
+    internal["x"] = [1.0, 1.5, 2.0, 2.5, 3.0]
+    internal["y"] = 1.0
+    assert np.isnan(swap_time(r, internal, people))

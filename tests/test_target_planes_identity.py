@@ -19,11 +19,11 @@ S0 = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])  # a well-tracked person: 5 cm,
 TIMES = np.round(np.arange(0.0, 5.01, 0.1), 6)
 
 
-def run(paths, swap_at, lag_s=1.0):
+def run(paths, swap_at, lag_s=1.0, output_lag_s=None):
     """Feed ``IdentityLag`` two confirmed tracks following ``paths`` (name -> function t ->
     (x, y, vx, vy)): track 0 on "A" (the target) and track 1 on "B" until ``swap_at``, on each
     other's person after it. Returns the decision and the identity of each frame's rows."""
-    idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0)
+    idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0, output_lag_s=output_lag_s)
     rows = []
     for t in TIMES:
         on = ("A", "B") if t < swap_at else ("B", "A")
@@ -55,6 +55,28 @@ def test_head_on_look_alikes_swapped_by_the_tracker_get_their_identities_back_wi
     assert set(tid[target_rows & (t < 2.3 - 1e-9)]) == {0}  # never further back than the lag
     # greedy (the identities as tracked): the target's identity ends on B
     assert set(tid[(tid == 0) & (t > 2.05)]) == {0}
+
+
+def test_an_output_lag_longer_than_the_decision_reaches_back_to_the_pairs_nearest_approach():
+    """The same swap with the output 2 s behind (``output_lag_s``): the exchange, decided at 3.3 s
+    as before, holds from the frame the two tracks were nearest (2.0 s, 0.4 m apart, where they
+    crossed), not from t1 = 2.3 s: the target's rows 2.1-2.2 s, on B before, follow A."""
+    idl, t, tid, ident = run(head_on(), swap_at=2.05, output_lag_s=2.0)
+    (d,) = idl.decisions
+    assert abs(d["t1"] - 2.3) < 1e-6 and abs(d["t_from"] - 2.0) < 1e-6
+    target_rows = ident == 0
+    assert set(tid[target_rows & (t >= 2.0 - 1e-9)]) == {1}
+    assert set(tid[target_rows & (t < 2.0 - 1e-9)]) == {0}
+    # kept pairs are unchanged by the longer output lag
+    idl, t, tid, ident = run(head_on(), swap_at=np.inf, output_lag_s=2.0)
+    assert (ident == tid).all()
+
+
+def test_the_reach_back_is_bounded_by_the_output_lag():
+    """A 1.2 s output lag reaches 0.2 s before t1 (to 2.1 s), short of the nearest approach."""
+    idl, t, tid, ident = run(head_on(), swap_at=2.05, output_lag_s=1.2)
+    (d,) = idl.decisions
+    assert abs(d["t_from"] - 2.1) < 1e-6
 
 
 def test_tracks_that_stay_on_their_people_keep_their_identities():
