@@ -26,7 +26,8 @@ every confirmed track is reported (section 6's future work).
 
 The output is fixed-lag (``identity_lag_s``, 1 s): who is who after two tracks were ambiguous is
 decided a second after they part, by the joint likelihood of their states before and after
-(``tp_identity``), and the output of the last second follows the decision; a track confirmed
+(``tp_identity``), and the output follows the decision from the pair's nearest approach, up to
+``output_lag_s`` (3.5 s) back; a track confirmed
 within the lag is reported from its birth, and in multi-person mode from a lag before its
 confirmation (before its birth: moved back along its velocity, ``mode`` extrapolated).
 
