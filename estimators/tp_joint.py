@@ -797,6 +797,28 @@ class JointTracker:
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
         return {best}
 
+    def locate_track(self, target: JointTrack, tracks: list[JointTrack], accept, t: float) -> JointTrack | None:
+        """The hand-chosen target still not located, and a track started since from a crossing
+        ``locate`` did not take (a crossing of partial windows - a sliver, a fragment, a window
+        cut by the image border - lands up to a metre off): while that track is unconfirmed its
+        filtered state is held to ``locate``'s own test (``accept``), as a crossing would be. Of
+        those it passes (filtered for at least one frame), the one nearest the click: the target's
+        track takes its state (staying the target's, confirmed) and the track is returned, for the
+        caller to drop. Without it the track explains the target's windows from then on and no
+        crossing is left to locate the target by."""
+        best, dbest = None, np.inf
+        for tr in tracks:
+            if tr is target or tr.confirmed or not tr.located or tr.born is None or tr.born[0] >= t - 1e-9:
+                continue
+            d = float(np.linalg.norm(tr.xy - target.xy))
+            if accept(tr.xy) and d < dbest:
+                best, dbest = tr, d
+        if best is not None:
+            for f in dataclasses.fields(JointTrack):
+                if f.name not in ("tid", "confirmed"):
+                    setattr(target, f.name, copy.deepcopy(getattr(best, f.name)))
+        return best
+
     def adopt(self, target: JointTrack, tracks: list[JointTrack], click: tuple[float, np.ndarray, np.ndarray],
               floor_area: float) -> JointTrack | None:
         """The hand-chosen target still not located, and a confirmed track (someone a two-camera

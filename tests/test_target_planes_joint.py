@@ -452,3 +452,33 @@ def test_adopt_takes_the_track_that_started_at_the_click_not_a_look_alike_nearby
     tgt = target()
     assert jt.adopt(tgt, [tgt, look_alike, walker], click, area) is walker
     assert tgt.tid == 0 and tgt.located and tgt.s == pytest.approx(walker.s)
+
+
+def test_locate_track_takes_a_young_track_filtered_into_the_locate_disc():
+    """The first crossing on the target was made from partial windows and landed 1.0 m from the
+    click, outside ``locate``'s disc (0.9 m): it started a track of its own (analytic development
+    150). Filtered for a frame, that track is 0.5 m from the click: held to ``locate``'s own test
+    it is the target's, and the target takes its state. Not taken: a young track still outside
+    the disc, one confirmed (someone else, five frames of windows of its own: ``adopt``'s case),
+    or one born this frame (a raw crossing, which ``locate`` itself judged)."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    click = np.array([1.2, 4.2])
+    accept = lambda p: float(np.linalg.norm(np.asarray(p, float) - click)) <= cfg.init_radius + 2.0 * cfg.radius
+    S = np.diag([cfg.radius**2] * 2 + [cfg.birth_sigma_v**2] * 2)
+
+    def target():
+        return JointTrack(0, np.r_[click, 0.0, 0.0], np.diag([0.25, 0.25, 2.25, 2.25]), confirmed=True, located=False)
+
+    def young(tid, xy, tb=0.4, confirmed=False):
+        tr = JointTrack(tid, np.r_[xy, 0.3, 0.3], S.copy(), confirmed=confirmed, hits=1)
+        tr.born = (tb, np.r_[1.8, 5.0, 0.0, 0.0], S.copy())
+        return tr
+
+    far, inside = young(2, [2.2, 4.6]), young(1, [1.6, 4.5])
+    for other in (far, young(3, [1.6, 4.5], confirmed=True), young(4, [1.6, 4.5], tb=0.5)):
+        tgt = target()
+        assert jt.locate_track(tgt, [tgt, other], accept, 0.5) is None and not tgt.located
+    tgt = target()
+    assert jt.locate_track(tgt, [tgt, far, inside], accept, 0.5) is inside
+    assert tgt.tid == 0 and tgt.confirmed and tgt.located and tgt.s == pytest.approx(inside.s)
