@@ -308,14 +308,13 @@ class TargetPlanes(Estimator):
                     new.tid = next_id
                     tracks.append(new)
                     next_id += 1
+            found = None
             if cfg.locate_tracks and target is not None and not target.located:
                 found = jt.locate_track(target, tracks, accept, t)  # a track started off the click, filtered onto it
-                if found is not None:
-                    tracks = [tr for tr in tracks if tr is not found]
-            if cfg.adopt and target is not None and not target.located:
+            if found is None and cfg.adopt and target is not None and not target.located:
                 found = jt.adopt(target, tracks, click, floor_area)  # someone else's track started on the target: it is the target
-                if found is not None:
-                    tracks = [tr for tr in tracks if tr is not found]
+            if found is not None:
+                tracks = [tr for tr in tracks if tr is not found]  # the target's track took it over
             tracks = jt.prune(tracks, keep, inside_room)
             end_rows += [(t, tr.tid, tr.s[0], tr.s[1], why, other) for tr, why, other in jt.ends]
             if idl is not None:

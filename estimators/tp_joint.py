@@ -814,10 +814,16 @@ class JointTracker:
             if accept(tr.xy) and d < dbest:
                 best, dbest = tr, d
         if best is not None:
-            for f in dataclasses.fields(JointTrack):
-                if f.name not in ("tid", "confirmed"):
-                    setattr(target, f.name, copy.deepcopy(getattr(best, f.name)))
+            self.take_over(target, best)
         return best
+
+    @staticmethod
+    def take_over(target: JointTrack, track: JointTrack) -> None:
+        """The hand-chosen target's track becomes ``track`` (``locate_track``, ``adopt``): every
+        field copied but its id, and it stays confirmed (the target is always reported)."""
+        for f in dataclasses.fields(JointTrack):
+            if f.name not in ("tid", "confirmed"):
+                setattr(target, f.name, copy.deepcopy(getattr(track, f.name)))
 
     def adopt(self, target: JointTrack, tracks: list[JointTrack], click: tuple[float, np.ndarray, np.ndarray],
               floor_area: float) -> JointTrack | None:
@@ -849,9 +855,7 @@ class JointTracker:
             if llr > best_llr:
                 best, best_llr = tr, llr
         if best is not None:
-            for f in dataclasses.fields(JointTrack):
-                if f.name != "tid":
-                    setattr(target, f.name, copy.deepcopy(getattr(best, f.name)))
+            self.take_over(target, best)  # (best is confirmed, as the target is)
         return best
 
     def wide_clutter(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, free: list[int]) -> list:

@@ -1,7 +1,6 @@
 """scripts/measure_tp_identity.py: each scored identity decision labelled from the truth."""
-import pandas as pd
-
 import numpy as np
+import pandas as pd
 
 from scripts.measure_tp_identity import label, swap_time, thresholds
 
