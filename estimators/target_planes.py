@@ -99,9 +99,10 @@ class TargetPlanes(Estimator):
                                    "switching; the scenes' walkers cross the room between waypoints in 5-10 s)")
         stand_s: float = param(3.0, "mean time a person stands before walking on, s (the scenes' waypoint stops "
                                     "last up to 5 s)")
-        p_miss: float = param(0.3, "probability that a walker in a camera's view has no window of its own there "
-                                   "(occlusion, a merge, a fragment): how fast a track no window explains "
-                                   "becomes standing")
+        p_miss: float = param(0.3, "probability that a walker moving at least mover_flow_px in the image of a "
+                                   "camera that would see it (not hidden by the floor plan's boxes or another "
+                                   "track) has no window of its own there (a merge, a fragment, someone "
+                                   "untracked in front): how fast a track no window explains becomes standing")
         p_detect: float = param(0.91, "probability that a walking person has a flow window in a camera whose view "
                                       "holds them, moving at least mover_flow_px in its image and hidden neither by the "
                                       "floor plan's boxes nor by a nearer mover (rendered development recordings "

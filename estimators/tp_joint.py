@@ -96,6 +96,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from scipy.special import chndtr
 from scipy.stats import chi2
 
 from trackroom.scenes.spec import nearest_on_segment
@@ -145,7 +146,7 @@ class JointTrack:
     Ps: np.ndarray | None = None
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
-    log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over cameras in view
+    log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
 
     def estimate(self) -> np.ndarray:
@@ -224,35 +225,40 @@ class Occluders:
             a, b = np.asarray(w.start, float), np.asarray(w.end, float)
             d = b - a
             boxes.append((*(0.5 * (a + b)), 0.5 * float(np.hypot(*d)), 0.5 * w.thickness, w.height, float(np.arctan2(d[1], d[0]))))
-        self.boxes = np.array(boxes, float).reshape(-1, 6)
-        self.centres = {c: geo.camera_centre(P) for c, P in Ps.items()}
+        self.boxes = bx = np.array(boxes, float).reshape(-1, 6)
         self.z = height * np.asarray(VIS_FRACTIONS)
+        self.cy, self.sy = np.cos(bx[:, 5])[:, None], np.sin(bx[:, 5])[:, None]
+        self.lo = np.stack([-bx[:, 2], -bx[:, 3], np.zeros(len(bx))], -1)[:, None, :]
+        self.hi = np.stack([bx[:, 2], bx[:, 3], bx[:, 4]], -1)[:, None, :]
+        self.centres = {c: geo.camera_centre(P) for c, P in Ps.items()}
+        self.centres_local = {c: self.local(C[None, :]) for c, C in self.centres.items()}  # in each box's frame, (B, 1, 3)
+
+    def local(self, X: np.ndarray) -> np.ndarray:
+        """Points X (V, 3) in each box's frame: (B, V, 3)."""
+        dx, dy = X[None, :, 0] - self.boxes[:, None, 0], X[None, :, 1] - self.boxes[:, None, 1]
+        return np.stack([self.cy * dx + self.sy * dy, -self.sy * dx + self.cy * dy, np.broadcast_to(X[None, :, 2], dx.shape)], -1)
 
     def visible(self, c: str, xy: np.ndarray) -> bool:
+        return bool(self.visible_many(c, np.asarray(xy, float)[None, :2])[0])
+
+    def visible_many(self, c: str, xys: np.ndarray) -> np.ndarray:
+        """``visible`` for the floor points xys (N, 2) at once: (N,) bool."""
+        xys = np.asarray(xys, float).reshape(-1, 2)
         if not len(self.boxes):
-            return True
-        C = self.centres[c]
-        pts = np.c_[np.broadcast_to(np.asarray(xy, float)[:2], (len(self.z), 2)), self.z]  # (V, 3)
-        bx = self.boxes
-        cy, sy = np.cos(bx[:, 5]), np.sin(bx[:, 5])
-
-        def local(X):  # (V, 3) -> (B, V, 3) in each box's frame
-            dx, dy = X[None, :, 0] - bx[:, None, 0], X[None, :, 1] - bx[:, None, 1]
-            return np.stack([cy[:, None] * dx + sy[:, None] * dy, -sy[:, None] * dx + cy[:, None] * dy,
-                             np.broadcast_to(X[None, :, 2], dx.shape)], -1)
-
-        a = local(np.broadcast_to(C, pts.shape))
-        d = local(pts) - a
-        lo = np.stack([-bx[:, 2], -bx[:, 3], np.zeros(len(bx))], -1)[:, None, :]
-        hi = np.stack([bx[:, 2], bx[:, 3], bx[:, 4]], -1)[:, None, :]
+            return np.ones(len(xys), bool)
+        V = len(self.z)
+        pts = np.c_[np.repeat(xys, V, axis=0), np.tile(self.z, len(xys))]  # (N V, 3)
+        a = self.centres_local[c]
+        d = self.local(pts) - a
+        lo, hi = self.lo, self.hi
         with np.errstate(divide="ignore", invalid="ignore"):
             t1, t2 = (lo - a) / d, (hi - a) / d
         par = d == 0.0  # a ray parallel to a slab: inside it or never
         inside = (a >= lo) & (a <= hi)
         tmin = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
         tmax = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
-        hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, V): the segment camera -> point meets the box
-        return bool((~hidden.any(0)).any())
+        hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, N V): the segment camera -> point meets the box
+        return (~hidden.any(0)).reshape(len(xys), V).any(1)
 
 
 def on_floor(inside_room, xy) -> bool:
@@ -436,9 +442,18 @@ class JointTracker:
         return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
 
     def miss_walk(self, p: Projection) -> float:
-        """-log P(no window | walking): free for a walking track predicted slow in this image (no
-        flow region), else ``-log p_miss``."""
-        return -np.log(self.cfg.p_miss) if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
+        """-log P(no window | walking) in a camera that would see the track: a walker moving at
+        least ``mover_flow_px`` in this image has none with ``p_miss``; one slower makes no flow
+        region. Whether it moves that fast is the walking mode's predicted image velocity
+        N(flow, var_f), taken isotropic (variance half its trace): P(slow) = P(|f| <
+        mover_flow_px), a non-central chi-square with 2 degrees of freedom. (Deciding by the
+        predicted mean alone made misses free for a track unseen for a second: its mean velocity
+        decays with ``stop_tau`` while its spread does not, so the walking mode never lost to the
+        standing one and its position spread grew to ``sigma_max``.)"""
+        var = 0.5 * float(np.trace(p.var_f))
+        thr, m2 = self.cfg.mover_flow_px**2, float(p.flow @ p.flow)
+        slow = float(chndtr(thr / var, 2, m2 / var)) if var > 1e-12 else float(m2 < thr)
+        return -float(np.log(slow + (1.0 - slow) * self.cfg.p_miss))
 
     def miss_cost(self, p: Projection) -> float:
         """A track without a window: free for a track predicted standing (no flow region), else
@@ -531,7 +546,8 @@ class JointTracker:
         return result, projs
 
     # --- track existence ----------------------------------------------------------------------
-    def walk_evidence(self, tr: JointTrack, c: str, p: Projection, hit_lr: float | None, merged: bool, hidden: bool = False) -> float:
+    def walk_evidence(self, tr: JointTrack, c: str, p: Projection, hit_lr: float | None, merged: bool, hidden: bool = False,
+                      visible: bool = True) -> float:
         """Camera c's share of the existence test's evidence: log P(what c shows of the track |
         a walking person) - log P(it | no one there).
 
@@ -541,7 +557,8 @@ class JointTracker:
         - A merged window holding it: 0 (its own window cannot be told apart).
         - No window: log P(no window | a walking person here) (no one there makes none: log 1).
           A walker is expected seen when it moves in this image (predicted image speed at least
-          ``mover_flow_px``), is not hidden by the floor plan's boxes (``Occluders``) and its
+          ``mover_flow_px``), is not hidden by the floor plan's boxes (``visible``: ``Occluders``,
+          computed by the caller for all tracks of the view at once) and its
           projected cylinder overlaps no other track's (``hidden``: hidden by it, or merged with it
           into a window the explanation may have given to the other alone); then
           with the flow tracker's measured rate, its misses in runs: a two-state chain of
@@ -553,7 +570,7 @@ class JointTracker:
             tr.missed.discard(c)
             return float(np.log(cfg.p_detect)) + hit_lr
         moving = float(np.linalg.norm(p.flow)) >= cfg.mover_flow_px
-        if merged or hidden or not moving or (self.occluders is not None and not self.occluders.visible(c, tr.xy)):
+        if merged or hidden or not moving or not visible:
             tr.missed.discard(c)
             return 0.0
         see = self.p_see_after_miss if c in tr.missed else self.p_see_after_hit
@@ -652,8 +669,6 @@ class JointTracker:
         for c, (expl, projs) in plans.items():
             boxes = frame[c]
             free[c] = [j for j in range(len(boxes)) if j not in expl]
-            for i, p in projs.items():
-                tracks[i].log_miss -= self.miss_walk(p)  # for the mode posterior, if no camera has its window
             for i in range(len(tracks)):
                 if i not in projs:
                     tracks[i].status[c] = (LOST, "out of view", None)
@@ -662,6 +677,9 @@ class JointTracker:
             holder = {i: (j, len(mem)) for j, mem in expl.items() for i in mem}
             wide_c = self.wide_clutter(c, tracks, projs, boxes, free[c]) if cfg.split_births else []
             in_wide = {e[3][0] for e in wide_c}  # tracks in a too-wide region left as clutter: merged with someone untracked
+            ids = list(projs)
+            visible = dict(zip(ids, self.occluders.visible_many(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2))
+                               if self.occluders is not None else np.ones(len(ids), bool)))
             for i, p in projs.items():  # the existence test's evidence, from the predictions
                 j, n = holder.get(i, (None, 0))
                 # its projected cylinder overlaps another track's: hidden by it, or merged with it
@@ -674,7 +692,13 @@ class JointTracker:
                     alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
                                              for k, q in projs.items() if k != i and k not in holder])
                     lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
-                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden)
+                # for the mode posterior, if no camera has its window: only a camera that would see
+                # a walker there (hidden behind a shelf or another track, walking or standing makes
+                # no window of one's own)
+                vis = bool(visible[i])
+                if vis and not hidden:
+                    tracks[i].log_miss -= self.miss_walk(p)
+                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis)
                 hit[i] |= n == 1
             extra = []
             for j, mem in expl.items():

@@ -482,3 +482,58 @@ def test_locate_track_takes_a_young_track_filtered_into_the_locate_disc():
     tgt = target()
     assert jt.locate_track(tgt, [tgt, far, inside], accept, 0.5) is inside
     assert tgt.tid == 0 and tgt.confirmed and tgt.located and tgt.s == pytest.approx(inside.s)
+
+
+def test_a_walker_who_slows_to_a_stop_in_view_becomes_standing_and_stays_put():
+    """A walker slows from 0.6 m/s to a stop at (4.2, 2.5) in the view of all four cameras, with
+    windows of its own while it moves; then the windows stop (a flow tracker sees no one
+    standing). Its walking mode is predicted slow but ever less sure of its velocity, so the
+    misses of cameras that would see a walker are evidence that it stands: within 2 s the
+    standing probability is above 0.9 and the position the windows would be matched against
+    (the walking mode's, which a start from rest keeps at the standing position) stays within
+    0.5 m (one sigma), instead of spreading to ``sigma_max`` (1.5 m) and taking the window of
+    anyone passing its line of sight (``miss_walk``)."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    tr = JointTrack(1, np.r_[3.0, 2.5, 0.6, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=True,
+                    hits=20, exist=EXIST_ACCEPT)
+    x, v = 3.0, 0.6
+    while v > 0.05:  # decelerating at 0.3 m/s^2, seen by all four cameras
+        v -= 0.03
+        x += 0.1 * v
+        jt.step([tr], _frame(cams, np.array([x, 2.5]), (v, 0.0), {c.name for c in cams}), 0.1)
+    assert tr.mu < 0.1 and abs(tr.s[0] - x) < 0.1
+    for _ in range(20):
+        jt.step([tr], _empty(cams), 0.1)
+    assert tr.mu > 0.9
+    assert np.sqrt(np.linalg.eigvalsh(tr.S[:2, :2]).max()) < 0.5
+    assert np.linalg.norm(tr.estimate()[:2] - [x, 2.5]) < 0.2
+
+
+def test_a_walker_hidden_behind_another_track_in_every_view_is_not_made_standing():
+    """Two walkers 0.3 m apart, walking together: every camera's window is explained as the
+    nearer one's alone (a merged window would make both seen). The hidden one's misses are no
+    evidence that it stands (its projection overlaps the other's: it makes no window of its own
+    walking or standing), so its standing probability stays at the walking prior."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    tr = JointTrack(1, np.r_[3.0, 2.5, 0.6, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=True,
+                    hits=20, exist=EXIST_ACCEPT)
+    tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+    front = JointTrack(2, np.r_[3.0, 2.8, 0.6, 0.0], tr.S.copy(), confirmed=True, seen=True, hits=20, exist=EXIST_ACCEPT)
+    for c in cams:  # overlapping projections in every view
+        a, b = geo.cylinder_window(c.P, tr.xy, H, R), geo.cylinder_window(c.P, front.xy, H, R)
+        assert a[0] <= b[1] and b[0] <= a[1]
+    explain = jt.explain_camera
+
+    def front_alone(c, ts, boxes):  # each window: the front walker's alone
+        ex, projs = explain(c, ts, boxes)
+        return {j: (next(k for k, t in enumerate(ts) if t is front),) for j in ex}, projs
+
+    jt.explain_camera = front_alone
+    prior = 0.0
+    for _ in range(5):
+        jt.step([tr, front], _frame(cams, front.xy + [0.06, 0.0], (0.6, 0.0), {c.name for c in cams}), 0.1)
+        assert not tr.seen and tr.log_miss == 0.0
+        prior = (1.0 - prior) * 0.1 / cfg.walk_s + prior * (1.0 - 0.1 / cfg.stand_s)  # the mode switches alone
+    assert tr.mu == pytest.approx(prior, abs=1e-12)
