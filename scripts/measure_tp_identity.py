@@ -31,11 +31,21 @@ from scripts.experiment_tsutsui import people_at, recordings_and_params, run_tar
 from trackroom.dataset import read_recording
 
 
+def nearest_people(people: pd.DataFrame, times, xys) -> np.ndarray:
+    """The true person nearest each floor point ``xys`` (n, 2) at its time ``times`` (n,) (the
+    experiment's ``truth_at``, looked up once for all of them): (n,) person ids."""
+    times = np.asarray(times, float).reshape(-1)
+    xys = np.asarray(xys, float).reshape(-1, 2)
+    g = people_at(people, times)  # one block of len(times) rows per person
+    ids = g["person_id"].to_numpy()[:: len(times)]
+    X = g["x"].to_numpy(float).reshape(len(ids), len(times))
+    Y = g["y"].to_numpy(float).reshape(len(ids), len(times))
+    return np.array([str(i) for i in ids[np.argmin(np.hypot(X - xys[:, 0], Y - xys[:, 1]), axis=0)]], object)
+
+
 def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
-    """The true person nearest floor point ``xy`` at time ``t`` (the experiment's ``truth_at``)."""
-    g = people_at(people, [t])
-    d = np.hypot(g["x"].to_numpy(float) - xy[0], g["y"].to_numpy(float) - xy[1])
-    return str(g["person_id"].to_numpy()[np.argmin(d)])
+    """The true person nearest floor point ``xy`` at time ``t``."""
+    return str(nearest_people(people, [t], [xy])[0])
 
 
 def label(row, people: pd.DataFrame) -> str:
@@ -58,8 +68,10 @@ def swap_time(row, internal: pd.DataFrame, people: pd.DataFrame) -> float:
     decision; NaN when it never is."""
     p_b = nearest_person(people, row.t_pre, (row.b_pre_x, row.b_pre_y))
     g = internal[(internal["track_id"] == row.a) & (internal["t"] >= row.t_pre - 1e-9) & (internal["t"] <= row.t + 1e-9)]
-    on_b = np.array([nearest_person(people, t, (x, y)) == p_b for t, x, y in zip(g["t"], g["x"], g["y"])], bool)
-    if not len(on_b) or not on_b[-1]:
+    if not len(g):
+        return float("nan")
+    on_b = nearest_people(people, g["t"], g[["x", "y"]]) == p_b
+    if not on_b[-1]:
         return float("nan")
     off = np.flatnonzero(~on_b)
     return float(g["t"].to_numpy()[off[-1] + 1 if len(off) else 0])
