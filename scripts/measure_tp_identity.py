@@ -49,10 +49,9 @@ def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
 
 
 def label(row, people: pd.DataFrame) -> str:
-    p_a = nearest_person(people, row.t_pre, (row.a_pre_x, row.a_pre_y))
-    p_b = nearest_person(people, row.t_pre, (row.b_pre_x, row.b_pre_y))
-    q_a = nearest_person(people, row.t, (row.a_post_x, row.a_post_y))
-    q_b = nearest_person(people, row.t, (row.b_post_x, row.b_post_y))
+    p_a, p_b, q_a, q_b = nearest_people(people, [row.t_pre, row.t_pre, row.t, row.t],
+                                        [(row.a_pre_x, row.a_pre_y), (row.b_pre_x, row.b_pre_y),
+                                         (row.a_post_x, row.a_post_y), (row.b_post_x, row.b_post_y)])
     if p_a == p_b:
         return "same"
     if q_a == p_b and q_b == p_a:

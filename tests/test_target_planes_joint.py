@@ -485,7 +485,7 @@ def test_locate_track_takes_a_young_track_filtered_into_the_locate_disc():
 
 
 def test_a_walker_who_slows_to_a_stop_in_view_becomes_standing_and_stays_put():
-    """A walker slows from 0.6 m/s to a stop at (4.2, 2.5) in the view of all four cameras, with
+    """A walker slows from 0.6 m/s to a stop near (3.6, 2.5) in the view of all four cameras, with
     windows of its own while it moves; then the windows stop (a flow tracker sees no one
     standing). Its walking mode is predicted slow but ever less sure of its velocity, so the
     misses of cameras that would see a walker are evidence that it stands: within 2 s the
@@ -511,8 +511,9 @@ def test_a_walker_who_slows_to_a_stop_in_view_becomes_standing_and_stays_put():
 
 
 def test_a_walker_hidden_behind_another_track_in_every_view_is_not_made_standing():
-    """Two walkers 0.3 m apart, walking together: every camera's window is explained as the
-    nearer one's alone (a merged window would make both seen). The hidden one's misses are no
+    """Two walkers 0.3 m apart, walking together, their projected cylinders overlapping in every
+    view: each camera's window is given to the other one alone (the explanation is forced so
+    here; a merged window would make both seen). The hidden one's misses are no
     evidence that it stands (its projection overlaps the other's: it makes no window of its own
     walking or standing), so its standing probability stays at the walking prior."""
     cams = four_cameras()
