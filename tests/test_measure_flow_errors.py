@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import autocorrelation, corr_time, persistent_fit, short_runs
+from scripts.measure_flow_errors import autocorrelation, corr_time, persistent_fit, share_table, short_runs
 
 
 def _table(values: np.ndarray, speed: float = 50.0) -> pd.DataFrame:
@@ -38,6 +38,23 @@ def test_runs_of_flows_far_short_of_the_motion_are_counted():
     n, share, run, long_runs = short_runs(_table(along))
     assert (n, long_runs) == (40, 1)
     assert share == pytest.approx(8 / 40) and run == pytest.approx(4.0)
+
+
+def test_the_flow_error_is_split_by_the_window_share_of_the_person_and_border_cuts_are_left_out():
+    rng = np.random.default_rng(1)
+    n = 4000
+    share = rng.uniform(0.3, 1.2, n)
+    e_u = rng.standard_normal(n) * np.where(share < 0.5, 40.0, 2.0)  # fragments: large horizontal errors
+    border = rng.uniform(size=n) < 0.2
+    e_u[border] = 1000.0  # a border-cut window's error must not reach any bin
+    df = pd.DataFrame({"speed": 50.0, "e_u": e_u, "e_v": rng.standard_normal(n), "share": share, "border": border})
+    tab = share_table(df).set_index("share")
+    assert list(tab.index) == ["0.3-0.5", "0.5-0.7", "0.7-0.85", "0.85-1.15", "1.15-1.5"]
+    assert tab["n"].sum() == (~border).sum()
+    assert tab.loc["0.3-0.5", "flow_u rsd"] == pytest.approx(40.0, rel=0.15)
+    assert tab.loc["0.85-1.15", "flow_u rsd"] == pytest.approx(2.0, rel=0.15)
+    assert tab["flow_v rsd"].between(0.8, 1.2).all()
+    assert tab.loc["0.3-0.5", "flow_u q90 / speed"] == pytest.approx(1.645 * 40.0 / 50.0, rel=0.15)
 
 
 def test_the_consistency_probe_reads_the_target_track_and_puts_the_tracker_back(tmp_path, capsys):
