@@ -82,14 +82,21 @@ def people_at(ppl: pd.DataFrame, times: np.ndarray) -> pd.DataFrame:
     return pd.concat(out, ignore_index=True)
 
 
+def distances_at(ppl: pd.DataFrame, times, xys) -> tuple[list[str], np.ndarray]:
+    """Each floor point ``xys`` (n, 2)'s distance to every true person at its time ``times``
+    (n,) (``people_at``, looked up once for all of them): (person ids, sorted; D (n, people), m)."""
+    times = np.asarray(times, float).reshape(-1)
+    xys = np.asarray(xys, float).reshape(-1, 2)
+    d = {pid: np.hypot(xys[:, 0] - g["x"].to_numpy(float), xys[:, 1] - g["y"].to_numpy(float))
+         for pid, g in people_at(ppl, times).groupby("person_id")}
+    names = sorted(d)
+    return names, np.stack([d[n] for n in names], 1) if names else np.zeros((len(times), 0))
+
+
 def person_distances(rec: Recording, tracks: pd.DataFrame) -> tuple[list[str], np.ndarray]:
     """Each output row's distance to every true person at its time: (person ids, sorted;
     D (rows, people), m)."""
-    tru = truth_at(rec, tracks["t"].to_numpy(float))
-    d = {pid: np.hypot(tracks["x"].to_numpy() - g["x"].to_numpy(), tracks["y"].to_numpy() - g["y"].to_numpy())
-         for pid, g in tru.groupby("person_id")}
-    names = sorted(d)
-    return names, np.stack([d[n] for n in names], 1)
+    return distances_at(rec.truth.people, tracks["t"], tracks[["x", "y"]])
 
 
 def target_held(names: list[str], D: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ import pandas as pd
 from trackroom.dataset import read_recording
 from trackroom.estimators.target_planes import TargetPlanes
 
-from .experiment_tsutsui import estimator_config
+from .experiment_tsutsui import distances_at, estimator_config
 
 MOVERS = ("target", "distractor")
 LABEL_M = 0.7  # a track follows the person nearest it within this distance, m
@@ -39,17 +39,14 @@ APART_S = 2.0
 
 def follows(rows: pd.DataFrame, people: pd.DataFrame) -> str | None:
     """The person a track's output ``rows`` (t, x, y) was nearest in most frames (within
-    ``LABEL_M``; ``none`` otherwise); None for no rows."""
-    labels = []
-    at = {round(t, 2): g for t, g in people.groupby(people.t.round(2))}
-    for r in rows.itertuples():
-        g = at.get(round(r.t, 2))
-        if g is None or not len(g):
-            continue
-        d = np.hypot(g.x.to_numpy() - r.x, g.y.to_numpy() - r.y)
-        k = int(np.argmin(d))
-        labels.append(str(g.person_id.to_numpy()[k]) if d[k] < LABEL_M else "none")
-    return max(set(labels), key=labels.count) if labels else None
+    ``LABEL_M``; ``none`` otherwise; the experiment's ``distances_at``); None for no rows."""
+    if not len(rows):
+        return None
+    names, D = distances_at(people, rows["t"], rows[["x", "y"]])
+    k = D.argmin(1)
+    labels = np.where(D[np.arange(len(k)), k] < LABEL_M, np.array(names, object)[k], "none")
+    ids, counts = np.unique(labels, return_counts=True)
+    return str(ids[np.argmax(counts)])
 
 
 def apart_frames(status: pd.DataFrame, a: int, b: int, t: float) -> int:

@@ -27,20 +27,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import people_at, recordings_and_params, run_target
+from scripts.experiment_tsutsui import distances_at, recordings_and_params, run_target
 from trackroom.dataset import read_recording
 
 
 def nearest_people(people: pd.DataFrame, times, xys) -> np.ndarray:
     """The true person nearest each floor point ``xys`` (n, 2) at its time ``times`` (n,) (the
-    experiment's ``truth_at``, looked up once for all of them): (n,) person ids."""
-    times = np.asarray(times, float).reshape(-1)
-    xys = np.asarray(xys, float).reshape(-1, 2)
-    g = people_at(people, times)  # one block of len(times) rows per person
-    ids = g["person_id"].to_numpy()[:: len(times)]
-    X = g["x"].to_numpy(float).reshape(len(ids), len(times))
-    Y = g["y"].to_numpy(float).reshape(len(ids), len(times))
-    return np.array([str(i) for i in ids[np.argmin(np.hypot(X - xys[:, 0], Y - xys[:, 1]), axis=0)]], object)
+    experiment's ``distances_at``): (n,) person ids."""
+    names, D = distances_at(people, times, xys)
+    return np.array(names, object)[D.argmin(1)]
 
 
 def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
