@@ -66,13 +66,15 @@ class TargetPlanesResult:
     unseen / existence / off floor / duplicate, other: the track it duplicated), and ``decisions``,
     each identity decision scored (``tp_identity.IdentityLag.record``: t, kind - pair or handover -,
     a, b, gone, log_odds, t_pre, and the floor positions a_pre, b_pre then and a_post, b_post at t,
-    as x, y columns)."""
+    as x, y columns); ``times``, every frame time the tracker ran (in single-target mode a frame
+    without a row is one the target was not reported: no track carried its identity)."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
     internal: pd.DataFrame = field(default_factory=pd.DataFrame)
     ends: pd.DataFrame = field(default_factory=pd.DataFrame)
     decisions: pd.DataFrame = field(default_factory=pd.DataFrame)
+    times: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @register
@@ -330,6 +332,8 @@ class TargetPlanes(Estimator):
                 for c in cams:
                     st, reason, win = tr.status.get(c, (LOST, "", None))
                     status_rows.append((t, tr.tid, c, st, reason, win))
+        if idl is not None:
+            idl.finish(tracks)
         tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
         status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
         internal = tracks_df.copy()
@@ -355,7 +359,7 @@ class TargetPlanes(Estimator):
         decisions = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
                            for h in (idl.decisions if idl is not None else [])])
-        return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions)
+        return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions, np.asarray(times, float))
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to

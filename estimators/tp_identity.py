@@ -77,6 +77,15 @@ of the pair's states before and after it, with both assignments kept until then:
   takes the ended identity (from the end on) when its first state s_b, S_b is likelier the ended
   track's state at that time, N(s_b; s_e(t_b), S_b + S_e(t_b)), than someone new (as above).
 
+- **An encounter's ended track waits for its hand-over**: a confirmed track that ended while
+  its encounter's other track lives is not found again, nor succeeded, at once: the link is
+  scored as above, at its usual time, and kept (the likeliest per ended track, ``deferred``)
+  until the encounter's hand-over, which scores the survivor as well as the new track (a
+  found-again link alone looks only at the ended track's last state, which the encounter's
+  merged windows had already pulled onto the other person or stripped of its velocity). An
+  exchange there wins; otherwise, or when the encounter closes with both its tracks gone, the
+  deferred link is made (``_release``), if its track still carries its own identity.
+
 ``IdentityLag.update`` is called once a frame with the tracks after the tracker's step;
 ``relabel`` maps (time, internal track id) rows to identities afterwards.
 """
@@ -141,6 +150,7 @@ class IdentityLag:
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
+    deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
 
     def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None,
@@ -182,9 +192,8 @@ class IdentityLag:
         if self.watch is None:
             conf = [tr for tr in loc if tr.confirmed]
             return [(a, b) for i, a in enumerate(conf) for b in conf[i + 1:]]
-        tgt = self.holder(self.watch)
-        ta = next((tr for tr in loc if tr.tid == tgt), None)
-        return [] if ta is None else [(ta, b) for b in loc if b.tid != tgt]
+        ta = next((tr for tr in loc if self.ident.get(tr.tid, tr.tid) == self.watch), None)  # the live track carrying it
+        return [] if ta is None else [(ta, b) for b in loc if b is not ta]
 
     def update(self, t: float, tracks) -> None:
         """One frame: open, extend, close and decide episodes; remember the states."""
@@ -226,6 +235,8 @@ class IdentityLag:
                     ep.gone, ep.t_end = (ep.a if ep.a not in alive else ep.b), t  # decided with a new track, lag_s on
                 else:
                     del self.episodes[key]  # a track of the pair is gone: nothing to exchange
+                    for k in key:
+                        self._release(k, alive)
             elif ep.t1 is not None and t - ep.t1 >= self.lag_s - 1e-9:
                 del self.episodes[key]
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
@@ -261,25 +272,41 @@ class IdentityLag:
                 continue
             self.conf_t[tr.tid] = t
             held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
-            age = t - self.born.get(tr.tid, t)
-            moving = self._walking(tr.s, tr.S)
-            new = float(-np.log(self.relink_area)) + moving
             best, best_llr = None, 0.0
-            for tid, (s, S, t_last, mu, (xw, Sw)) in self.ended.items():
+            for tid in self.ended:
                 if self.ident.get(tid, tid) in held:
                     continue
-                dt = t - t_last
-                p, C = self._predict(s, S, dt)
-                stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
-                walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
-                stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
-                    tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
-                llr = float(np.logaddexp(walked, stood)) - new
+                llr = self.found_again(t, tr, tid)
                 self.scores.append((t, tr.tid, tid, llr))
                 if llr > best_llr:
                     best, best_llr = tid, llr
             if best is not None:
-                self._link(t, tr.tid, best, best_llr)
+                self._link_or_defer(t, tr.tid, best, best_llr, alive)
+
+    def _link_or_defer(self, t: float, tid: int, ended: int, llr: float, alive: dict) -> None:
+        """``_link``, unless ``ended`` ended in an encounter whose other track lives: then the
+        link waits for that encounter's hand-over (the likeliest proposal kept), which may
+        exchange instead."""
+        if any(ended in key and any(k in alive for k in key if k != ended) for key in self.episodes):
+            if llr > self.deferred.get(ended, (None, None, -np.inf))[2]:
+                self.deferred[ended] = (t, tid, llr)
+            return
+        self._link(t, tid, ended, llr)
+
+    def found_again(self, t: float, tr, tid: int) -> float:
+        """log L(walked on) - log L(someone new) of track ``tr`` as the ended track ``tid``'s
+        person found again (module docstring, "A person found again")."""
+        s, S, t_last, mu, (xw, Sw) = self.ended[tid]
+        age = t - self.born.get(tr.tid, t)
+        moving = self._walking(tr.s, tr.S)
+        new = float(-np.log(self.relink_area)) + moving
+        dt = t - t_last
+        p, C = self._predict(s, S, dt)
+        stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
+        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
+        stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
+            tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
+        return float(np.logaddexp(walked, stood)) - new
 
     def _successors(self, t: float, tracks, fresh: list) -> None:
         """Confirmed tracks that ended this frame, each given to a successor (module docstring): a
@@ -307,7 +334,7 @@ class IdentityLag:
                 if llr > best_llr:
                     best, best_llr = y.tid, llr
             if best is not None:
-                self._link(t, best, e, best_llr)
+                self._link_or_defer(t, best, e, best_llr, {o.tid: o for o in tracks})
 
     def _walking(self, s: np.ndarray, S: np.ndarray) -> float:
         """log N(v; 0, sigma_v^2 I + S[v]): a track's velocity as a walker's whose direction and
@@ -357,7 +384,33 @@ class IdentityLag:
         for key in [k for k in self.episodes if ep.a in k or ep.b in k]:
             del self.episodes[key]  # their other encounters were scored with the old identities
 
+    def _release(self, gone: int, alive: dict) -> None:
+        """The link deferred for ``gone`` (``_link_or_defer``), now that its encounter is decided
+        without an exchange: made when its track is alive, still under its own identity, and the
+        gone identity not carried on otherwise."""
+        prop = self.deferred.pop(gone, None)
+        if prop is None or gone not in self.ended:
+            return
+        t, tid, llr = prop
+        held = {self.ident.get(k, k) for k in alive}
+        if tid in alive and self.ident.get(tid, tid) == tid and self.ident.get(gone, gone) not in held:
+            self._link(t, tid, gone, llr)
+
+    def finish(self, tracks) -> None:
+        """The end of the recording: links still waiting for a hand-over that will not come are
+        made (``_release``)."""
+        alive = {tr.tid: tr for tr in tracks}
+        for gone in list(self.deferred):
+            self._release(gone, alive)
+
     def hand_over(self, td: float, ep: Episode, alive: dict) -> None:
+        """``_hand_over``; then, without an exchange, the gone track's deferred link."""
+        if not self._hand_over(td, ep, alive):
+            self._release(ep.gone, alive)
+        else:
+            self.deferred.pop(ep.gone, None)
+
+    def _hand_over(self, td: float, ep: Episode, alive: dict) -> bool:
         """An encounter one of whose tracks ended (``gone``), ``lag_s`` after its end: the survivor
         and each track confirmed since the encounter began (a person the tracker found again)
         are scored as the pair's continuation, kept (the survivor continues its own pre state,
@@ -367,11 +420,11 @@ class IdentityLag:
         takes the gone track's identity and the new track the survivor's, from the end on."""
         sv = ep.b if ep.gone == ep.a else ep.a
         if sv not in alive or not alive[sv].confirmed:
-            return
+            return False
         if self.ident.get(ep.gone, ep.gone) in {self.ident.get(k, k) for k in alive}:
-            return  # the gone identity was found again (``relink``)
+            return False  # the gone identity was found again (``relink``)
         if ep.gone not in self.confirmed_ids:
-            return  # a track never confirmed (a fragment's): no one to hand over
+            return False  # a track never confirmed (a fragment's): no one to hand over
         ts = alive[sv]
         t_pre = min(v[2] for v in ep.pre.values())
         pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2], self.walker_accel)
@@ -389,13 +442,14 @@ class IdentityLag:
             if llr > best_llr:
                 best, best_llr = tid, llr
         if best is None or not self.handover:
-            return  # (without ``handover`` the pairs are scored, for diagnosis, and never exchanged)
+            return False  # (without ``handover`` the pairs are scored, for diagnosis, and never exchanged)
         i_sv, i_gone = self.identity(sv), self.identity(ep.gone)
         self.ident[sv], self.ident[best] = i_gone, i_sv
         self.events.append((ep.t_end, {sv: i_gone, best: i_sv}))
         self.ended.pop(ep.gone, None)  # its identity is carried on: not to be found again
         for key in [k for k in self.episodes if sv in k or best in k]:
             del self.episodes[key]
+        return True
 
     def reach(self, td: float, ep: Episode, t_last: float, tids) -> float:
         """When a decision at ``td`` takes effect: the frame of the pair's nearest approach in the

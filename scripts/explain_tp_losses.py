@@ -27,7 +27,9 @@ confirmed track it dropped, and why):
   held with a perfect hand-over (every such frame held): an upper bound on what passing the
   target's identity to the track that follows it could recover.
 
-Causes, in order: ``apart`` (the track went to no one, or to someone more than 1.5 m from the
+Causes, in order: ``unreported`` (in most of the episode's frames no track carried the target's
+identity: its track was dropped as another's duplicate and the identity not yet carried on),
+``apart`` (the track went to no one, or to someone more than 1.5 m from the
 target: it drifted on its own),
 ``beside, untracked`` (the person beside it had no track: every window there was explained as the
 target alone), ``beside, tracked`` (both had tracks: the target's went onto the other's person or
@@ -38,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import TARGET, person_distances, recordings_and_params, run_target, target_held, truth_at
+from scripts.experiment_tsutsui import TARGET, every_frame, person_distances, recordings_and_params, run_target, target_held, truth_at
 from trackroom.dataset import read_recording
 
 JOIN_S = 1.0  # loss runs less than this apart are one episode
@@ -73,7 +75,7 @@ def views_before(visibility: pd.DataFrame, person: str, t0: float, span: float =
 def explain(d: str, params: dict | None = None) -> list[dict]:
     rec = read_recording(d)
     res = run_target(rec, params)
-    out = res.tracks
+    out = every_frame(res)  # a frame the target was not reported in is not held
     t = out["t"].to_numpy(float)
     P = positions(truth_at(rec, t))
     est = out[["x", "y"]].to_numpy(float)
@@ -118,7 +120,9 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
             d_o = np.hypot(*(xk - est[i0 + k]).T)
             fol += bool(np.any((d_t < ON_M) & (d_o > 1e-6)) and not held[i0 + k])
         follower = fol >= 0.5 * len(span)
-        if gap > NEAR_M:
+        if np.isnan(est[i0:i1 + 1, 0]).mean() > 0.5:
+            cause = "unreported"  # mostly frames no track carried the target's identity in
+        elif gap > NEAR_M:
             cause = "apart"
         elif other_track == "tracked":
             cause = "beside, tracked"

@@ -42,3 +42,27 @@ def test_views_before_counts_the_cameras_that_truly_see_the_person():
     })
     assert views_before(vis, "target", 1.0) == 1.5
     assert np.isnan(views_before(vis, "target", 10.0))
+
+
+def test_frames_the_target_was_not_reported_in_count_as_not_held():
+    """The single-target output misses 1.0-1.9 s of a 4 s run (no track carried the target's
+    identity, its track dropped as another's duplicate): identity held is over every frame the
+    tracker ran, 30 of 40 here, not over the 30 reported; the RMSEs are over the reported ones."""
+    from types import SimpleNamespace
+
+    from scripts.experiment_tsutsui import every_frame, single_target_metrics
+    from trackroom.estimators.target_planes import TargetPlanesResult
+
+    times = np.round(np.arange(40) * 0.1, 1)
+    shown = (times < 1.0 - 1e-9) | (times > 1.9 + 1e-9)
+    truth = pd.concat([pd.DataFrame({"t": times, "person_id": "target", "x": 1.0 + 0.5 * times, "y": 2.0}),
+                       pd.DataFrame({"t": times, "person_id": "distractor", "x": 5.0, "y": 5.0})])
+    tracks = pd.DataFrame({"t": times[shown], "track_id": 0, "x": 1.0 + 0.5 * times[shown] + 0.1, "y": 2.0, "vx": 0.5,
+                           "vy": 0.0, "n_cameras": 2, "mode": "planes"})
+    status = pd.DataFrame({"t": [], "track_id": [], "camera": [], "status": [], "reason": [], "window": []})
+    res = TargetPlanesResult(tracks, status, times=times)
+    full = every_frame(res)
+    assert len(full) == 40 and full["x"].isna().sum() == 10 and (full.loc[full["x"].isna(), "n_cameras"] == -1).all()
+    m = single_target_metrics(SimpleNamespace(truth=SimpleNamespace(people=truth)), res)
+    assert m["identity_held"] == 0.75 and m["frames"] == 30 and m["frames_unreported"] == 10
+    assert abs(m["rmse_2plus"] - 0.1) < 1e-9 and m["frames_2plus"] == 30

@@ -345,3 +345,75 @@ def test_a_decision_that_closes_another_encounter_of_its_tracks_in_the_same_fram
     idl.episodes[(0, 2)] = Episode(0, 2, {0: (state(4, 0, 1, 0), S0, 0.0), 2: (state(0, 4, 0, 1), S0, 0.0)}, t1=0.0)
     idl.update(1.0, [JointTrack(k, now[k], S0.copy(), confirmed=True, seen=True) for k in (0, 1, 2)])
     assert idl.holder(0) == 1 and not idl.episodes
+
+
+def encounter_run(end_state, new_on, swap_at=2.05):
+    """Multi-person ``IdentityLag``: head-on look-alikes (``head_on``), found-again links on (floor 48 m^2, the
+    walkers' ``identity_accel`` 0.35): track 0 follows A (the target) until ``swap_at``, then B;
+    B's track 1 ends at 2.1 s (dropped as a duplicate of track 0), its states from 1.75 s given by
+    ``end_state(t, s)`` (what merged windows leave of them); a new track 2 follows ``new_on`` from
+    2.3 s, confirmed at 2.75 s."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=48.0, area=48.0, sigma_v=1.5,
+                      hold_s=6.0, handover=True, decide_accel=0.35)
+    for t in TIMES:
+        trs = [JointTrack(0, np.array(paths["A" if t < swap_at else "B"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if t < 2.1 - 1e-9:
+            s, S = np.array(paths["B"](t), float), S0.copy()
+            if t >= 1.75 - 1e-9:
+                s, S = end_state(t, s)
+            trs.append(JointTrack(1, s, S, confirmed=True, seen=True))
+        if t >= 2.3 - 1e-9:
+            trs.append(JointTrack(2, np.array(paths[new_on](t), float), S0.copy(), confirmed=t >= 2.75 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+    return idl
+
+
+def collapsed(t, s):
+    """B's track in merged windows: its velocity gone, its spreads wide."""
+    return np.r_[s[:2], 0.0, 0.0], np.diag([0.15**2, 0.15**2, 0.6**2, 0.6**2])
+
+
+def test_a_track_ended_in_an_encounter_waits_for_the_hand_over_instead_of_being_found_again_alone():
+    """A's track (identity 0) leaves the head-on encounter on B and B's track, its velocity
+    collapsed by merged windows, is dropped; a new track starts on A. From B's track's last state alone
+    (standing at the crossing) the new track looks like B found again (log-odds 2.8 against
+    someone new: before this rule it took B's identity at its confirmation, 2.8 s, and A's
+    identity stayed on B). The hand-over scores the survivor too, from the pair's states before the
+    encounter, and hands A's identity to the new track on A (multi-person mode: found-again
+    links are on)."""
+    idl = encounter_run(collapsed, "A")
+    assert idl.links == []
+    (h,) = idl.handovers
+    assert h["b"] == 2 and h["log_odds"] > EXCHANGE_LOG_ODDS
+    assert idl.identity(2) == 0 and idl.identity(0) == 1
+
+
+def test_a_hand_over_that_keeps_identities_gives_the_gone_one_to_the_new_track_that_continues_it():
+    """A's track stays on A; B's track ends and a new track starts on B: kept, and the
+    new track is B found again - the found-again link, scored at its confirmation, waits for the
+    hand-over (3.1 s) and is made then; it carries B's identity from the end on."""
+    idl = encounter_run(lambda t, s: (s, S0.copy()), "B", swap_at=np.inf)
+    (h,) = idl.handovers
+    assert h["log_odds"] < 0
+    (link,) = idl.links
+    assert link[1:3] == (2, 1) and link[3] > 0.0  # found again at its confirmation, made at the hand-over
+    assert idl.identity(2) == 1 and idl.identity(0) == 0 and not idl.deferred
+
+
+def test_a_link_still_waiting_for_its_hand_over_when_the_recording_ends_is_made():
+    """The same kept encounter cut at 2.9 s, before the hand-over's lag has passed: the found-again
+    link is waiting (``deferred``); at the end of the recording (``finish``) it is made."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=None, relink_area=48.0, area=48.0, sigma_v=1.5,
+                      hold_s=6.0, handover=True, decide_accel=0.35)
+    for t in TIMES[TIMES <= 2.9 + 1e-9]:
+        trs = [JointTrack(0, np.array(paths["A"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if t < 2.1 - 1e-9:
+            trs.append(JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=True, seen=True))
+        if t >= 2.3 - 1e-9:
+            trs.append(JointTrack(2, np.array(paths["B"](t), float), S0.copy(), confirmed=t >= 2.75 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+    assert idl.links == [] and set(idl.deferred) == {1}
+    idl.finish(trs)
+    assert [(new, ended) for _, new, ended, _ in idl.links] == [(2, 1)] and idl.identity(2) == 1 and not idl.deferred
