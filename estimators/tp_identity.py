@@ -192,8 +192,9 @@ class IdentityLag:
         if self.watch is None:
             conf = [tr for tr in loc if tr.confirmed]
             return [(a, b) for i, a in enumerate(conf) for b in conf[i + 1:]]
-        ta = next((tr for tr in loc if self.ident.get(tr.tid, tr.tid) == self.watch), None)  # the live track carrying it
-        return [] if ta is None else [(ta, b) for b in loc if b is not ta]
+        tgt = self.holder(self.watch)
+        ta = next((tr for tr in loc if tr.tid == tgt), None)
+        return [] if ta is None else [(ta, b) for b in loc if b.tid != tgt]
 
     def update(self, t: float, tracks) -> None:
         """One frame: open, extend, close and decide episodes; remember the states."""

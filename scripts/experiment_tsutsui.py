@@ -333,7 +333,7 @@ def table_line(m: dict) -> str:
     frames with no camera and frames the target was not reported, multi-person MOTA and ID switches on the movers, estimate time (s)."""
     return (f"{m['sensing']:9s} seed {m['seed']!s:>4}  identity {100 * m['identity_held']:6.2f} %  "
             f"RMSE>=2 {m['rmse_2plus']:.3f} m ({m['frames_2plus']})  RMSE1 {m['rmse_1']:.3f} m ({m['frames_1']})  "
-            f"0 cams {m['frames_0']}  unreported {m.get('frames_unreported', 0)}  MOTA {m['multi_mota']:.3f}  IDsw {m['multi_id_switches']}  IDF1 {m['multi_idf1']:.3f}  est {m['estimate_s']} s")
+            f"0 cams {m['frames_0']}  unreported {m['frames_unreported']}  MOTA {m['multi_mota']:.3f}  IDsw {m['multi_id_switches']}  IDF1 {m['multi_idf1']:.3f}  est {m['estimate_s']} s")
 
 
 HIGHER_IS_BETTER = ("identity_held", "multi_mota", "multi_idf1")

@@ -27,8 +27,9 @@ confirmed track it dropped, and why):
   held with a perfect hand-over (every such frame held): an upper bound on what passing the
   target's identity to the track that follows it could recover.
 
-Causes, in order: ``unreported`` (in most of the episode's frames no track carried the target's
-identity: its track was dropped as another's duplicate and the identity not yet carried on),
+Causes, in order: ``unreported`` (in most of the episode's frames no reported row carried the
+target's identity: e.g. a hand-over gave it to a new track from the end of the encounter on,
+before that track's first reported frame),
 ``apart`` (the track went to no one, or to someone more than 1.5 m from the
 target: it drifted on its own),
 ``beside, untracked`` (the person beside it had no track: every window there was explained as the
