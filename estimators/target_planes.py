@@ -138,6 +138,11 @@ class TargetPlanes(Estimator):
                                     "tails are heavy)")
         mover_flow_px: float = param(8.0, "a window with less mean flow starts no track, and a track predicted "
                                           "slower in an image may have no window there, px/s")
+        flow_lag: bool = param(True, "a window's flow, the mean over the camera track's last flow_window frames, "
+                               "is the velocity of about (flow_window - 1) / 2 frames ago: its noise includes the "
+                               "walker's velocity change over the mean (white acceleration accel_sigma; "
+                               "tp_frames.mean_lag_s), so a walker setting off is not held back by its lagging flow "
+                               "(docs/target_planes.md)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")
@@ -264,7 +269,8 @@ class TargetPlanes(Estimator):
         # x fps for recordings without it (a mean over flow_window frames of one camera track is
         # not flow_window independent measurements a frame: consecutive means share frames)
         flow_sigma = {c: float(cfg.flow_sigma_px_s) if cfg.flow_sigma_px_s is not None else float(cfg.box_sigma_px) * calibration.cameras[c].fps for c in cams}
-        jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px))
+        jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px),
+                          {c: float(calibration.cameras[c].fps) for c in cams})
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside

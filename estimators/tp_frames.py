@@ -75,6 +75,14 @@ def mean_flows(boxes: pd.DataFrame, flow_window: int) -> pd.DataFrame:
     return df
 
 
+def mean_lag_s(n: int, dt: float) -> float:
+    """How far the causal mean of a velocity over its last ``n`` samples, ``dt`` apart, strays
+    from the present velocity: Var(v(t) - mean_i v(t - i dt)) per unit of white-acceleration
+    intensity (m^2/s^3), in s: dt / n^2 sum_{i,j<n} min(i, j) (n = 5: 1.2 dt; n = 1: 0)."""
+    i = np.arange(max(int(n), 1))
+    return float(dt * np.minimum.outer(i, i).sum() / len(i) ** 2)
+
+
 def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -> dict[float, dict[str, CameraBoxes]]:
     """``{t: {camera: CameraBoxes}}`` for the given cameras (time rounded to 1 us).
 

@@ -30,7 +30,12 @@ Per frame:
      the image border, ``border_edges``: its inner edge's plane, the axis a ``radius`` beyond it); its single-camera
      target area's depth range (section 3.2), applied only when the prediction lies outside it,
      with sigma = ``radius``; its flow J V = f (eq. 7, J at the predicted body centre), skipped
-     as an outlier beyond chi^2_2(0.999) (the rendered flows' tails are heavy). With several
+     as an outlier beyond chi^2_2(0.999) (the rendered flows' tails are heavy). The flow is the
+     mean over the camera track's last ``flow_window`` frames, the velocity of about
+     (flow_window - 1) / 2 frames ago: with ``flow_lag`` its noise includes the walker's
+     velocity change over the mean, accel_sigma^2 ``tp_frames.mean_lag_s`` (m/s)^2 per floor
+     axis through J (0.12 (m/s)^2 at 5 frames, 10 fps), so a walker setting off is not held
+     back by its lagging flow. With several
      cameras the plane updates are eq. 6's least-squares intersection, weighted.
    - a window wider than that one person (eq. 8 ratio above ``width_ratio_threshold``:
      someone untracked walks in it): only its edge on the track's side (the plane of that edge
@@ -102,7 +107,7 @@ from scipy.stats import chi2
 from trackroom.scenes.spec import nearest_on_segment
 
 from . import tp_geometry as geo
-from .tp_frames import CameraBoxes
+from .tp_frames import CameraBoxes, mean_lag_s
 from .tp_identity import gauss_loglik
 
 BORDER_PX = 0.5  # a window edge this close to the image's edge is cut by it, px (a window reaching beyond the image was not cut)
@@ -273,7 +278,7 @@ class JointTracker:
     ``u_sigma`` (px) the calibrated window edge and centroid noise."""
 
     def __init__(self, cfg, Ps: dict[str, np.ndarray], widths: dict[str, float], flow_sigma: dict[str, float],
-                 box_sigma: float, u_sigma: float):
+                 box_sigma: float, u_sigma: float, fps: dict[str, float] | None = None):
         self.cfg, self.Ps, self.widths = cfg, Ps, widths
         self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
@@ -283,6 +288,11 @@ class JointTracker:
         q = (1.0 - cfg.p_detect) / (cfg.p_detect * cfg.miss_run)  # P(a miss | seen the frame before)
         self.p_see_after_hit = 1.0 - min(q, 1.0)
         self.p_see_after_miss = 1.0 / cfg.miss_run
+        # a window's flow is the mean over the camera track's last flow_window frames (``fps``: each
+        # camera's frame rate): about the velocity of (flow_window - 1) / 2 frames ago, which strays
+        # from the present one by the walker's white acceleration (accel_sigma) over the mean
+        # (``flow_lag``): that variance, (m/s)^2 per floor axis, is added to the flow's noise
+        self.flow_lag_var = {c: cfg.accel_sigma**2 * mean_lag_s(cfg.flow_window, 1.0 / f) for c, f in (fps or {}).items()} if cfg.flow_lag else {}
 
     # --- prediction ---------------------------------------------------------------------------
     def mix_modes(self, tr: JointTrack, dt: float) -> None:
@@ -639,7 +649,8 @@ class JointTracker:
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
         var = self.flow_var(c) + extra_var
-        kf_update(tr, H, np.asarray(flow, float), var * np.eye(2), gate=gate)
+        R = var * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
+        kf_update(tr, H, np.asarray(flow, float), R, gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
