@@ -42,7 +42,9 @@ Per frame:
      column moved ``radius`` inwards) and its flow, both with doubled sigma; its far side is a
      birth candidate.
    - a merged window: its outer edges for the outermost members (edge planes moved ``radius``
-     inwards, doubled sigma: an edge may belong to a partly hidden member), its flow for every
+     inwards, doubled sigma: an edge may belong to a partly hidden member; refused beyond the
+     plane outlier gate, where a window of the track alone takes the state as astray:
+     ``update_plane``'s ``own``), its flow for every
      member with the spread of their predicted flows added to the noise, but only when they move
      alike (spread within the flow noise): the flow of people crossing is a mixture that would
      draw their velocities together. Inner members get no position.
@@ -606,15 +608,19 @@ class JointTracker:
         a, b = geo.normalise_planes(np.asarray(a, float).reshape(1, 2), np.asarray(b, float).reshape(1))
         return a[0], float(b[0])
 
-    def update_plane(self, tr: JointTrack, c: str, p: Projection, u: float, sigma_px: float, offset_sign: float = 0.0) -> None:
+    def update_plane(self, tr: JointTrack, c: str, p: Projection, u: float, sigma_px: float, offset_sign: float = 0.0,
+                     own: bool = True) -> None:
         """The target plane of column u (eq. 4 at the predicted centroid row); with
         ``offset_sign`` = +1 / -1 the column is a window's left / right edge and the axis lies
-        ``radius`` inwards (towards larger / smaller u)."""
+        ``radius`` inwards (towards larger / smaller u). Beyond the outlier gate a column that is
+        surely the track's (``own``: a window explained as it alone) is taken to show the state
+        astray (``kf_update``'s soft gate); one that may be someone else's (a merged window's
+        outer edge: the member it is given to may be hidden inside another's) is refused."""
         row = self.plane_row(c, p, u, offset_sign)
         if row is None:
             return
         a, b, g = row
-        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=True, cap=self.cfg.sigma_max)
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max)
 
     def plane_row(self, c: str, p: Projection, u: float, offset_sign: float = 0.0) -> tuple[np.ndarray, float, float] | None:
         """(a, b, g) of ``update_plane``'s measurement a [x, y]^T = b (m) for column u, and the
@@ -750,9 +756,9 @@ class JointTracker:
                     tr, p = tracks[i], ps[k]
                     seen[i] = True
                     if k == lo:
-                        self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0)
+                        self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0, own=False)
                     if k == hi:
-                        self.update_plane(tr, c, p, float(boxes.win[j, 1]), 2.0 * self.edge_sigma(p), -1.0)
+                        self.update_plane(tr, c, p, float(boxes.win[j, 1]), 2.0 * self.edge_sigma(p), -1.0, own=False)
                     if spread <= self.flow_sigma[c] ** 2:
                         # members moving alike: the region's flow is theirs; moving differently
                         # (crossing), it is a mixture and would draw both velocities together,

@@ -581,3 +581,26 @@ def test_a_walker_setting_off_is_not_held_back_by_its_lagging_mean_flow():
         err[lag] = (abs(tr.s[2] - v), abs(tr.s[0] - x))
     assert err[True][0] < 0.85 * err[False][0]  # measured: 0.16 vs 0.20 m/s
     assert err[True][1] < 0.7 * err[False][1]  # 0.05 vs 0.08 m
+
+
+def test_a_merged_windows_outer_edge_that_is_anothers_does_not_throw_a_hidden_track():
+    """South sees a near person (3.5 m away, predicted 0.3 m right of where they stand) and, on
+    nearly the same line of sight, a far one (9 m, well located, its projection 157-169 px)
+    inside the near one's region: one merged window from the near person's true left edge (138
+    px) to its predicted right edge (189 px). By the predictions the far track is the leftmost
+    member, so the window's left edge - the near person's, 19 px beyond the far track's - is
+    given to it; it is refused as an outlier (it may be someone else's) instead of taken to show
+    the far track astray (``kf_update``'s soft gate), which threw it 0.25 m before."""
+    south, _ = right_angle_pair()
+    cfg, jt = _tracker([south])
+    near, far = np.array([2.9, 0.5]), np.array([3.1, 6.0])
+    tracks = [JointTrack(0, np.r_[near + [0.3, 0.0], 0.0, 0.0], np.diag([0.2**2, 0.2**2, 0.3**2, 0.3**2]), confirmed=True, seen=True),
+              JointTrack(1, np.r_[far, 0.0, 0.0], np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2]), confirmed=True, seen=True)]
+    a, b, ap = (window_row(south, xy, (0.0, 0.0)) for xy in (near, far, near + [0.3, 0.0]))
+    assert b[1] - a[1] > 15 and ap[1] > b[1]  # the edge is the near person's, well beyond the far track's
+    ul, ur = a[1], ap[2]
+    win = np.array([[ul, ur, min(a[3], b[3]), max(a[4], b[4])]])
+    frame = {"south": CameraBoxes(np.array([7], object), np.array([0.5 * (ul + ur)]), win, np.zeros((1, 2)))}
+    jt.step(tracks, frame, 0.0)
+    assert [tr.status["south"][0] for tr in tracks] == [MERGED, MERGED]
+    assert np.linalg.norm(tracks[1].s[:2] - far) < 0.05
