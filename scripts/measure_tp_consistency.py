@@ -50,21 +50,21 @@ class Probe:
                                          float(e[:2] @ x[2:4]) / sp if sp > 0.5 else np.nan, float(x[4])))
             return out
 
-        def update_plane(jt, tr, c, p, u, sigma_px, offset_sign=0.0):
+        def update_plane(jt, tr, c, p, u, sigma_px, offset_sign=0.0, **kw):
             x = probe.now()
             if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
                 row = jt.plane_row(c, p, u, offset_sign)
                 if row is not None:
                     a, b, g = row
                     probe.updates.append(("edge plane" if offset_sign else "centroid plane", float(b - a @ x[:2]) / (sigma_px / g)))
-            return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign)
+            return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign, **kw)
 
         def update_flow(jt, tr, c, p, flow, extra_var=0.0, **kw):
             x = probe.now()
             if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
                 r = np.asarray(flow, float) - p.J[:, :2] @ x[2:4]
-                var = jt.flow_var(c) + extra_var
-                probe.updates.append(("flow", float(r @ r / var) / 2.0))  # per component
+                R = (jt.flow_var(c) + extra_var) * np.eye(2) + jt.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
+                probe.updates.append(("flow", float(r @ np.linalg.solve(R, r)) / 2.0))  # per component, the noise as the update's
             return probe.orig[2](jt, tr, c, p, flow, extra_var, **kw)
 
         JT.step, JT.update_plane, JT.update_flow = step, update_plane, update_flow
