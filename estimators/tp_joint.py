@@ -650,13 +650,16 @@ class JointTracker:
         bound = area.s_min if s < area.s_min else area.s_max
         kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
+    def flow_noise(self, c: str, p: Projection, extra_var: float = 0.0) -> np.ndarray:
+        """Covariance (px^2/s^2, 2 x 2) of a window's flow about J V in a flow update: ``flow_var``
+        plus ``extra_var`` per image axis, and the mean flow's lag (``flow_lag_var``) through J."""
+        return (self.flow_var(c) + extra_var) * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
+
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
         """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
         H[:, 2:] = p.J[:, :2]
-        var = self.flow_var(c) + extra_var
-        R = var * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
-        kf_update(tr, H, np.asarray(flow, float), R, gate=gate)
+        kf_update(tr, H, np.asarray(flow, float), self.flow_noise(c, p, extra_var), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))

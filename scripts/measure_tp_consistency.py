@@ -63,8 +63,7 @@ class Probe:
             x = probe.now()
             if tr.tid == 0 and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
                 r = np.asarray(flow, float) - p.J[:, :2] @ x[2:4]
-                R = (jt.flow_var(c) + extra_var) * np.eye(2) + jt.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
-                probe.updates.append(("flow", float(r @ np.linalg.solve(R, r)) / 2.0))  # per component, the noise as the update's
+                probe.updates.append(("flow", float(r @ np.linalg.solve(jt.flow_noise(c, p, extra_var), r)) / 2.0))  # per component, the update's noise
             return probe.orig[2](jt, tr, c, p, flow, extra_var, **kw)
 
         JT.step, JT.update_plane, JT.update_flow = step, update_plane, update_flow
