@@ -1,0 +1,134 @@
+"""Frame trace of one target_planes track: what each camera showed it and how it moved.
+
+    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--param KEY=VALUE ...]
+
+Runs target_planes on one occlusion_lab recording (single-target with the experiment's click,
+``experiment_tsutsui.run_target``, or every mover with ``--multi``) and prints, for each frame in
+[T0, T1] s where the track exists (id ``--track``, default 0: the hand-chosen target's):
+
+- its state before the frame (after the previous frame's updates): floor position and velocity
+  with their standard deviations (m, m/s), and its standing probability mu;
+- per camera that could see it: its projection (centroid column u and its sd, columns of the
+  projected cylinder, predicted image flow, px and px/s), every window the camera reported
+  (columns, rows, flow) and the joint explanation (window index -> the ids of the tracks that
+  window was explained by; a window absent is clutter);
+- its state after the frame's updates, its mode (planes / area / merged / predicted) and each
+  camera's status;
+- the true positions of the people, read here by the experimenter (the tracker never sees them).
+
+This is how the frame traces in docs/target_planes.md were made (e.g. rendered development 137,
+21.5-22.4 s; head-on 113, 13.7-14.4 s with ``--param flow_fit=...``-style trials). Frame times
+count from the recording's first frame.
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from scripts import experiment_tsutsui as ts
+from trackroom.dataset import read_recording
+from trackroom.estimators import tp_joint
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators.tp_frames import frame_times
+
+
+def _state(tr) -> str:
+    sd = np.sqrt(np.diag(tr.S))
+    return (f"x {tr.s[0]:.2f},{tr.s[1]:.2f} (sd {sd[0]:.2f},{sd[1]:.2f}) v {tr.s[2]:+.2f},{tr.s[3]:+.2f} "
+            f"(sd {sd[2]:.2f},{sd[3]:.2f}) mu {tr.mu:.3f}")
+
+
+def _windows(boxes) -> str:
+    return " ".join(f"[{j}: u {b[0]:.0f}-{b[1]:.0f} rows {b[2]:.0f}-{b[3]:.0f} flow {f[0]:+.0f},{f[1]:+.0f}]"
+                    for j, (b, f) in enumerate(zip(boxes.win, boxes.flow))) or "none"
+
+
+class Tracer:
+    """Wraps ``tp_joint.JointTracker.step`` and ``explain_camera`` for one run, collecting the
+    trace lines of one track in a time range; ``close`` puts the tracker back."""
+
+    def __init__(self, tid: int, t0: float, t1: float, t_first: float = 0.0):
+        self.tid, self.t0, self.t1 = tid, t0, t1
+        self.t = t_first  # the tracker's first frame; each step adds its dt
+        self.frames: list[tuple[float, list[str]]] = []  # (frame time, its lines)
+        self.track = None  # the traced track during the current frame, if in range
+        JT = tp_joint.JointTracker
+        self.orig = JT.step, JT.explain_camera
+        tracer = self
+
+        def step(jt, tracks, frame, dt):
+            tracer.t += dt
+            tr = next((x for x in tracks if x.tid == tracer.tid), None)
+            on = tr is not None and tracer.t0 - 1e-9 <= tracer.t <= tracer.t1 + 1e-9
+            tracer.track = tr if on else None
+            if on:
+                tracer.frames.append((tracer.t, [f"t {tracer.t:.2f} before: {_state(tr)}"]))
+            out = tracer.orig[0](jt, tracks, frame, dt)
+            if on:
+                status = " ".join(f"{c} {v[0]}{' (' + str(v[1]) + ')' if v[1] else ''}" for c, v in sorted(tr.status.items()))
+                tracer.frames[-1][1].append(f"        after:  {_state(tr)} mode {tr.mode}; {status}")
+            tracer.track = None
+            return out
+
+        def explain_camera(jt, c, tracks, boxes):
+            expl, projs = tracer.orig[1](jt, c, tracks, boxes)
+            tr = tracer.track
+            if tr is not None and tr in tracks and tracks.index(tr) in projs:
+                p = projs[tracks.index(tr)]
+                who = {j: [tracks[i].tid for i in mem] for j, mem in sorted(expl.items())}
+                tracer.frames[-1][1].append(
+                    f"    {c}: projection u {p.u:.0f} (sd {np.sqrt(p.var_u):.0f}) cols {p.win[0]:.0f}-{p.win[1]:.0f} "
+                    f"flow {p.flow[0]:+.0f},{p.flow[1]:+.0f}; windows {_windows(boxes)}; explained {who}")
+            return expl, projs
+
+        JT.step, JT.explain_camera = step, explain_camera
+
+    def close(self) -> None:
+        tp_joint.JointTracker.step, tp_joint.JointTracker.explain_camera = self.orig
+
+
+def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None) -> list[str]:
+    """The trace lines of track ``tid`` over [t0, t1] s of the recording in folder ``d``, each
+    frame's true positions after it."""
+    if not t1 >= t0:
+        raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
+    rec = read_recording(d)
+    boxes = rec.observations["boxes"]
+    cams = sorted(set(boxes["camera"]) | set(rec.calibration.cameras_of_kind("oblique")))
+    times = frame_times(rec.calibration, cams, rec.observations.duration, boxes)  # as the estimator's loop
+    tracer = Tracer(tid, t0, t1, float(times[0]) if len(times) else 0.0)
+    try:
+        if multi:
+            TargetPlanes(multi_person=True, **{**ts.estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
+        else:
+            ts.run_target(rec, params)
+    finally:
+        tracer.close()
+    out = []
+    truth = ts.people_at(rec.truth.people, np.array([t for t, _ in tracer.frames]))
+    for t, lines in tracer.frames:
+        now = truth[np.isclose(truth["t"], t)]
+        out += lines + ["        truth:  " + " ".join(f"{r.person_id} {r.x:.2f},{r.y:.2f}" for r in now.itertuples())]
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recording", metavar="DIR", help="an occlusion_lab recording folder")
+    ap.add_argument("--from", dest="t0", type=float, required=True, help="first frame time, s")
+    ap.add_argument("--to", dest="t1", type=float, required=True, help="last frame time, s")
+    ap.add_argument("--track", type=int, default=0, help="track id (default 0: the hand-chosen target's)")
+    ap.add_argument("--multi", action="store_true", help="track every mover (multi_person=true) instead of the clicked target")
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
+    a = ap.parse_args(argv)
+    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param))
+    if not lines:
+        print(f"track {a.track} does not exist between {a.t0:g} and {a.t1:g} s")
+        return 1
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
