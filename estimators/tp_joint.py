@@ -277,10 +277,11 @@ def on_floor(inside_room, xy) -> bool:
 class JointTracker:
     """The per-frame logic of the joint design (see the module docstring); ``cfg`` is the
     estimator's resolved Config, ``flow_sigma`` per camera (px/s), ``box_sigma`` and
-    ``u_sigma`` (px) the calibrated window edge and centroid noise."""
+    ``u_sigma`` (px) the calibrated window edge and centroid noise, ``fps`` each camera's frame
+    rate (the mean flow's lag, ``flow_lag``)."""
 
     def __init__(self, cfg, Ps: dict[str, np.ndarray], widths: dict[str, float], flow_sigma: dict[str, float],
-                 box_sigma: float, u_sigma: float, fps: dict[str, float] | None = None):
+                 box_sigma: float, u_sigma: float, fps: dict[str, float]):
         self.cfg, self.Ps, self.widths = cfg, Ps, widths
         self.flow_sigma, self.box_sigma, self.u_sigma = flow_sigma, box_sigma, max(u_sigma, 1e-3)
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
@@ -294,7 +295,7 @@ class JointTracker:
         # camera's frame rate): about the velocity of (flow_window - 1) / 2 frames ago, which strays
         # from the present one by the walker's white acceleration (accel_sigma) over the mean
         # (``flow_lag``): that variance, (m/s)^2 per floor axis, is added to the flow's noise
-        self.flow_lag_var = {c: cfg.accel_sigma**2 * mean_lag_s(cfg.flow_window, 1.0 / f) for c, f in (fps or {}).items()} if cfg.flow_lag else {}
+        self.flow_lag_var = {c: cfg.accel_sigma**2 * mean_lag_s(cfg.flow_window, 1.0 / f) for c, f in fps.items()} if cfg.flow_lag else {}
 
     # --- prediction ---------------------------------------------------------------------------
     def mix_modes(self, tr: JointTrack, dt: float) -> None:

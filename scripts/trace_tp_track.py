@@ -16,9 +16,8 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   camera's status;
 - the true positions of the people, read here by the experimenter (the tracker never sees them).
 
-This is how the frame traces in docs/target_planes.md were made (e.g. rendered development 137,
-21.5-22.4 s; head-on 113, 13.7-14.4 s with ``--param flow_fit=...``-style trials). Frame times
-count from the recording's first frame.
+The frame traces in docs/target_planes.md can be re-made with it (e.g. rendered development
+137, 21.5-22.4 s). Frame times are the estimator's own (``TargetPlanesResult.times``).
 """
 from __future__ import annotations
 
@@ -30,7 +29,6 @@ from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_joint
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_frames import frame_times
 
 
 def _state(tr) -> str:
@@ -46,26 +44,26 @@ def _windows(boxes) -> str:
 
 class Tracer:
     """Wraps ``tp_joint.JointTracker.step`` and ``explain_camera`` for one run, collecting the
-    trace lines of one track in a time range; ``close`` puts the tracker back."""
+    trace lines of one track in every frame it exists, by frame index (the frame times come
+    with the run's result); ``close`` puts the tracker back."""
 
-    def __init__(self, tid: int, t0: float, t1: float, t_first: float = 0.0):
-        self.tid, self.t0, self.t1 = tid, t0, t1
-        self.t = t_first  # the tracker's first frame; each step adds its dt
-        self.frames: list[tuple[float, list[str]]] = []  # (frame time, its lines)
-        self.track = None  # the traced track during the current frame, if in range
+    def __init__(self, tid: int):
+        self.tid = tid
+        self.k = -1  # the frame index: one step per frame
+        self.frames: list[tuple[int, list[str]]] = []  # (frame index, its lines: before, cameras, after)
+        self.track = None  # the traced track during the current frame
         JT = tp_joint.JointTracker
         self.orig = JT.step, JT.explain_camera
         tracer = self
 
         def step(jt, tracks, frame, dt):
-            tracer.t += dt
+            tracer.k += 1
             tr = next((x for x in tracks if x.tid == tracer.tid), None)
-            on = tr is not None and tracer.t0 - 1e-9 <= tracer.t <= tracer.t1 + 1e-9
-            tracer.track = tr if on else None
-            if on:
-                tracer.frames.append((tracer.t, [f"t {tracer.t:.2f} before: {_state(tr)}"]))
+            tracer.track = tr
+            if tr is not None:
+                tracer.frames.append((tracer.k, [f"before: {_state(tr)}"]))
             out = tracer.orig[0](jt, tracks, frame, dt)
-            if on:
+            if tr is not None:
                 status = " ".join(f"{c} {v[0]}{' (' + str(v[1]) + ')' if v[1] else ''}" for c, v in sorted(tr.status.items()))
                 tracer.frames[-1][1].append(f"        after:  {_state(tr)} mode {tr.mode}; {status}")
             tracer.track = None
@@ -94,22 +92,21 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
     rec = read_recording(d)
-    boxes = rec.observations["boxes"]
-    cams = sorted(set(boxes["camera"]) | set(rec.calibration.cameras_of_kind("oblique")))
-    times = frame_times(rec.calibration, cams, rec.observations.duration, boxes)  # as the estimator's loop
-    tracer = Tracer(tid, t0, t1, float(times[0]) if len(times) else 0.0)
+    tracer = Tracer(tid)
     try:
         if multi:
-            TargetPlanes(multi_person=True, **{**ts.estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
+            res = TargetPlanes(multi_person=True, **{**ts.estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
         else:
-            ts.run_target(rec, params)
+            res = ts.run_target(rec, params)
     finally:
         tracer.close()
+    times = np.asarray(res.times, float)
+    frames = [(float(times[k]), lines) for k, lines in tracer.frames if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
+    truth = ts.people_at(rec.truth.people, np.array([t for t, _ in frames]))
     out = []
-    truth = ts.people_at(rec.truth.people, np.array([t for t, _ in tracer.frames]))
-    for t, lines in tracer.frames:
+    for t, (before, *rest) in frames:
         now = truth[np.isclose(truth["t"], t)]
-        out += lines + ["        truth:  " + " ".join(f"{r.person_id} {r.x:.2f},{r.y:.2f}" for r in now.itertuples())]
+        out += [f"t {t:.2f} {before}", *rest, "        truth:  " + " ".join(f"{r.person_id} {r.x:.2f},{r.y:.2f}" for r in now.itertuples())]
     return out
 
 
