@@ -95,12 +95,6 @@ class TargetPlanes(Estimator):
         radius: float = param(0.2, "person model: cylinder radius, m")
         accel_sigma: float = param(1.0, "walkers' white-acceleration noise, m/s^2/sqrt(Hz) (they stop, start and turn "
                                         "at waypoints: about 1 m/s of change within 1 s)")
-        accel_tau: float = param(0.0, "correlation time of a walker's acceleration, s (Singer model; the scenes' "
-                                      "walkers speed up and slow down along acceleration-limited ramps of about 1 s): "
-                                      "> 0: every track carries its acceleration [ax, ay], whose stationary spread "
-                                      "accel_sigma / sqrt(2 accel_tau) keeps the long-term velocity change of the "
-                                      "white-acceleration model, and a window's mean flow is J (v - a (flow_window - 1) "
-                                      "dt / 2) (the mean's lag as a bias, not as noise); 0: white acceleration")
         stop_tau: float = param(1.0, "a track no window explains slows as exp(-t / tau), s (it has most likely "
                                      "stopped: standing people make no flow window; a walker stops within ~1 s)")
         walk_s: float = param(8.0, "mean time a walker walks before stopping, s (the walking / standing modes' "
@@ -149,10 +143,6 @@ class TargetPlanes(Estimator):
                                "walker's velocity change over the mean (white acceleration accel_sigma; "
                                "tp_frames.mean_lag_s), so a walker setting off is not held back by its lagging flow "
                                "(docs/target_planes.md)")
-        flow_past: bool = param(False, "a window's mean flow is compared with J times the mean of the track's own "
-                                "velocities over the same frames (its filtered velocities there, the present one "
-                                "predicted): the velocity change the track itself went through is taken out of the "
-                                "mean's lag; flow_lag's noise stays for the change it did not see")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")
@@ -289,7 +279,7 @@ class TargetPlanes(Estimator):
         if not cfg.multi_person:
             xy0, accept = self._initial_target(cams, Ps, frames.get(float(times[0]), {}) if len(times) else {}, inside_room)
             sv = 0.5 * cfg.max_speed
-            tr = JointTrack(0, *jt.new_state(xy0, np.zeros(2), cfg.init_radius, sv), confirmed=True, seen=True, located=False)
+            tr = JointTrack(0, np.r_[xy0, 0.0, 0.0], np.diag([cfg.init_radius**2] * 2 + [sv**2] * 2), confirmed=True, seen=True, located=False)
             click = (float(times[0]) if len(times) else 0.0, tr.s[:2].copy(), tr.S[:2, :2].copy())
             tracks.append(tr)
             keep = 0
@@ -318,7 +308,7 @@ class TargetPlanes(Estimator):
                 if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
                 tracks.append(jt.birth(next_id, xy, support, frame))
-                tracks[-1].born = (t, tracks[-1].s4.copy(), tracks[-1].S4.copy())
+                tracks[-1].born = (t, tracks[-1].s.copy(), tracks[-1].S.copy())
                 next_id += 1
             if cfg.split_births:
                 # a too-wide window's far side that one other camera's window confirms (tp_joint.JointTracker.split)

@@ -83,23 +83,6 @@ def mean_lag_s(n: int, dt: float) -> float:
     return float(dt * np.minimum.outer(i, i).sum() / len(i) ** 2)
 
 
-def mean_delay_s(n: int, dt: float) -> float:
-    """How long ago, on average, the causal mean of a velocity over its last ``n`` samples
-    ``dt`` apart was taken: (n - 1) dt / 2 (s). Under a constant acceleration a the mean is
-    exactly v - a ``mean_delay_s``."""
-    return 0.5 * (max(int(n), 1) - 1) * dt
-
-
-def mean_lag_residual(n: int, dt: float) -> float:
-    """Var(mean_i v(t - i dt) - (v(t) - a(t) ``mean_delay_s``)) per unit intensity of the
-    acceleration's own white change (m^2/s^5, the acceleration a random walk over the mean), in
-    s^3: with X(s) = int_0^s (a(t - r) - a(t)) dr, Cov(X(s1), X(s2)) = s1^2 s2 / 2 - s1^3 / 6 for
-    s1 <= s2, averaged over the n delays (n = 5, dt = 0.1 s: 3.6e-3 s^3; n = 1: 0)."""
-    s = dt * np.arange(max(int(n), 1))
-    lo, hi = np.minimum.outer(s, s), np.maximum.outer(s, s)
-    return float((lo**2 * hi / 2.0 - lo**3 / 6.0).sum() / len(s) ** 2)
-
-
 def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -> dict[float, dict[str, CameraBoxes]]:
     """``{t: {camera: CameraBoxes}}`` for the given cameras (time rounded to 1 us).
 

@@ -160,7 +160,7 @@ class IdentityLag:
         pre state ``pre_b``); log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
         self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr, "t1": t1, "t_from": t_from,
                                "t_pre": min(pre_a[2], pre_b[2]), "a_pre": pre_a[0][:2].copy(), "b_pre": pre_b[0][:2].copy(),
-                               "a_post": post_a.s4[:2].copy(), "b_post": post_b.s4[:2].copy()})
+                               "a_post": post_a.s[:2].copy(), "b_post": post_b.s[:2].copy()})
 
     @property
     def log(self) -> list:
@@ -183,7 +183,7 @@ class IdentityLag:
         return None
 
     def ambiguous(self, a, b) -> bool:
-        if float(np.linalg.norm(a.s4[:2] - b.s4[:2])) < 4.0 * self.radius:
+        if float(np.linalg.norm(a.s[:2] - b.s[:2])) < 4.0 * self.radius:
             return True
         return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
 
@@ -209,11 +209,11 @@ class IdentityLag:
         for a, b in self._candidates(tracks):
             key = (min(a.tid, b.tid), max(a.tid, b.tid))
             ep = self.episodes.get(key)
-            d_ab = float(np.linalg.norm(a.s4[:2] - b.s4[:2]))
+            d_ab = float(np.linalg.norm(a.s[:2] - b.s[:2]))
             apart = d_ab >= 4.0 * self.radius
             if self.ambiguous(a, b):
                 if ep is None:
-                    pre = {tr.tid: self.last.get(tr.tid, (tr.s4.copy(), tr.S4.copy(), t)) for tr in (a, b)}
+                    pre = {tr.tid: self.last.get(tr.tid, (tr.s.copy(), tr.S.copy(), t)) for tr in (a, b)}
                     self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
@@ -241,19 +241,19 @@ class IdentityLag:
             elif ep.t1 is not None and t - ep.t1 >= self.lag_s - 1e-9:
                 del self.episodes[key]
                 self.decide(t, ep, alive[ep.a], alive[ep.b])
-        self.last = {tr.tid: (tr.s4.copy(), tr.S4.copy(), t) for tr in tracks}
+        self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
         if self.relink_area is not None:
             for tr in tracks:
                 h = self.hist.setdefault(tr.tid, [])
-                h.append((t, tr.s4.copy(), tr.S4.copy()))
+                h.append((t, tr.s.copy(), tr.S.copy()))
                 while len(h) > 2 and t - h[1][0] > self.hold_s:
                     h.pop(1)  # keep the first state (its birth) and the last hold_s
             for tid in [k for k in self.hist if k not in alive]:
                 del self.hist[tid]
         for tr in tracks:
             if tr.seen:
-                self.last_seen[tr.tid] = (tr.s4[:2].copy(), tr.S4[:2, :2].copy())
+                self.last_seen[tr.tid] = (tr.s[:2].copy(), tr.S[:2, :2].copy())
 
     def _relink(self, t: float, tracks, alive: dict) -> None:
         """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
@@ -299,14 +299,14 @@ class IdentityLag:
         person found again (module docstring, "A person found again")."""
         s, S, t_last, mu, (xw, Sw) = self.ended[tid]
         age = t - self.born.get(tr.tid, t)
-        moving = self._walking(tr.s4, tr.S4)
+        moving = self._walking(tr.s, tr.S)
         new = float(-np.log(self.relink_area)) + moving
         dt = t - t_last
         p, C = self._predict(s, S, dt)
         stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
-        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s4 - p, C + tr.S4)
+        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
         stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
-            tr.s4[:2] - xw, Sw + tr.S4[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
+            tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
         return float(np.logaddexp(walked, stood)) - new
 
     def _successors(self, t: float, tracks, fresh: list) -> None:
@@ -367,8 +367,8 @@ class IdentityLag:
     def exchange_log_odds(self, td: float, ep: Episode, ta, tb) -> float:
         """log L(X) - log L(K) of the module docstring."""
         pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2], self.walker_accel) for k in (ep.a, ep.b))
-        keep = gauss_loglik(ta.s4 - pa[0], pa[1] + ta.S4) + gauss_loglik(tb.s4 - pb[0], pb[1] + tb.S4)
-        swap = gauss_loglik(tb.s4 - pa[0], pa[1] + tb.S4) + gauss_loglik(ta.s4 - pb[0], pb[1] + ta.S4)
+        keep = gauss_loglik(ta.s - pa[0], pa[1] + ta.S) + gauss_loglik(tb.s - pb[0], pb[1] + tb.S)
+        swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
         return swap - keep
 
     def decide(self, td: float, ep: Episode, ta, tb) -> None:
@@ -435,9 +435,9 @@ class IdentityLag:
             if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
                 continue
             # kept: the survivor continues itself, the new track the gone one, or someone new
-            new = float(-np.log(self.area)) + self._walking(tr.s4, tr.S4) if self.area else -np.inf
-            keep = gauss_loglik(ts.s4 - ps[0], ps[1] + ts.S4) + max(gauss_loglik(tr.s4 - pg[0], pg[1] + tr.S4), new)
-            swap = gauss_loglik(ts.s4 - pg[0], pg[1] + ts.S4) + gauss_loglik(tr.s4 - ps[0], ps[1] + tr.S4)
+            new = float(-np.log(self.area)) + self._walking(tr.s, tr.S) if self.area else -np.inf
+            keep = gauss_loglik(ts.s - ps[0], ps[1] + ts.S) + max(gauss_loglik(tr.s - pg[0], pg[1] + tr.S), new)
+            swap = gauss_loglik(ts.s - pg[0], pg[1] + ts.S) + gauss_loglik(tr.s - ps[0], ps[1] + tr.S)
             llr = swap - keep
             self.record(td, "handover", sv, tid, llr, ep.pre[sv], ep.pre[ep.gone], ts, tr, gone=ep.gone, t1=ep.t_end)
             if llr > best_llr:

@@ -1,14 +1,13 @@
 """Joint design of ``target_planes`` (issue 12): every mover is a track, each camera's windows explained jointly.
 
 Each track (``JointTrack``) is a person model of the paper (a vertical cylinder of ``height`` and
-``radius``) with state s = [x, y, vx, vy] (floor position, m; velocity, m/s) and covariance S;
-with ``accel_tau`` > 0 also its acceleration [ax, ay] (m/s^2). Per frame:
+``radius``) with state s = [x, y, vx, vy] (floor position, m; velocity, m/s) and covariance S.
+Per frame:
 
-1. **Predict**: s <- F s, S <- F S F^T + Q (``motion``), white acceleration of spectral density
-   ``accel_sigma``^2, or with ``accel_tau`` a Singer acceleration (correlation time accel_tau,
-   the same long-term velocity change). A track that no window explained in the last frame has
-   most likely stopped (a flow tracker sees no one standing): its velocity (and acceleration)
-   decays by exp(-dt / ``stop_tau``). The position's standard deviation is capped at ``sigma_max``.
+1. **Predict**: s <- F s, S <- F S F^T + Q, white acceleration of spectral density
+   ``accel_sigma``^2. A track that no window explained in the last frame has most likely stopped
+   (a flow tracker sees no one standing): its velocity decays by exp(-dt / ``stop_tau``). The
+   position's standard deviation is capped at ``sigma_max``.
 2. **Explain each camera's windows jointly** (``explain_camera``): every window is one track, a
    group of two or three tracks merged into one flow region (extent: the union of their projected
    cylinders; flow: the mean of their predicted image velocities, its spread added to the noise),
@@ -36,9 +35,7 @@ with ``accel_tau`` > 0 also its acceleration [ax, ay] (m/s^2). Per frame:
      (flow_window - 1) / 2 frames ago: with ``flow_lag`` its noise includes the walker's
      velocity change over the mean, accel_sigma^2 ``tp_frames.mean_lag_s`` (m/s)^2 per floor
      axis through J (0.12 (m/s)^2 at 5 frames, 10 fps), so a walker setting off is not held
-     back by its lagging flow. With ``accel_tau`` the lag is a bias instead: the mean flow is
-     J (v - a (flow_window - 1) dt / 2), and only the acceleration's change over the mean is
-     noise (``tp_frames.mean_lag_residual``; 0.0036 (m/s)^2 at tau = 1 s). With several
+     back by its lagging flow. With several
      cameras the plane updates are eq. 6's least-squares intersection, weighted.
    - a window wider than that one person (eq. 8 ratio above ``width_ratio_threshold``:
      someone untracked walks in it): only its edge on the track's side (the plane of that edge
@@ -105,7 +102,6 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg import expm
 from scipy.optimize import linear_sum_assignment
 from scipy.special import chndtr
 from scipy.stats import chi2
@@ -113,7 +109,7 @@ from scipy.stats import chi2
 from trackroom.scenes.spec import nearest_on_segment
 
 from . import tp_geometry as geo
-from .tp_frames import CameraBoxes, mean_delay_s, mean_lag_residual, mean_lag_s
+from .tp_frames import CameraBoxes, mean_lag_s
 from .tp_identity import gauss_loglik
 
 BORDER_PX = 0.5  # a window edge this close to the image's edge is cut by it, px (a window reaching beyond the image was not cut)
@@ -137,8 +133,7 @@ TRACKING, LOST, UNRELIABLE, MERGED = "tracking", "lost", "unreliable", "merged"
 
 @dataclass
 class JointTrack:
-    """One person: state s = [x, y, vx, vy] (m, m/s), with ``accel_tau`` also [ax, ay] (m/s^2),
-    covariance S (4, 4) or (6, 6)."""
+    """One person: state s = [x, y, vx, vy] (m, m/s), covariance S (4, 4)."""
 
     tid: int
     s: np.ndarray
@@ -160,27 +155,16 @@ class JointTrack:
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
-    vhist: list = field(default_factory=list)  # (t, filtered velocity) of its last frames, newest last (``flow_past``)
-    flow_corr: dict = field(default_factory=dict)  # camera -> this frame's lag correction of its mean flow, m/s (``flow_past``)
 
     def estimate(self) -> np.ndarray:
         """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
         if self.xs is None:
             return self.s
-        return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:4]]
+        return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:]]
 
     @property
     def xy(self) -> np.ndarray:
         return self.s[:2]
-
-    @property
-    def s4(self) -> np.ndarray:
-        """The position and velocity [x, y, vx, vy] (the walker model of ``tp_identity``)."""
-        return self.s[:4]
-
-    @property
-    def S4(self) -> np.ndarray:
-        return self.S[:4, :4]
 
 
 @dataclass
@@ -221,14 +205,14 @@ def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate:
                 return False
             # the state, not the window, is taken to be off: the position's covariance grows
             # (rows and columns scaled, correlations kept), up to sigma_max
-            k = np.ones(len(tr.s))
+            k = np.ones(4)
             sd = float(np.sqrt(max(tr.S[0, 0], tr.S[1, 1])))
             k[:2] = min(np.sqrt(d2 / gate), max(cap / sd, 1.0)) if cap else np.sqrt(d2 / gate)
             tr.S = tr.S * np.outer(k, k)
             Sy = H @ tr.S @ H.T + R
     K = np.linalg.solve(Sy, H @ tr.S).T
     tr.s = tr.s + K @ r
-    IKH = np.eye(len(tr.s)) - K @ H
+    IKH = np.eye(4) - K @ H
     tr.S = IKH @ tr.S @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
     return True
 
@@ -311,85 +295,7 @@ class JointTracker:
         # camera's frame rate): about the velocity of (flow_window - 1) / 2 frames ago, which strays
         # from the present one by the walker's white acceleration (accel_sigma) over the mean
         # (``flow_lag``): that variance, (m/s)^2 per floor axis, is added to the flow's noise
-        # With ``accel_tau`` the track carries its acceleration (Singer: stationary spread
-        # sigma_a = accel_sigma / sqrt(2 tau), white change of intensity accel_sigma^2 / tau^2), the
-        # mean flow is J (v - a ``mean_delay_s``) and only the acceleration's change over the mean
-        # is noise (``mean_lag_residual``)
-        self.dim = 6 if cfg.accel_tau > 0 else 4
-        self.sigma_a = cfg.accel_sigma / np.sqrt(2.0 * cfg.accel_tau) if cfg.accel_tau > 0 else 0.0
-        self.delay = {c: mean_delay_s(cfg.flow_window, 1.0 / f) if cfg.accel_tau > 0 else 0.0 for c, f in fps.items()}
-        if cfg.accel_tau > 0:
-            lag = {c: cfg.accel_sigma**2 / cfg.accel_tau**2 * mean_lag_residual(cfg.flow_window, 1.0 / f) for c, f in fps.items()}
-        else:
-            lag = {c: cfg.accel_sigma**2 * mean_lag_s(cfg.flow_window, 1.0 / f) for c, f in fps.items()}
-        self.flow_lag_var = lag if cfg.flow_lag else {}
-        self._motion: dict = {}  # dt -> (F, Q) of the walking model
-        self.period = {c: 1.0 / f for c, f in fps.items()}
-        self.t = 0.0  # time since the first frame, s (``step``)
-
-    def past_correction(self, tr: JointTrack) -> dict[str, np.ndarray]:
-        """``flow_past``: per camera, the mean of the track's own velocities over the frames of that
-        camera's flow mean (its filtered velocities at the last ``flow_window`` - 1 frames, the
-        present one as predicted) minus the present one: the window's mean flow is compared with
-        J (v + correction), the velocity change the track itself went through over the mean taken
-        out of its lag. A frame the track did not exist in counts as the present velocity."""
-        n = self.cfg.flow_window
-        v = tr.s[2:4]
-        out = {}
-        if n <= 1 or not tr.vhist:
-            return out
-        ts = np.array([h[0] for h in tr.vhist])
-        for c, dc in self.period.items():
-            corr = np.zeros(2)
-            for k in range(1, n):
-                i = int(np.argmin(np.abs(ts - (self.t - k * dc))))
-                if abs(ts[i] - (self.t - k * dc)) < 0.5 * dc:
-                    corr += tr.vhist[i][1] - v
-            out[c] = corr / n
-        return out
-
-    def new_state(self, xy: np.ndarray, v: np.ndarray, sigma_xy: float, sigma_v: float) -> tuple[np.ndarray, np.ndarray]:
-        """(s, S) of a person at xy with velocity v, independent spreads ``sigma_xy`` (m) and
-        ``sigma_v`` (m/s) per axis; with ``accel_tau`` its acceleration 0 with the stationary
-        spread sigma_a."""
-        s = np.zeros(self.dim)
-        s[:2], s[2:4] = xy, v
-        var = [sigma_xy**2] * 2 + [sigma_v**2] * 2 + [self.sigma_a**2] * (self.dim - 4)
-        return s, np.diag(var)
-
-    def row(self, a: np.ndarray) -> np.ndarray:
-        """A measurement row on the floor position alone: a [x, y]^T."""
-        h = np.zeros(self.dim)
-        h[:2] = a
-        return h
-
-    def flow_map(self, c: str, J: np.ndarray) -> np.ndarray:
-        """(2, dim - 2): camera c's mean window flow from [v, a]: J (v - a ``delay``) (eq. 7 with the
-        mean's lag; J v without ``accel_tau``)."""
-        J2 = J[:, :2]
-        return J2 if self.dim == 4 else np.hstack([J2, -self.delay[c] * J2])
-
-    def motion(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(F, Q) of the walking model over dt: constant velocity with white acceleration of
-        spectral density ``accel_sigma``^2, or with ``accel_tau`` the Singer model (per axis
-        [p, v, a], da = -a / tau dt + dW, intensity accel_sigma^2 / tau^2; F and Q by Van Loan's
-        matrix exponential)."""
-        key = round(dt, 9)
-        if key not in self._motion:
-            cfg = self.cfg
-            if self.dim == 4:
-                F1 = np.array([[1.0, dt], [0.0, 1.0]])
-                Q1 = cfg.accel_sigma**2 * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
-            else:
-                A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0 / cfg.accel_tau]])
-                Qc = np.zeros((3, 3))
-                Qc[2, 2] = cfg.accel_sigma**2 / cfg.accel_tau**2
-                M = expm(np.block([[-A, Qc], [np.zeros((3, 3)), A.T]]) * dt)
-                F1 = M[3:, 3:].T
-                Q1 = F1 @ M[:3, 3:]
-                Q1 = 0.5 * (Q1 + Q1.T)
-            self._motion[key] = (np.kron(F1, np.eye(2)), np.kron(Q1, np.eye(2)))
-        return self._motion[key]
+        self.flow_lag_var = {c: cfg.accel_sigma**2 * mean_lag_s(cfg.flow_window, 1.0 / f) for c, f in fps.items()} if cfg.flow_lag else {}
 
     # --- prediction ---------------------------------------------------------------------------
     def mix_modes(self, tr: JointTrack, dt: float) -> None:
@@ -406,8 +312,8 @@ class JointTracker:
         mu = tr.mu
         q_ws, q_sw = min(dt / cfg.walk_s, 1.0), min(dt / cfg.stand_s, 1.0)
         mu_p = (1.0 - mu) * q_ws + mu * (1.0 - q_sw)
-        ms, Cs = self.new_state(tr.xs, np.zeros(2), 0.0, cfg.start_sigma_v)
-        Cs[:2, :2] = tr.Ps
+        ms, Cs = np.r_[tr.xs, 0.0, 0.0], np.zeros((4, 4))
+        Cs[:2, :2], Cs[2:, 2:] = tr.Ps, cfg.start_sigma_v**2 * np.eye(2)
         if mu_p < 1.0:
             b = mu * q_sw / (1.0 - mu_p)  # share of the walking prior that was standing
             m = (1.0 - b) * tr.s + b * ms
@@ -426,11 +332,13 @@ class JointTracker:
     def predict(self, tr: JointTrack, dt: float) -> None:
         cfg = self.cfg
         self.mix_modes(tr, dt)
-        F, Q = self.motion(dt)
-        if not tr.seen:  # most likely stopped: velocity (and acceleration) decay
-            decay = float(np.exp(-dt / cfg.stop_tau))
-            F = F.copy()
-            F[2:] *= decay
+        decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        F[2, 2] = F[3, 3] = decay
+        q = cfg.accel_sigma**2
+        Q1 = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+        Q = np.kron(Q1, np.eye(2))
         tr.s = F @ tr.s
         tr.S = F @ tr.S @ F.T + Q
         for sl, cap in ((slice(0, 2), cfg.sigma_max), (slice(2, 4), 0.5 * cfg.max_speed)):
@@ -438,7 +346,7 @@ class JointTracker:
             # than max_speed (scaling rows and columns keeps S positive definite)
             sd = np.sqrt(max(tr.S[sl.start, sl.start], tr.S[sl.start + 1, sl.start + 1]))
             if sd > cap:
-                k = np.ones(len(tr.s))
+                k = np.ones(4)
                 k[sl] = cap / sd
                 tr.S = tr.S * np.outer(k, k)
 
@@ -450,11 +358,8 @@ class JointTracker:
         X = np.array([tr.s[0], tr.s[1], self.hc])
         (u, v), _ = geo.project(P, X)
         J = geo.flow_jacobian(P, X)
-        Ju, G = J[0, :2], self.flow_map(c, J)
-        flow = G @ tr.s[2:]
-        if c in tr.flow_corr:
-            flow = flow + J[:, :2] @ tr.flow_corr[c]
-        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), flow, G @ tr.S[2:, 2:] @ G.T, J, float(v))
+        Ju, J2 = J[0, :2], J[:, :2]
+        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
     def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
@@ -716,7 +621,7 @@ class JointTracker:
         if row is None:
             return
         a, b, g = row
-        kf_update(tr, self.row(a), np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max)
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max)
 
     def plane_row(self, c: str, p: Projection, u: float, offset_sign: float = 0.0) -> tuple[np.ndarray, float, float] | None:
         """(a, b, g) of ``update_plane``'s measurement a [x, y]^T = b (m) for column u, and the
@@ -744,7 +649,7 @@ class JointTracker:
         if area.s_min <= s <= area.s_max or area.s_min > 0.5 * MAX_RANGE or area.s_max - area.s_min > 0.5 * MAX_RANGE:
             return  # inside, or no bound (a window whose top or bottom row meets no floor or head plane)
         bound = area.s_min if s < area.s_min else area.s_max
-        kf_update(tr, self.row(area.direction), np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
+        kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
     def flow_noise(self, c: str, p: Projection, extra_var: float = 0.0) -> np.ndarray:
         """Covariance (px^2/s^2, 2 x 2) of a window's flow about J V in a flow update: ``flow_var``
@@ -753,12 +658,9 @@ class JointTracker:
 
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
         """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
-        H = np.zeros((2, self.dim))
-        H[:, 2:] = self.flow_map(c, p.J)
-        z = np.asarray(flow, float)
-        if c in tr.flow_corr:  # flow_past: J (v + correction) = the mean flow
-            z = z - p.J[:, :2] @ tr.flow_corr[c]
-        kf_update(tr, H, z, self.flow_noise(c, p, extra_var), gate=gate)
+        H = np.zeros((2, 4))
+        H[:, 2:] = p.J[:, :2]
+        kf_update(tr, H, np.asarray(flow, float), self.flow_noise(c, p, extra_var), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
@@ -770,10 +672,8 @@ class JointTracker:
         windows) of windows no track explains."""
         cfg = self.cfg
         self.wide = []  # too-wide windows explained by one track: (camera, track index, window, far side's window, near side's centre u)
-        self.t += dt
         for tr in tracks:
             self.predict(tr, dt)
-            tr.flow_corr = self.past_correction(tr) if cfg.flow_past else {}
         active = [tr for tr in tracks if tr.located]
         plans = {c: self.explain_camera(c, active, frame[c]) for c in self.Ps}
         idx = [i for i, tr in enumerate(tracks) if tr.located]
@@ -891,11 +791,9 @@ class JointTracker:
         wide = {i for _, i, _, _, _ in self.wide}
         for i, tr in enumerate(tracks):
             tr.wide_run = tr.wide_run + 1 if i in wide else 0
-            speed = float(np.linalg.norm(tr.s[2:4]))
+            speed = float(np.linalg.norm(tr.s[2:]))
             if speed > cfg.max_speed:
-                tr.s[2:4] *= cfg.max_speed / speed
-            if cfg.flow_past:
-                tr.vhist = tr.vhist[-(4 * cfg.flow_window):] + [(self.t, tr.s[2:4].copy())]
+                tr.s[2:] *= cfg.max_speed / speed
             tr.n_used = used[i]
             tr.seen = seen[i]
             if tr.located:
@@ -923,7 +821,8 @@ class JointTracker:
         speed = float(np.linalg.norm(V[:2]))
         if speed > cfg.max_speed:
             V = V * (cfg.max_speed / speed)
-        tr = JointTrack(tid, *self.new_state(xy, V[:2], cfg.radius, cfg.birth_sigma_v), hits=1, seen=True, n_used=len(support))
+        S = np.diag([cfg.radius**2, cfg.radius**2, cfg.birth_sigma_v**2, cfg.birth_sigma_v**2])
+        tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
         return tr
 
     def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes], accept) -> set[int]:
@@ -1191,7 +1090,8 @@ class JointTracker:
         if not on_floor(inside_room, xy):  # by a corner: towards the middle
             m = self.outline.mean(axis=0) - q
             xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
-        tr.s, tr.S = self.new_state(xy, np.zeros(2), cfg.sigma_max, 0.5 * cfg.max_speed)
+        tr.s = np.r_[xy, 0.0, 0.0]
+        tr.S = np.diag([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
         tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
         return True
 
@@ -1221,8 +1121,8 @@ class JointTracker:
         for a, b in itertools.combinations(out, 2):
             if a.tid in drop or b.tid in drop:
                 continue
-            ds = a.s4 - b.s4
-            if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S4 + b.S4, ds)) < DUPLICATE:
+            ds = a.s - b.s
+            if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
                 young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
                 if young.tid != keep:
                     other = a if young is b else b

@@ -43,9 +43,9 @@ class Probe:
             x = probe.now()
             for tr in tracks:
                 if tr.tid == 0 and tr.located and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
-                    e = tr.s4 - x[:4]
+                    e = tr.s - x[:4]
                     sp = float(np.linalg.norm(x[2:4]))
-                    probe.frames.append((float(e[:2] @ np.linalg.solve(tr.S[:2, :2], e[:2])), float(e[2:] @ np.linalg.solve(tr.S[2:4, 2:4], e[2:])),
+                    probe.frames.append((float(e[:2] @ np.linalg.solve(tr.S[:2, :2], e[:2])), float(e[2:] @ np.linalg.solve(tr.S[2:, 2:], e[2:])),
                                          float(np.linalg.norm(e[:2])), float(np.sqrt(np.trace(tr.S[:2, :2]) / 2)),
                                          float(e[:2] @ x[2:4]) / sp if sp > 0.5 else np.nan, float(x[4])))
             return out

@@ -33,9 +33,8 @@ from trackroom.estimators.target_planes import TargetPlanes
 
 def _state(tr) -> str:
     sd = np.sqrt(np.diag(tr.S))
-    acc = f"a {tr.s[4]:+.2f},{tr.s[5]:+.2f} (sd {sd[4]:.2f},{sd[5]:.2f}) " if len(tr.s) > 4 else ""  # with accel_tau
     return (f"x {tr.s[0]:.2f},{tr.s[1]:.2f} (sd {sd[0]:.2f},{sd[1]:.2f}) v {tr.s[2]:+.2f},{tr.s[3]:+.2f} "
-            f"(sd {sd[2]:.2f},{sd[3]:.2f}) {acc}mu {tr.mu:.3f}")
+            f"(sd {sd[2]:.2f},{sd[3]:.2f}) mu {tr.mu:.3f}")
 
 
 def _windows(boxes) -> str:

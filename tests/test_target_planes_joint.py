@@ -12,7 +12,7 @@ import pytest
 
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_frames import CameraBoxes, mean_delay_s, mean_lag_residual, mean_lag_s
+from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s
 from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, JointTrack, JointTracker
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
@@ -581,88 +581,6 @@ def test_a_walker_setting_off_is_not_held_back_by_its_lagging_mean_flow():
         err[lag] = (abs(tr.s[2] - v), abs(tr.s[0] - x))
     assert err[True][0] < 0.85 * err[False][0]  # measured: 0.16 vs 0.20 m/s
     assert err[True][1] < 0.7 * err[False][1]  # 0.05 vs 0.08 m
-
-
-def test_mean_lag_residual_is_what_a_constant_acceleration_leaves_of_the_means_lag():
-    """``mean_delay_s`` and ``mean_lag_residual``: with a known acceleration a(t) the causal mean
-    of the last n velocities is v(t) - a(t) (n - 1) dt / 2 up to the acceleration's own change
-    over the mean, of variance ``mean_lag_residual`` per unit intensity (checked against
-    Brownian accelerations sampled at 1 ms)."""
-    rng = np.random.default_rng(1)
-    dt, n, h = 0.1, 5, 1e-3
-    m = int(round((n - 1) * dt / h))
-    da = rng.normal(0.0, np.sqrt(h), (20_000, m))  # a(t - r) - a(t) for r = h, 2h, ... (unit intensity)
-    back = np.concatenate([np.zeros((len(da), 1)), np.cumsum(da, 1)], 1)
-    X = np.concatenate([np.zeros((len(da), 1)), np.cumsum(back[:, :-1], 1) * h], 1)  # int_0^s (a(t - r) - a(t)) dr
-    resid = X[:, :: int(round(dt / h))].mean(1)
-    assert mean_delay_s(n, dt) == pytest.approx(0.2)
-    assert resid.var() == pytest.approx(mean_lag_residual(n, dt), rel=0.05)
-    assert mean_lag_residual(1, dt) == 0.0 and mean_delay_s(1, dt) == 0.0
-
-
-def test_the_singer_motion_model_keeps_the_white_models_long_term_velocity_change():
-    """``JointTracker.motion`` with ``accel_tau``: per axis the Singer model's exact transition
-    (closed form) and a covariance whose velocity part grows as accel_sigma^2 t over times much
-    longer than tau (the white-acceleration model's), with a stationary acceleration spread of
-    accel_sigma / sqrt(2 tau)."""
-    cams = four_cameras()
-    _, white = _tracker(cams)
-    cfg, jt = _tracker(cams, accel_tau=0.5)
-    assert jt.dim == 6 and white.dim == 4
-    dt, al = 0.1, 1.0 / 0.5
-    F, Q = jt.motion(dt)
-    e = np.exp(-al * dt)
-    assert F[0, 2] == pytest.approx(dt) and F[0, 4] == pytest.approx((al * dt - 1.0 + e) / al**2)
-    assert F[2, 4] == pytest.approx((1.0 - e) / al) and F[4, 4] == pytest.approx(e)
-    assert np.allclose(Q, Q.T) and np.linalg.eigvalsh(Q).min() > -1e-15
-    S = np.zeros((6, 6))
-    for _ in range(1000):  # 100 s
-        S = F @ S @ F.T + Q
-    assert S[4, 4] == pytest.approx(cfg.accel_sigma**2 / (2 * 0.5), rel=1e-3)
-    S2 = S.copy()
-    for _ in range(100):  # 10 s more: the velocity's variance grows at accel_sigma^2 per second
-        S2 = F @ S2 @ F.T + Q
-    assert (S2[2, 2] - S[2, 2]) / 10.0 == pytest.approx(cfg.accel_sigma**2, rel=0.01)
-    Fw, Qw = white.motion(dt)
-    assert Fw.shape == (4, 4) and Qw[2, 2] == pytest.approx(cfg.accel_sigma**2 * dt)
-
-
-@pytest.mark.parametrize("speeds", [(0.0, 1.0), (1.0, 0.0)], ids=["setting-off", "stopping"])
-def test_the_mean_flows_lag_modelled_follows_a_walker_changing_speed(speeds):
-    """A walker changes speed at 0.8 m/s^2 (the scenes' walkers' limit; setting off, and slowing
-    to a stop) in the view of all four cameras, each window's flow the causal 5-frame mean. Both
-    models of the mean's lag end nearer the walker's velocity than the white-acceleration
-    tracker with the lag as noise alone (``flow_lag``): the track's own past velocities
-    (``flow_past``: the flow compared with J times their mean) and an acceleration state
-    (``accel_tau`` = 1 s: the mean flow is J (v - a 0.2 s)), whose acceleration has the
-    walker's sign."""
-    cams = four_cameras()
-    v0, v1 = speeds
-    acc = 0.8 * np.sign(v1 - v0)
-    err = {}
-    for name, opts in (("white", {}), ("past", {"flow_past": True}), ("accel", {"accel_tau": 1.0})):
-        cfg, jt = _tracker(cams, **opts)
-        tr = JointTrack(1, *jt.new_state(np.array([2.5, 2.5]), np.array([v0, 0.0]), 0.05, 0.1), confirmed=True, seen=True,
-                        hits=20, exist=EXIST_ACCEPT)
-        vs, x, v = [v0] * 5, 2.5, v0
-        for k in range(12):  # 1.2 s, ending before the walker's speed does (at 1.25 s)
-            if k:
-                v += 0.1 * acc
-                x += 0.1 * v
-                vs.append(v)
-            flow = float(np.mean(vs[-5:]))
-            frame = {}
-            for c in cams:
-                r = window_row(c, (x, 2.5), (v, 0.0))
-                r[5:7] = window_row(c, (x, 2.5), (flow, 0.0))[5:7]
-                frame[c.name] = CameraBoxes(np.array([1], object), np.array([r[0]]), r[None, 1:5], r[None, 5:7])
-            jt.step([tr], frame, 0.1)
-        err[name] = abs(tr.s[2] - v)
-        if name == "accel":
-            assert np.sign(tr.s[4]) == np.sign(acc)
-    # measured: white 0.126 / 0.132 m/s (setting off / stopping), past 0.067 / 0.071, accel 0.024 / 0.008
-    assert err["past"] < 0.7 * err["white"]
-    assert err["accel"] < 0.5 * err["white"]
 
 
 def test_a_merged_windows_outer_edge_that_is_anothers_does_not_throw_a_hidden_track():
