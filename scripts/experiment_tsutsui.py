@@ -110,6 +110,12 @@ def run_target(rec: Recording, params: dict | None = None) -> TargetPlanesResult
     return TargetPlanes(initial_xy=click(rec), **{**estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
 
 
+def multi_estimator(rec: Recording, params: dict | None = None) -> TargetPlanes:
+    """The experiment's multi-person estimator for a recording: every mover tracked, the
+    calibration's noise, ``params`` (Config values) on top."""
+    return TargetPlanes(multi_person=True, **{**estimator_config(rec), **(params or {})})
+
+
 def every_frame(res: TargetPlanesResult) -> pd.DataFrame:
     """The single-target output on every frame the tracker ran (``res.times``): a frame where no
     track carried the target's identity gets a row with x, y NaN and ``n_cameras`` -1."""
@@ -274,12 +280,11 @@ def run(sensing: str, duration: float, seed: int, progress: bool = False, record
     if recording is not None:
         sensing, seed, duration = rec.meta.get("sensing", "?"), rec.meta.get("seed", "?"), rec.observations.duration
     t0 = time.time()
-    kw = {**estimator_config(rec), **(params or {})}
     res = run_target(rec, params)
     t_est = time.time() - t0
     m = {"sensing": sensing, "seed": seed, "duration": duration, "sim_s": round(t_sim, 1), "estimate_s": round(t_est, 2)}
     m.update(single_target_metrics(rec, res))
-    multi = TargetPlanes(multi_person=True, **kw).estimate(rec.observations, rec.calibration)
+    multi = multi_estimator(rec, params).estimate(rec.observations, rec.calibration)
     ev = evaluate(movers_only(rec, scene), multi, gate=1.0)
     mm = ev.metrics()
     m.update({f"multi_{k}": mm[k] for k in ("mota", "motp", "id_switches", "fp", "fn", "idf1", "tracks")})

@@ -27,9 +27,8 @@ import numpy as np
 import pandas as pd
 
 from trackroom.dataset import read_recording
-from trackroom.estimators.target_planes import TargetPlanes
 
-from .experiment_tsutsui import distances_at, estimator_config
+from .experiment_tsutsui import distances_at, multi_estimator
 
 MOVERS = ("target", "distractor")
 LABEL_M = 0.7  # a track follows the person nearest it within this distance, m
@@ -61,7 +60,7 @@ def apart_frames(status: pd.DataFrame, a: int, b: int, t: float) -> int:
 
 def drops(d: str) -> pd.DataFrame:
     rec = read_recording(d)
-    res = TargetPlanes(multi_person=True, **estimator_config(rec)).run(rec.observations, rec.calibration)
+    res = multi_estimator(rec).run(rec.observations, rec.calibration)
     I, S, people = res.internal, res.status, rec.truth.people
     rows = []
     for e in res.ends[res.ends.reason == "duplicate"].itertuples():

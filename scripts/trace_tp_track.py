@@ -28,7 +28,6 @@ import numpy as np
 from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_joint
-from trackroom.estimators.target_planes import TargetPlanes
 
 
 def _state(tr) -> str:
@@ -71,9 +70,10 @@ class Tracer:
 
         def explain_camera(jt, c, tracks, boxes):
             expl, projs = tracer.orig[1](jt, c, tracks, boxes)
-            tr = tracer.track
-            if tr is not None and tr in tracks and tracks.index(tr) in projs:
-                p = projs[tracks.index(tr)]
+            # by identity: the explanation indexes ``tracks``, which holds only the located tracks
+            i = next((k for k, x in enumerate(tracks) if x is tracer.track), None)
+            if i is not None and i in projs:
+                p = projs[i]
                 who = {j: [tracks[i].tid for i in mem] for j, mem in sorted(expl.items())}
                 tracer.frames[-1][1].append(
                     f"    {c}: projection u {p.u:.0f} (sd {np.sqrt(p.var_u):.0f}) cols {p.win[0]:.0f}-{p.win[1]:.0f} "
@@ -95,7 +95,7 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     tracer = Tracer(tid)
     try:
         if multi:
-            res = TargetPlanes(multi_person=True, **{**ts.estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
+            res = ts.multi_estimator(rec, params).run(rec.observations, rec.calibration)
         else:
             res = ts.run_target(rec, params)
     finally:
