@@ -37,6 +37,7 @@ merged / unreliable / lost and why, Figs. 11-12); ``estimate`` returns the track
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass, field
 
@@ -48,11 +49,43 @@ from trackroom.recording import Calibration, Observations
 from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, split_boxes
-from .tp_identity import IdentityLag
+from .tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from .tp_initiate import propose
 from .tp_joint import LOST, JointTrack, JointTracker, Occluders, on_floor
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
+LOOKAHEAD_GAP = EXCHANGE_LOG_ODDS  # two explanations of the target nearer than 99:1 are both followed (``lookahead``)
+
+
+@dataclass
+class _RunState:
+    """What the frame loop carries from frame to frame: the tracks, the target's track id, the
+    next new id, the identity decision, the previous frame's time, the summed explanation cost
+    and the output rows. ``fork`` copies it for a second explanation (the look-ahead), with
+    empty row buffers; ``take`` continues with a fork instead."""
+
+    tracks: list
+    keep: int | None
+    next_id: int
+    idl: IdentityLag | None
+    t_prev: float
+    cost: float = 0.0
+    branch: tuple | None = None
+    rows: list = field(default_factory=list)
+    status_rows: list = field(default_factory=list)
+    end_rows: list = field(default_factory=list)
+    mark: tuple = (0, 0, 0)
+
+    def fork(self) -> "_RunState":
+        self.mark = (len(self.rows), len(self.status_rows), len(self.end_rows))
+        tracks, idl = copy.deepcopy((self.tracks, self.idl))
+        return _RunState(tracks, self.keep, self.next_id, idl, self.t_prev, self.cost)
+
+    def take(self, other: "_RunState") -> None:
+        a, b, c = self.mark
+        self.rows[a:], self.status_rows[b:], self.end_rows[c:] = other.rows, other.status_rows, other.end_rows
+        self.tracks, self.keep, self.next_id, self.idl = other.tracks, other.keep, other.next_id, other.idl
+        self.t_prev, self.cost, self.branch = other.t_prev, other.cost, other.branch
 
 
 @dataclass
@@ -67,7 +100,11 @@ class TargetPlanesResult:
     each identity decision scored (``tp_identity.IdentityLag.record``: t, kind - pair or handover -,
     a, b, gone, log_odds, t_pre, and the floor positions a_pre, b_pre then and a_post, b_post at t,
     as x, y columns); ``times``, every frame time the tracker ran (in single-target mode a frame
-    without a row is one the target was not reported: no track carried its identity)."""
+    without a row is one the target was not reported: no track carried its identity); ``lookaheads``,
+    each look-ahead run (``Config.lookahead``): t, the camera and window (index, None: no window)
+    of the second explanation, its extra cost at t (gap), the summed cost of both hypotheses from
+    t over the look-ahead (cost: the best's, cost_alt: the second's), whether both held the same
+    tracks throughout (same) and whether the second was taken."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
@@ -75,6 +112,7 @@ class TargetPlanesResult:
     ends: pd.DataFrame = field(default_factory=pd.DataFrame)
     decisions: pd.DataFrame = field(default_factory=pd.DataFrame)
     times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    lookaheads: pd.DataFrame = field(default_factory=pd.DataFrame)
 
 
 @register
@@ -114,6 +152,10 @@ class TargetPlanes(Estimator):
                                      "frames: 183 runs, mean 4.96, median 3, 90 % <= 12)")
         stand_sigma: float = param(0.05, "a standing person's position drift, m/sqrt(s)")
         start_sigma_v: float = param(0.5, "velocity spread of a standing person starting to walk, m/s")
+        lookahead: bool = param(False, "single-target mode: where a camera's second-best explanation gives the target's "
+                                       "track another window (or none) at under 99:1 against the best, both are followed "
+                                       "for identity_lag_s and the one whose windows are explained cheaper over those "
+                                       "frames is kept (a two-hypothesis look-ahead; no parameter value)")
         hold_s: float = param(6.0, "a confirmed track no window explains is kept this long, s (the scenes' walkers "
                                    "stop for up to 5 s at a waypoint)")
         sigma_max: float = param(1.5, "largest position uncertainty (standard deviation) of a track, m (a walker "
@@ -294,50 +336,86 @@ class TargetPlanes(Estimator):
             idl.output_lag_s = cfg.output_lag_s
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
-        rows, status_rows, end_rows = [], [], []
-        t_prev = float(times[0]) if len(times) else 0.0
-        for t in times:
-            t = float(t)
-            dt, t_prev = t - t_prev, t
+        st = _RunState(tracks, keep, next_id, idl, float(times[0]) if len(times) else 0.0)
+
+        def advance(st: _RunState, t: float, probe: bool = False, force=None) -> None:
+            """One frame of the tracker on state ``st`` (``probe``: the target's track probed for a
+            second explanation, ``jt.branch``; ``force``: a camera's explanation forced, ``jt.step``)."""
+            dt, st.t_prev = t - st.t_prev, t
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
-            free = jt.step(tracks, frame, dt)
+            target = next((tr for tr in st.tracks if tr.tid == st.keep), None)
+            free = jt.step(st.tracks, frame, dt, target if probe else None, force)
+            st.cost += jt.frame_cost
+            st.branch = jt.branch
             proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room)
-            target = next((tr for tr in tracks if tr.tid == keep), None)
             taken = jt.locate(target, proposals, frame, accept) if target is not None and not target.located else set()
             for k, (xy, support) in enumerate(proposals):
-                if k in taken or any(jt.covers(tr, xy) for tr in tracks if tr.located):
+                if k in taken or any(jt.covers(tr, xy) for tr in st.tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new
-                tracks.append(jt.birth(next_id, xy, support, frame))
-                tracks[-1].born = (t, tracks[-1].s.copy(), tracks[-1].S.copy())
-                next_id += 1
+                st.tracks.append(jt.birth(st.next_id, xy, support, frame))
+                st.tracks[-1].born = (t, st.tracks[-1].s.copy(), st.tracks[-1].S.copy())
+                st.next_id += 1
             if cfg.split_births:
                 # a too-wide window's far side that one other camera's window confirms (tp_joint.JointTracker.split)
                 used = {(c, j) for _, support in proposals for c, j in support.items()}
-                for new in jt.split(tracks, frame, used, inside_room):
-                    new.tid = next_id
-                    tracks.append(new)
-                    next_id += 1
+                for new in jt.split(st.tracks, frame, used, inside_room):
+                    new.tid = st.next_id
+                    st.tracks.append(new)
+                    st.next_id += 1
             found = None
             if cfg.locate_tracks and target is not None and not target.located:
-                found = jt.locate_track(target, tracks, accept, t)  # a track started off the click, filtered onto it
+                found = jt.locate_track(target, st.tracks, accept, t)  # a track started off the click, filtered onto it
             if found is None and cfg.adopt and target is not None and not target.located:
-                found = jt.adopt(target, tracks, click, floor_area)  # someone else's track started on the target: it is the target
+                found = jt.adopt(target, st.tracks, click, floor_area)  # someone else's track started on the target: it is the target
             if found is not None:
-                tracks = [tr for tr in tracks if tr is not found]  # the target's track took it over
-            tracks = jt.prune(tracks, keep, inside_room)
-            end_rows += [(t, tr.tid, tr.s[0], tr.s[1], why, other) for tr, why, other in jt.ends]
-            if idl is not None:
-                idl.update(t, tracks)
-                if keep is not None:
-                    keep = idl.holder(0)  # the target's track (an exchange may have moved it)
-            for tr in tracks:
+                st.tracks = [tr for tr in st.tracks if tr is not found]  # the target's track took it over
+            st.tracks = jt.prune(st.tracks, st.keep, inside_room)
+            st.end_rows += [(t, tr.tid, tr.s[0], tr.s[1], why, other) for tr, why, other in jt.ends]
+            if st.idl is not None:
+                st.idl.update(t, st.tracks)
+                if st.keep is not None:
+                    st.keep = st.idl.holder(0)  # the target's track (an exchange may have moved it)
+            for tr in st.tracks:
                 # every track is kept for now (in single-target mode too: the identity decision
                 # may hand the target's identity to another track retroactively, within the lag)
                 x = tr.estimate()
-                rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed))
+                st.rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed))
                 for c in cams:
-                    st, reason, win = tr.status.get(c, (LOST, "", None))
-                    status_rows.append((t, tr.tid, c, st, reason, win))
+                    status, reason, win = tr.status.get(c, (LOST, "", None))
+                    st.status_rows.append((t, tr.tid, c, status, reason, win))
+
+        ahead = max(int(round(cfg.identity_lag_s * min(float(calibration.cameras[c].fps) for c in cams))), 1)
+        lookaheads = []
+        k = 0
+        while k < len(times):
+            t = float(times[k])
+            probe = cfg.lookahead and st.keep is not None
+            fork = st.fork() if probe else None
+            advance(st, t, probe)
+            k += 1
+            if not probe or st.branch is None or st.branch[0] >= LOOKAHEAD_GAP:
+                continue
+            # two explanations of the target within the 99:1 level: both are followed for the
+            # identity lag's frames and the one whose windows are explained cheaper kept
+            gap, c_alt, j_alt = st.branch
+            cost0 = fork.cost
+            target = next((tr for tr in fork.tracks if tr.tid == fork.keep), None)
+            advance(fork, t, force=(c_alt, target, j_alt))
+            same = {tr.tid for tr in st.tracks} == {tr.tid for tr in fork.tracks}
+            for t_next in times[k:k + ahead]:
+                advance(st, float(t_next))
+                advance(fork, float(t_next))
+                same &= {tr.tid for tr in st.tracks} == {tr.tid for tr in fork.tracks}
+            k += len(times[k:k + ahead])
+            # (``same``, for diagnosis: whether both held the same tracks throughout; the costs
+            # hold no birth or death prior, so hypotheses with different tracks are compared
+            # on unequal footing - docs/target_planes.md, the twentieth session)
+            taken = fork.cost < st.cost
+            lookaheads.append((t, c_alt, j_alt, gap, st.cost - cost0, fork.cost - cost0, same, taken))
+            if taken:
+                st.take(fork)
+        tracks, idl = st.tracks, st.idl
+        rows, status_rows, end_rows = st.rows, st.status_rows, st.end_rows
         if idl is not None:
             idl.finish(tracks)
         tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
@@ -365,7 +443,8 @@ class TargetPlanes(Estimator):
         decisions = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
                            for h in (idl.decisions if idl is not None else [])])
-        return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions, np.asarray(times, float))
+        return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions, np.asarray(times, float),
+                                  pd.DataFrame(lookaheads, columns=["t", "camera", "window", "gap", "cost", "cost_alt", "same", "taken"]))
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to

@@ -480,14 +480,22 @@ class JointTracker:
         (a standing person makes no window; one who starts to walk is the walking mode)."""
         return float(-np.log(max(1.0 - mu, 1e-12)))
 
-    def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
+    def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes, probe: int | None = None,
+                       force: tuple[int, int | None] | None = None) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
         """The best joint explanation of camera c's windows: window index -> indices (into
         ``tracks``) of the tracks it holds (one, or a merged group); and each visible track's
-        projection. Windows absent from the result are clutter."""
+        projection. Windows absent from the result are clutter. Its cost (the sum of its
+        explanations', misses' and clutter's) is left in ``self.cost``. ``probe`` (an index into
+        ``tracks``): the best explanation in which that track holds another window, or none
+        when it holds one, is left in ``self.alternative`` as (extra cost, its window index or
+        None), None when there is none (the look-ahead, ``TargetPlanes.Config.lookahead``).
+        ``force`` (index, window index or None): that track holds that window (or none)."""
         projs = {i: p for i, tr in enumerate(tracks) if (p := self.project(c, tr)) is not None}
         n = len(boxes)
         cfg = self.cfg
+        self.cost, self.alternative = 0.0, None
         if not projs or not n:
+            self.cost = float(sum(self.miss_cost(p) for p in projs.values())) + C_CLUTTER * n
             return {}, projs
         gate = {}
         for i, p in projs.items():
@@ -520,15 +528,23 @@ class JointTracker:
                 cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
             return cache[key]
 
+        gated = {j for js in gate.values() for j in js}
+        self.cost = C_CLUTTER * (n - len(gated))  # windows near no track: clutter
         for ts, ws in comps.values():
             ws = sorted(ws)
             if not ws:
+                self.cost += sum(miss[i] for i in ts)
                 continue
             options = [[None] + gate[i] for i in ts]
+            if force is not None and force[0] in ts:
+                options[ts.index(force[0])] = [force[1]]
             size = int(np.prod([len(o) for o in options], dtype=float))
             if size <= MAX_HYPOTHESES:
-                best, best_cost = None, np.inf
+                k_probe = ts.index(probe) if probe is not None and probe in ts else None
+                best_by: dict = {}  # the probed track's option -> (cost, groups); one entry without a probe
                 for combo in itertools.product(*options):
+                    key = combo[k_probe] if k_probe is not None else 0
+                    bound = best_by.get(key, (np.inf, None))[0]
                     groups: dict[int, list[int]] = {}
                     total = 0.0
                     for i, j in zip(ts, combo):
@@ -539,12 +555,20 @@ class JointTracker:
                     total += C_CLUTTER * (len(ws) - len(groups))
                     for j, mem in groups.items():
                         total += cost(tuple(mem), j)
-                        if total >= best_cost:
+                        if total >= bound:
                             break
-                    if total < best_cost:
-                        best, best_cost = groups, total
+                    if total < bound:
+                        best_by[key] = (total, groups)
+                key = min(best_by, key=lambda k: best_by[k][0]) if best_by else None
+                best_cost, best = best_by[key] if best_by else (np.inf, None)
+                if np.isfinite(best_cost):
+                    self.cost += best_cost
                 for j, mem in (best or {}).items():
                     result[j] = tuple(mem)
+                if k_probe is not None:
+                    alts = [(v[0] - best_cost, k) for k, v in best_by.items() if k != key and np.isfinite(v[0])]
+                    if alts:
+                        self.alternative = min(alts, key=lambda a: a[0])
             else:  # too many: single-person explanations only
                 C = np.full((len(ts), len(ws) + len(ts)), 1e6)
                 for a, i in enumerate(ts):
@@ -553,6 +577,7 @@ class JointTracker:
                             C[a, b] = cost((i,), j) - C_CLUTTER
                     C[a, len(ws) + a] = miss[i]
                 r, k = linear_sum_assignment(C)
+                self.cost += float(C[r, k].sum()) + C_CLUTTER * len(ws)
                 for a, b in zip(r, k):
                     if b < len(ws) and C[a, b] < 1e6:
                         result[ws[b]] = (ts[a],)
@@ -666,16 +691,31 @@ class JointTracker:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
 
     # --- one frame ------------------------------------------------------------------------------
-    def step(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], dt: float) -> dict[str, list[int]]:
+    def step(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], dt: float, probe: JointTrack | None = None,
+             force: tuple[str, JointTrack, int | None] | None = None) -> dict[str, list[int]]:
         """Predict, explain every camera's windows, update. Returns the birth candidates: per
         camera, indices into ``frame[c]`` (extended in place with the far sides of too-wide
-        windows) of windows no track explains."""
+        windows) of windows no track explains. ``self.frame_cost``: the explanations' summed
+        cost; with ``probe`` (a track), ``self.branch``: (extra cost, camera, window index or
+        None) of the cheapest explanation of one camera in which the probe holds another window
+        than in the best (``explain_camera``), None without one; ``force`` (camera, track,
+        window index or None): that camera's explanation gives the track that window (or none)."""
         cfg = self.cfg
         self.wide = []  # too-wide windows explained by one track: (camera, track index, window, far side's window, near side's centre u)
         for tr in tracks:
             self.predict(tr, dt)
         active = [tr for tr in tracks if tr.located]
-        plans = {c: self.explain_camera(c, active, frame[c]) for c in self.Ps}
+        k_probe = next((k for k, tr in enumerate(active) if tr is probe), None)
+        self.frame_cost, self.branch = 0.0, None
+        plans = {}
+        for c in self.Ps:
+            fc = None
+            if force is not None and force[0] == c:
+                fc = next(((k, force[2]) for k, tr in enumerate(active) if tr is force[1]), None)
+            plans[c] = self.explain_camera(c, active, frame[c], k_probe, fc)
+            self.frame_cost += self.cost
+            if self.alternative is not None and (self.branch is None or self.alternative[0] < self.branch[0]):
+                self.branch = (self.alternative[0], c, self.alternative[1])
         idx = [i for i, tr in enumerate(tracks) if tr.located]
         # explain_camera indexes ``active``; map back to ``tracks``
         plans = {c: ({j: tuple(idx[i] for i in mem) for j, mem in ex.items()}, {idx[i]: p for i, p in pr.items()}) for c, (ex, pr) in plans.items()}

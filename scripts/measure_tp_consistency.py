@@ -37,9 +37,9 @@ class Probe:
         self.orig = JT.step, JT.update_plane, JT.update_flow
         probe = self
 
-        def step(jt, tracks, frame, dt):
+        def step(jt, tracks, frame, dt, *args):
             probe.t += dt
-            out = probe.orig[0](jt, tracks, frame, dt)
+            out = probe.orig[0](jt, tracks, frame, dt, *args)
             x = probe.now()
             for tr in tracks:
                 if tr.tid == 0 and tr.located and x is not None and np.linalg.norm(tr.s[:2] - x[:2]) < GATE_M:
@@ -91,6 +91,9 @@ class Probe:
 
 def main(argv=None) -> int:
     recordings, params, _ = ts.recordings_and_params(__doc__, argv)
+    if params.get("lookahead"):
+        raise SystemExit("measure_tp_consistency: the look-ahead (lookahead=true) steps frames twice, once per "
+                         "hypothesis; measure without it")
     probe = Probe()
     try:
         for d in recordings:

@@ -55,21 +55,21 @@ class Tracer:
         self.orig = JT.step, JT.explain_camera
         tracer = self
 
-        def step(jt, tracks, frame, dt):
+        def step(jt, tracks, frame, dt, *args):
             tracer.k += 1
             tr = next((x for x in tracks if x.tid == tracer.tid), None)
             tracer.track = tr
             if tr is not None:
                 tracer.frames.append((tracer.k, [f"before: {_state(tr)}"]))
-            out = tracer.orig[0](jt, tracks, frame, dt)
+            out = tracer.orig[0](jt, tracks, frame, dt, *args)
             if tr is not None:
                 status = " ".join(f"{c} {v[0]}{' (' + str(v[1]) + ')' if v[1] else ''}" for c, v in sorted(tr.status.items()))
                 tracer.frames[-1][1].append(f"        after:  {_state(tr)} mode {tr.mode}; {status}")
             tracer.track = None
             return out
 
-        def explain_camera(jt, c, tracks, boxes):
-            expl, projs = tracer.orig[1](jt, c, tracks, boxes)
+        def explain_camera(jt, c, tracks, boxes, *args):
+            expl, projs = tracer.orig[1](jt, c, tracks, boxes, *args)
             # by identity: the explanation indexes ``tracks``, which holds only the located tracks
             i = next((k for k, x in enumerate(tracks) if x is tracer.track), None)
             if i is not None and i in projs:
@@ -91,6 +91,9 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     frame's true positions after it."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
+    if (params or {}).get("lookahead"):
+        raise SystemExit("trace_tp_track: the look-ahead (lookahead=true) steps frames twice, once per hypothesis; "
+                         "trace without it")
     rec = read_recording(d)
     tracer = Tracer(tid)
     try:

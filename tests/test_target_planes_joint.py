@@ -528,8 +528,8 @@ def test_a_walker_hidden_behind_another_track_in_every_view_is_not_made_standing
         assert a[0] <= b[1] and b[0] <= a[1]
     explain = jt.explain_camera
 
-    def front_alone(c, ts, boxes):  # each window: the front walker's alone
-        ex, projs = explain(c, ts, boxes)
+    def front_alone(c, ts, boxes, *args):  # each window: the front walker's alone
+        ex, projs = explain(c, ts, boxes, *args)
         return {j: (next(k for k, t in enumerate(ts) if t is front),) for j in ex}, projs
 
     jt.explain_camera = front_alone
