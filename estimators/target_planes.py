@@ -54,7 +54,7 @@ from .tp_initiate import propose
 from .tp_joint import LOST, JointTrack, JointTracker, Occluders, on_floor
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
-LOOKAHEAD_GAP = EXCHANGE_LOG_ODDS  # two explanations of the target nearer than 99:1 are both followed (``lookahead``)
+LOOKAHEAD_GAP = EXCHANGE_LOG_ODDS  # two explanations of the target nearer than 99:1 are both followed, and the second taken when 99:1 likelier (``lookahead``)
 
 
 @dataclass
@@ -154,8 +154,8 @@ class TargetPlanes(Estimator):
         start_sigma_v: float = param(0.5, "velocity spread of a standing person starting to walk, m/s")
         lookahead: bool = param(False, "single-target mode: where a camera's second-best explanation gives the target's "
                                        "track another window (or none) at under 99:1 against the best, both are followed "
-                                       "for identity_lag_s and the one whose windows are explained cheaper over those "
-                                       "frames is kept (a two-hypothesis look-ahead; no parameter value)")
+                                       "for identity_lag_s and the second is kept when its windows are explained 99:1 "
+                                       "likelier over those frames (a two-hypothesis look-ahead; no parameter value)")
         hold_s: float = param(6.0, "a confirmed track no window explains is kept this long, s (the scenes' walkers "
                                    "stop for up to 5 s at a waypoint)")
         sigma_max: float = param(1.5, "largest position uncertainty (standard deviation) of a track, m (a walker "
@@ -407,10 +407,11 @@ class TargetPlanes(Estimator):
                 advance(fork, float(t_next))
                 same &= {tr.tid for tr in st.tracks} == {tr.tid for tr in fork.tracks}
             k += len(times[k:k + ahead])
-            # (``same``, for diagnosis: whether both held the same tracks throughout; the costs
-            # hold no birth or death prior, so hypotheses with different tracks are compared
-            # on unequal footing - docs/target_planes.md, the twentieth session)
-            taken = fork.cost < st.cost
+            # the second is taken on 99:1 evidence, as every other decision (``same``, for
+            # diagnosis: whether both held the same tracks throughout; the costs hold no birth or
+            # death prior, so hypotheses with different tracks are compared on unequal footing -
+            # docs/target_planes.md, the twentieth session)
+            taken = fork.cost < st.cost - LOOKAHEAD_GAP
             lookaheads.append((t, c_alt, j_alt, gap, st.cost - cost0, fork.cost - cost0, same, taken))
             if taken:
                 st.take(fork)
