@@ -76,6 +76,10 @@ class _RunState:
     end_rows: list = field(default_factory=list)
     mark: tuple = (0, 0, 0)
 
+    def target(self) -> JointTrack | None:
+        """The target's track (the one carrying ``keep``), None in multi-person mode."""
+        return next((tr for tr in self.tracks if tr.tid == self.keep), None)
+
     def fork(self) -> "_RunState":
         self.mark = (len(self.rows), len(self.status_rows), len(self.end_rows))
         tracks, idl = copy.deepcopy((self.tracks, self.idl))
@@ -343,7 +347,7 @@ class TargetPlanes(Estimator):
             second explanation, ``jt.branch``; ``force``: a camera's explanation forced, ``jt.step``)."""
             dt, st.t_prev = t - st.t_prev, t
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
-            target = next((tr for tr in st.tracks if tr.tid == st.keep), None)
+            target = st.target()
             free = jt.step(st.tracks, frame, dt, target if probe else None, force)
             st.cost += jt.frame_cost
             st.branch = jt.branch
@@ -396,11 +400,10 @@ class TargetPlanes(Estimator):
             if not probe or st.branch is None or st.branch[0] >= LOOKAHEAD_GAP:
                 continue
             # two explanations of the target within the 99:1 level: both are followed for the
-            # identity lag's frames and the one whose windows are explained cheaper kept
+            # identity lag's frames (the fork from the state before this frame)
             gap, c_alt, j_alt = st.branch
             cost0 = fork.cost
-            target = next((tr for tr in fork.tracks if tr.tid == fork.keep), None)
-            advance(fork, t, force=(c_alt, target, j_alt))
+            advance(fork, t, force=(c_alt, fork.target(), j_alt))
             same = {tr.tid for tr in st.tracks} == {tr.tid for tr in fork.tracks}
             for t_next in times[k:k + ahead]:
                 advance(st, float(t_next))

@@ -4,8 +4,8 @@
 windows it reports the cheapest one in which that track holds another window (or none), as
 the extra cost and that window, and it can be forced to give the track a window. The frame
 loop (``TargetPlanes.run``) follows both explanations for ``identity_lag_s`` when they are
-within 99:1 and keeps the one whose windows are explained cheaper; its state is forked and
-taken over by ``_RunState``. Windows are the estimator's person model projected by the test
+within 99:1 and keeps the second when its windows are explained 99:1 likelier; its state is
+forked and taken over by ``_RunState``. Windows are the estimator's person model projected by the test
 cameras (``tests.test_target_planes_joint._box``).
 """
 from __future__ import annotations
