@@ -29,7 +29,8 @@ Per frame:
      normalised so the residual is in metres; sigma = sigma_u / |du/dxy|; for a window cut by
      the image border, ``border_edges``: its inner edge's plane, the axis a ``radius`` beyond it); its single-camera
      target area's depth range (section 3.2), applied only when the prediction lies outside it,
-     with sigma = ``radius``; its flow J V = f (eq. 7, J at the predicted body centre), skipped
+     with sigma = ``radius``; its flow g J V = f (eq. 7, J at the predicted body centre; g the
+     detector's gain ``flow_gain``, 1 by default, measured 0.92), skipped
      as an outlier beyond chi^2_2(0.999) (the rendered flows' tails are heavy). The flow is the
      mean over the camera track's last ``flow_window`` frames, the velocity of about
      (flow_window - 1) / 2 frames ago: with ``flow_lag`` its noise includes the walker's
@@ -358,8 +359,8 @@ class JointTracker:
         X = np.array([tr.s[0], tr.s[1], self.hc])
         (u, v), _ = geo.project(P, X)
         J = geo.flow_jacobian(P, X)
-        Ju, J2 = J[0, :2], J[:, :2]
-        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), J2 @ tr.s[2:], J2 @ tr.S[2:, 2:] @ J2.T, J, float(v))
+        Ju, Jf = J[0, :2], self.cfg.flow_gain * J[:, :2]  # the flow detector's region-mean flow: flow_gain J V
+        return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), Jf @ tr.s[2:], Jf @ tr.S[2:, 2:] @ Jf.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
     def explain_cost(self, c: str, projs: list[Projection], boxes: CameraBoxes, j: int) -> float:
@@ -679,12 +680,14 @@ class JointTracker:
     def flow_noise(self, c: str, p: Projection, extra_var: float = 0.0) -> np.ndarray:
         """Covariance (px^2/s^2, 2 x 2) of a window's flow about J V in a flow update: ``flow_var``
         plus ``extra_var`` per image axis, and the mean flow's lag (``flow_lag_var``) through J."""
-        return (self.flow_var(c) + extra_var) * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (p.J[:, :2] @ p.J[:, :2].T)
+        Jf = self.cfg.flow_gain * p.J[:, :2]
+        return (self.flow_var(c) + extra_var) * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (Jf @ Jf.T)
 
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
-        """Eq. 7: the window's flow = J V (W = 0); not used beyond ``gate`` (chi^2_2)."""
+        """Eq. 7 with the detector's gain: the window's flow = ``flow_gain`` J V (W = 0); not used
+        beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
-        H[:, 2:] = p.J[:, :2]
+        H[:, 2:] = self.cfg.flow_gain * p.J[:, :2]
         kf_update(tr, H, np.asarray(flow, float), self.flow_noise(c, p, extra_var), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:
@@ -857,7 +860,8 @@ class JointTracker:
         X = np.array([xy[0], xy[1], self.hc])
         names = list(support)
         sig = [np.hypot(self.flow_sigma[c], cfg.flow_model_sigma) for c in names]
-        V = geo.velocity_from_flows([self.Ps[c] for c in names], [X] * len(names), [frame[c].flow[support[c]] for c in names], sig)
+        g = cfg.flow_gain  # the detector's flow is flow_gain J V
+        V = geo.velocity_from_flows([self.Ps[c] for c in names], [X] * len(names), [frame[c].flow[support[c]] / g for c in names], [x / g for x in sig])
         speed = float(np.linalg.norm(V[:2]))
         if speed > cfg.max_speed:
             V = V * (cfg.max_speed / speed)

@@ -9,7 +9,9 @@ window's flow against the image velocity of that person's body centre (0.85 m ab
 ``tp_geometry.flow_jacobian`` times the true velocity, eq. 7). Errors are split along the true image
 motion (negative: the flow is short of it) and across it, per bin of true image speed, with their
 median, robust standard deviation (1.4826 MAD), the robust one relative to the speed, and the
-90 % quantile of their size. Run it on rendered recordings to see how the flow detector's error
+90 % quantile of their size; and the detector's gain, the median of the flow along the motion
+over the true image speed (10-120 px/s: ``target_planes``' ``flow_gain``, issue 12's
+twenty-first session). Run it on rendered recordings to see how the flow detector's error
 grows with the image speed, and on their analytic twins to compare. The truth is read here, by the experimenter.
 
 ``--flow-window N``: each window's flow is first averaged over the last N frames of its camera
@@ -184,6 +186,14 @@ def persistent_fit(rho: np.ndarray, lags: int = 10) -> tuple[float, float]:
     return float(w), float(a)
 
 
+def gain(df: pd.DataFrame, lo: float = 10.0, hi: float = 120.0) -> float:
+    """The flow detector's gain: the median over windows of the flow along the true image motion
+    over the true image speed, image speeds ``lo``-``hi`` px/s (``target_planes``'
+    ``flow_gain``: eq. 7 as f = flow_gain J V)."""
+    g = df[(df.speed >= lo) & (df.speed < hi)]
+    return float(((g.speed + g.along) / g.speed).median()) if len(g) else float("nan")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR")
@@ -194,6 +204,7 @@ def main(argv=None) -> int:
     fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
     print(f"{len(df)} windows holding one walking mover; flow error (px/s, flow averaged over {a.flow_window} frame(s)) by true image speed:")
     print(table(df).round(2).to_string(index=False))
+    print(f"gain (median of the flow along the motion over the true image speed, 10-120 px/s; target_planes flow_gain): {gain(df):.3f}")
     if a.by_share:
         print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out):")
         print(share_table(df).round(2).to_string(index=False))

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import autocorrelation, corr_time, persistent_fit, share_table, short_runs
+from scripts.measure_flow_errors import autocorrelation, corr_time, gain, persistent_fit, share_table, short_runs
 
 
 def _table(values: np.ndarray, speed: float = 50.0) -> pd.DataFrame:
@@ -74,3 +74,16 @@ def test_the_consistency_probe_reads_the_target_track_and_puts_the_tracker_back(
     text = capsys.readouterr().out
     assert "NEES position mean" in text and "centroid plane updates" in text and "flow updates" in text
     assert (tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow) == before
+
+
+def test_gain_is_the_median_flow_over_the_motion_within_the_speed_band():
+    """Windows whose flow is 0.9 of the motion (along error -0.1 speed) with a tail of flows far
+    short, and windows outside 10-120 px/s that say otherwise: the gain is the median ratio
+    within the band."""
+    rng = np.random.default_rng(1)
+    speed = rng.uniform(12.0, 110.0, 1000)
+    along = -0.1 * speed
+    along[:150] = -0.7 * speed[:150]  # a tail of flows far short: moves the mean, not the median
+    df = pd.DataFrame({"speed": np.r_[speed, 5.0, 200.0], "along": np.r_[along, 4.0, -150.0]})
+    assert gain(df) == pytest.approx(0.9, abs=1e-9)
+    assert np.isnan(gain(df.iloc[-2:]))
