@@ -193,7 +193,7 @@ class TargetPlanes(Estimator):
                                       "its person's image velocity. Measured (scripts/measure_flow_errors.py, a window's "
                                       "flow along its person's image motion over the body centre's image speed, median "
                                       "over windows of one walker, 10-120 px/s): 0.924 on rendered development recordings "
-                                      "100-119, 0.903 on their analytic twins; 0.92 removes a third of the track's lag "
+                                      "100-119, 0.903 on their analytic twins; 0.92 removes about a quarter of the track's lag "
                                       "and lowers RMSE, but held the target on fewer development recordings "
                                       "(docs/target_planes.md, the twenty-first session), so 1 stays")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
@@ -309,6 +309,9 @@ class TargetPlanes(Estimator):
         cams = [c for c in cams if c in set(boxes["camera"]) or c in calibration.cameras_of_kind("oblique")]
         if not cams:
             raise EstimatorError(f"{self.name}: no oblique cameras")
+        if not cfg.flow_gain > 0:
+            raise EstimatorError(f"{self.name}: flow_gain must be a positive number (a window's flow over its person's "
+                                 f"image velocity; measured 0.92), got {cfg.flow_gain!r}")
         if not cfg.multi_person and cfg.initial_xy is None and cfg.initial_window is None:
             raise EstimatorError(
                 f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] (its floor position at the "

@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s
 from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, JointTrack, JointTracker
@@ -636,3 +637,14 @@ def test_a_detector_flow_short_by_its_gain_gives_the_walkers_speed_and_birth_vel
     assert out[1.0][0] < 0.96  # measured: 0.944 m/s
     assert abs(out[g][1]) < 0.5 * abs(out[1.0][1])  # behind the walker: measured 0.002 against 0.009 m
     assert out[g][2] == pytest.approx(1.0, abs=0.02) and out[1.0][2] == pytest.approx(g, abs=0.02)  # births: 1.0, 0.92 m/s
+
+
+@pytest.mark.parametrize("gain, message", [(0.0, "flow_gain must be a positive number"), (-0.9, "flow_gain must be a positive number"),
+                                           (float("nan"), "parameter flow_gain: expected a finite number")])
+def test_a_flow_gain_that_is_not_positive_is_refused_by_name(gain, message):
+    cams = four_cameras()
+    times = np.round(np.arange(0, 1.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [2.0, 2.0], times)
+    obs = Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 1.0)
+    with pytest.raises(EstimatorError, match=message):
+        TargetPlanes(initial_xy=list(tgt[0]), flow_gain=gain).run(obs, calib(cams))
