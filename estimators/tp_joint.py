@@ -359,7 +359,7 @@ class JointTracker:
         X = np.array([tr.s[0], tr.s[1], self.hc])
         (u, v), _ = geo.project(P, X)
         J = geo.flow_jacobian(P, X)
-        Ju, Jf = J[0, :2], self.cfg.flow_gain * J[:, :2]  # the flow detector's region-mean flow: flow_gain J V
+        Ju, Jf = J[0, :2], self.flow_map(J)
         return Projection(win, float(u), float(Ju @ tr.S[:2, :2] @ Ju), Jf @ tr.s[2:], Jf @ tr.S[2:, 2:] @ Jf.T, J, float(v))
 
     # --- joint explanation of one camera's windows -----------------------------------------------
@@ -677,17 +677,22 @@ class JointTracker:
         bound = area.s_min if s < area.s_min else area.s_max
         kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
 
+    def flow_map(self, J: np.ndarray) -> np.ndarray:
+        """Floor velocity -> the window's flow (2, 2): eq. 7's J (at the body centre) times the
+        detector's gain ``flow_gain`` (its region-mean flow falls short of the motion)."""
+        return self.cfg.flow_gain * J[:, :2]
+
     def flow_noise(self, c: str, p: Projection, extra_var: float = 0.0) -> np.ndarray:
         """Covariance (px^2/s^2, 2 x 2) of a window's flow about J V in a flow update: ``flow_var``
         plus ``extra_var`` per image axis, and the mean flow's lag (``flow_lag_var``) through J."""
-        Jf = self.cfg.flow_gain * p.J[:, :2]
+        Jf = self.flow_map(p.J)
         return (self.flow_var(c) + extra_var) * np.eye(2) + self.flow_lag_var.get(c, 0.0) * (Jf @ Jf.T)
 
     def update_flow(self, tr: JointTrack, c: str, p: Projection, flow: np.ndarray, extra_var: float = 0.0, gate: float = FLOW_OUTLIER) -> None:
         """Eq. 7 with the detector's gain: the window's flow = ``flow_gain`` J V (W = 0); not used
         beyond ``gate`` (chi^2_2)."""
         H = np.zeros((2, 4))
-        H[:, 2:] = self.cfg.flow_gain * p.J[:, :2]
+        H[:, 2:] = self.flow_map(p.J)
         kf_update(tr, H, np.asarray(flow, float), self.flow_noise(c, p, extra_var), gate=gate)
 
     def edge_sigma(self, p: Projection) -> float:

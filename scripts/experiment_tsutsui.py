@@ -110,6 +110,13 @@ def run_target(rec: Recording, params: dict | None = None) -> TargetPlanesResult
     return TargetPlanes(initial_xy=click(rec), **{**estimator_config(rec), **(params or {})}).run(rec.observations, rec.calibration)
 
 
+def refuse_lookahead(script: str, params: dict | None, what: str) -> None:
+    """Scripts that hook ``JointTracker.step`` see every frame stepped twice with the look-ahead
+    (once per hypothesis): they stop with a clear message when ``lookahead`` is asked for."""
+    if (params or {}).get("lookahead"):
+        raise SystemExit(f"{script}: the look-ahead (lookahead=true) steps frames twice, once per hypothesis; {what} without it")
+
+
 def multi_estimator(rec: Recording, params: dict | None = None) -> TargetPlanes:
     """The experiment's multi-person estimator for a recording: every mover tracked, the
     calibration's noise, ``params`` (Config values) on top."""

@@ -91,9 +91,7 @@ class Probe:
 
 def main(argv=None) -> int:
     recordings, params, _ = ts.recordings_and_params(__doc__, argv)
-    if params.get("lookahead"):
-        raise SystemExit("measure_tp_consistency: the look-ahead (lookahead=true) steps frames twice, once per "
-                         "hypothesis; measure without it")
+    ts.refuse_lookahead("measure_tp_consistency", params, "measure")
     probe = Probe()
     try:
         for d in recordings:

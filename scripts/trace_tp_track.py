@@ -91,9 +91,7 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     frame's true positions after it."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
-    if (params or {}).get("lookahead"):
-        raise SystemExit("trace_tp_track: the look-ahead (lookahead=true) steps frames twice, once per hypothesis; "
-                         "trace without it")
+    ts.refuse_lookahead("trace_tp_track", params, "trace")
     rec = read_recording(d)
     tracer = Tracer(tid)
     try:
