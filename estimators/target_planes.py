@@ -160,8 +160,9 @@ class TargetPlanes(Estimator):
                                        "track another window (or none) at under 99:1 against the best, both are followed "
                                        "for identity_lag_s and the second is kept when its windows are explained 99:1 "
                                        "likelier over those frames (a two-hypothesis look-ahead; no parameter value)")
-        hold_s: float = param(6.0, "a confirmed track no window explains is kept this long, s (the scenes' walkers "
-                                   "stop for up to 5 s at a waypoint)")
+        hold_s: float = param(13.0, "a confirmed track no window explains is kept this long, s (longer than every "
+                                    "stop of the movers in the development recordings: up to 12.1 s in the head-on "
+                                    "variant, where walkers wait for each other; scripts/measure_stop_lengths.py)")
         sigma_max: float = param(1.5, "largest position uncertainty (standard deviation) of a track, m (a walker "
                                       "slowing to a stop at 1 m/s with stop_tau 1 s moves ~1 m, plus the body)")
         max_speed: float = param(3.0, "largest speed of a person, m/s")
