@@ -197,6 +197,13 @@ class TargetPlanes(Estimator):
                                       "100-119, 0.903 on their analytic twins; 0.92 removes about a quarter of the track's lag "
                                       "and lowers RMSE, but held the target on fewer development recordings "
                                       "(docs/target_planes.md, the twenty-first session), so 1 stays")
+        width_tail: float = param(0.03, "probability e that a window's width error is gross (a shadow, a limb, clutter "
+                                         "joined to the region): one edge moved outwards by a half-normal of spread "
+                                         "width_tail_sigma x the predicted width, the centre by half that; else the "
+                                         "Gaussian (0: always). Fitted to rendered development 100-119 (windows of one "
+                                         "walker: 1.14 % wider than 1.33 times the person, 0.34 % than 1.5, 0.09 % than "
+                                         "1.75; scripts/measure_flow_errors.py --widths: 0.029 and 0.34)")
+        width_tail_sigma: float = param(0.34, "spread of a gross width error, as a share of the predicted width (width_tail)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")
@@ -313,6 +320,10 @@ class TargetPlanes(Estimator):
         if not cfg.flow_gain > 0:
             raise EstimatorError(f"{self.name}: flow_gain must be a positive number (a window's flow over its person's "
                                  f"image velocity; measured 0.92), got {cfg.flow_gain!r}")
+        if not (0.0 <= cfg.width_tail < 1.0 and cfg.width_tail_sigma > 0):
+            raise EstimatorError(f"{self.name}: width_tail must be a probability below 1 and width_tail_sigma positive (a gross "
+                                 f"width error's share and spread; measured 0.03 and 0.34), got {cfg.width_tail!r} and "
+                                 f"{cfg.width_tail_sigma!r}")
         if not cfg.multi_person and cfg.initial_xy is None and cfg.initial_window is None:
             raise EstimatorError(
                 f"{self.name}: the target is chosen by hand: give initial_xy=[x, y] (its floor position at the "

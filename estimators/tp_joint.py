@@ -15,7 +15,10 @@ Per frame:
    Cost of a hypothesis: sum over explained windows of 0.5 d^2 (Mahalanobis, features: centre u,
    width - one-sided: a window cut by an obstacle is narrower -, flow u, flow v; a window ending
    at an image border that its track is predicted across is compared with the projection clipped
-   to the image, ``border_side``) and, with ``fit_normalised`` (the default), the Gaussian's
+   to the image, ``border_side``; a window wider than predicted may be a gross error of one
+   edge, probability ``width_tail``, measured on the rendered windows, which moves the centre by
+   half the excess: the centre and width terms are then that mixture's) and, with
+   ``fit_normalised`` (the default), the Gaussian's
    normalisation against a perfectly located track's (``explain_terms``), plus
    ``c_clutter`` per clutter window and ``c_miss`` per moving track without a window (0 for a
    track predicted to stand still: it makes no window). Both are 0.5 chi^2_4(0.99): a window is
@@ -419,6 +422,16 @@ class JointTracker:
             # wide fits any window near it, and is that much less likely to have made this one
             Sf0 = self.flow_var(c) * np.eye(2)
             norm = 0.5 * float(np.log(var_u / var0)) + 0.5 * float(np.log(np.linalg.det(Sf) / np.linalg.det(Sf0)))
+        if cfg.width_tail > 0.0 and dw > 0.0:
+            # a window wider than predicted: the core Gaussian, or (probability width_tail) a gross
+            # error that moved one edge, either, outwards by dw (half-normal of spread
+            # width_tail_sigma x the predicted width, as measured on the rendered windows) and the
+            # window's centre by dw / 2 with it; relative to the core's normalisation
+            sb = max(cfg.width_tail_sigma * w_pred, sw)
+            core = np.log1p(-cfg.width_tail) - 0.5 * (du**2 / var_u + (dw / sw) ** 2)
+            tail = np.log(cfg.width_tail * sw / sb) - 0.5 * (dw / sb) ** 2
+            fit_wu = -float(np.logaddexp.reduce([core, tail - 0.5 * (du - 0.5 * dw) ** 2 / var_u, tail - 0.5 * (du + 0.5 * dw) ** 2 / var_u]))
+            return fit_wu + 0.5 * d2f, norm
         return 0.5 * (du**2 / var_u + (dw / sw) ** 2 + d2f), norm
 
     def border_side(self, c: str, boxes: CameraBoxes, j: int, projs: list[Projection]) -> int:

@@ -1,6 +1,6 @@
 """Flow windows' region flow against the true image velocity, by image speed.
 
-    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share]   # occlusion_lab recordings, either mode
+    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths]   # occlusion_lab recordings, either mode
 
 For every window of the ``boxes`` table that holds exactly one walking mover (the scene's target
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
@@ -27,6 +27,13 @@ horizontal flow error is about as large as the image speed itself (below half th
 quantile 30-60 px/s against 4 px/s for whole windows), its vertical flow error does not grow;
 the analytic windows model draws fragments moving with their person's flow, so its errors do not
 depend on the share (docs/target_planes.md, "Five single changes measured").
+
+How often a window is much wider than its one person (``--widths``; issue 12's twenty-second
+session): the share of windows wider than 1.2 ... 2 times the person's projected width, and the
+fit of ``target_planes``' gross width errors (``width_tail``, ``width_tail_sigma``: one edge
+moved outwards by a half-normal, ``width_tail``). Rendered development 100-119: 1.14 % wider
+than 1.33 times the person, 0.34 % than 1.5, 0.09 % than 1.75; analytic 100-109: 3.8 % wider
+than 1.5 (the analytic windows' edge errors have heavier tails).
 
 Then how the errors persist: the autocorrelation, over consecutive frames of one camera track
 holding the same person, of the along-motion flow error and of the window centroid's error (its
@@ -194,11 +201,39 @@ def gain(df: pd.DataFrame, lo: float = 10.0, hi: float = 120.0) -> float:
     return float(((g.speed + g.along) / g.speed).median()) if len(g) else float("nan")
 
 
+WIDTH_LEVELS = (1.2, 1.33, 1.5, 1.75, 2.0)  # window width / the person's projected width
+TAIL_FIT_LEVELS = (1.33, 1.5, 1.75)  # beyond the Gaussian core (about 3 sigma of a tenth of the width)
+
+
+def width_tail(share: pd.Series, levels=TAIL_FIT_LEVELS) -> tuple[float, float]:
+    """``target_planes``' ``width_tail`` and ``width_tail_sigma`` from windows' width over their
+    person's projected width (``share``; people cut by the image border left out): a gross width
+    error occurs with probability e and moves one edge outwards by a half-normal of spread sigma
+    (a share of the width), so P(share > 1 + x) = 2 e (1 - Phi(x / sigma)) beyond the core. Least
+    squares on the log of the measured tail fractions at ``levels``, sigma on a 0.01 grid."""
+    from scipy.stats import norm
+
+    share = share.dropna()
+    frac = np.array([(share > a).mean() for a in levels])
+    if not len(share) or (frac <= 0).any():
+        return float("nan"), float("nan")
+    x = np.asarray(levels) - 1.0
+    best = None
+    for sigma in np.arange(0.05, 1.0001, 0.01):
+        model = 2.0 * norm.sf(x / sigma)
+        log_e = float(np.mean(np.log(frac) - np.log(model)))
+        err = float(np.sum((np.log(frac) - np.log(model) - log_e) ** 2))
+        if best is None or err < best[0]:
+            best = (err, float(np.exp(log_e)), float(sigma))
+    return best[1], best[2]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--flow-window", type=int, default=1, metavar="N", help="average each window's flow over N frames of its track first")
     ap.add_argument("--by-share", action="store_true", help="also the flow error by the window's share of its person's width")
+    ap.add_argument("--widths", action="store_true", help="also how often a window is much wider than its person, and the fit of target_planes' width_tail")
     a = ap.parse_args(argv)
     df = pd.concat([errors(d, a.flow_window) for d in a.recordings], ignore_index=True)
     fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
@@ -208,6 +243,12 @@ def main(argv=None) -> int:
     if a.by_share:
         print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out):")
         print(share_table(df).round(2).to_string(index=False))
+    if a.widths:
+        sh = df.loc[~df.border, "share"]
+        print(f"window width over its person's projected width ({len(sh)} windows, people cut by the image border left out): "
+              + ", ".join(f"> {lv:g}: {100 * (sh > lv).mean():.2f} %" for lv in WIDTH_LEVELS))
+        e, sigma = width_tail(sh)
+        print(f"gross width errors (target_planes width_tail, width_tail_sigma; fitted at {', '.join(f'{lv:g}' for lv in TAIL_FIT_LEVELS)}): {e:.3f}, {sigma:.2f}")
     lags = (1, 2, 3, 5, 10, 20)
     print("how the errors persist along a camera track (autocorrelation by lag in frames; tau: integrated autocorrelation time):")
     for col, name in (("along", "flow error along the motion"), ("du", "centroid column error")):
