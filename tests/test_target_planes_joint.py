@@ -639,12 +639,18 @@ def test_a_detector_flow_short_by_its_gain_gives_the_walkers_speed_and_birth_vel
     assert out[g][2] == pytest.approx(1.0, abs=0.02) and out[1.0][2] == pytest.approx(g, abs=0.02)  # births: 1.0, 0.92 m/s
 
 
+def short_walk(cams):
+    """A target walking 1 m in 1 s in the views of ``cams``: its observations and its first floor
+    position (for runs that should stop before the first frame, on a bad Config value)."""
+    times = np.round(np.arange(0, 1.0, 0.1), 6)
+    tgt = line_path([1.0, 2.0], [2.0, 2.0], times)
+    return Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 1.0), list(tgt[0])
+
+
 @pytest.mark.parametrize("gain, message", [(0.0, "flow_gain must be a positive number"), (-0.9, "flow_gain must be a positive number"),
                                            (float("nan"), "parameter flow_gain: expected a finite number")])
 def test_a_flow_gain_that_is_not_positive_is_refused_by_name(gain, message):
     cams = four_cameras()
-    times = np.round(np.arange(0, 1.0, 0.1), 6)
-    tgt = line_path([1.0, 2.0], [2.0, 2.0], times)
-    obs = Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 1.0)
+    obs, start = short_walk(cams)
     with pytest.raises(EstimatorError, match=message):
-        TargetPlanes(initial_xy=list(tgt[0]), flow_gain=gain).run(obs, calib(cams))
+        TargetPlanes(initial_xy=start, flow_gain=gain).run(obs, calib(cams))

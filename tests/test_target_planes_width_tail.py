@@ -22,9 +22,8 @@ from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import CameraBoxes
 from trackroom.estimators.tp_joint import JointTrack
-from trackroom.recording import Observations
-from tests.test_target_planes import calib, four_cameras, line_path, synth_boxes
-from tests.test_target_planes_joint import _tracker, window_row
+from tests.test_target_planes import calib, four_cameras
+from tests.test_target_planes_joint import _tracker, short_walk, window_row
 
 A_XY, A_V = np.array([3.0, 3.0]), np.array([0.8, 0.0])
 
@@ -94,8 +93,6 @@ def test_two_walkers_in_one_window_are_still_explained_as_merged():
                                                   (0.04, 0.0, "width_tail_sigma positive"), (float("nan"), 0.3, "parameter width_tail: expected a finite number")])
 def test_a_width_tail_out_of_range_is_refused_by_name(tail, sigma, message):
     cams = four_cameras()
-    times = np.round(np.arange(0, 1.0, 0.1), 6)
-    tgt = line_path([1.0, 2.0], [2.0, 2.0], times)
-    obs = Observations({"boxes": synth_boxes(cams, {"target": tgt}, times)}, 1.0)
+    obs, start = short_walk(cams)
     with pytest.raises(EstimatorError, match=message):
-        TargetPlanes(initial_xy=list(tgt[0]), width_tail=tail, width_tail_sigma=sigma).run(obs, calib(cams))
+        TargetPlanes(initial_xy=start, width_tail=tail, width_tail_sigma=sigma).run(obs, calib(cams))
