@@ -204,6 +204,8 @@ class TargetPlanes(Estimator):
                                          "walker: 1.14 % wider than 1.33 times the person, 0.34 % than 1.5, 0.09 % than "
                                          "1.75; scripts/measure_flow_errors.py --widths: 0.029 and 0.34)")
         width_tail_sigma: float = param(0.34, "spread of a gross width error, as a share of the predicted width (width_tail)")
+        merged_evidence: bool = param(True, "a merged window is evidence for or against each member's existence: its "
+                                            "likelihood with the member against without it (else it counts nothing)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")

@@ -85,7 +85,9 @@ Per frame:
    ratio of each frame's windows: a window that is the track alone counts log ``p_detect``
    plus how much better it fits the track (its costs above plus section 3.2's rows:
    ``rows_cost``) than the best explanation without it (clutter, or another track of that view
-   left without a window), at least 0; a merged window nothing; a camera that should see a
+   left without a window), at least 0; a merged window (``merged_evidence``) how much better
+   it fits with the track among its members than without it, either sign (its extent and flow
+   the union's, or the others' alone); a camera that should see a
    walker (moving in its image, not hidden by the floor plan's boxes, ``Occluders``, nor
    overlapping another track) and has no window counts log P(miss), from the flow tracker's
    measured detection rate ``p_detect`` and mean miss run ``miss_run`` (a two-state chain).
@@ -599,14 +601,17 @@ class JointTracker:
 
     # --- track existence ----------------------------------------------------------------------
     def walk_evidence(self, tr: JointTrack, c: str, p: Projection, hit_lr: float | None, merged: bool, hidden: bool = False,
-                      visible: bool = True) -> float:
+                      visible: bool = True, merged_lr: float | None = None) -> float:
         """Camera c's share of the existence test's evidence: log P(what c shows of the track |
         a walking person) - log P(it | no one there).
 
         - A window that is this track alone: log ``p_detect`` + (C_CLUTTER - its cost): the
           window fits the person's projection better than it fits clutter (the joint
           explanation's own costs).
-        - A merged window holding it: 0 (its own window cannot be told apart).
+        - A merged window holding it: ``merged_lr``, the window's likelihood ratio for it (with
+          ``merged_evidence``: the explanation's cost without it minus the cost with it, either
+          sign: a window whose extent and flow are the union's says it is there, one that fits
+          the others alone says it is not); None: 0 (its own window cannot be told apart).
         - No window: log P(no window | a walking person here) (no one there makes none: log 1).
           A walker is expected seen when it moves in this image (predicted image speed at least
           ``mover_flow_px``), is not hidden by the floor plan's boxes (``visible``: ``Occluders``,
@@ -621,8 +626,11 @@ class JointTracker:
         if hit_lr is not None:
             tr.missed.discard(c)
             return float(np.log(cfg.p_detect)) + hit_lr
+        if merged:
+            tr.missed.discard(c)
+            return 0.0 if merged_lr is None else float(merged_lr)
         moving = float(np.linalg.norm(p.flow)) >= cfg.mover_flow_px
-        if merged or hidden or not moving or not visible:
+        if hidden or not moving or not visible:
             tr.missed.discard(c)
             return 0.0
         see = self.p_see_after_miss if c in tr.missed else self.p_see_after_hit
@@ -767,7 +775,11 @@ class JointTracker:
                 # its projected cylinder overlaps another track's: hidden by it, or merged with it
                 # into a window the explanation may have given to the other alone
                 hidden = n == 0 and any(k != i and q.win[0] <= p.win[1] and p.win[0] <= q.win[1] for k, q in projs.items())
-                lr = None
+                lr = merged_lr = None
+                if n > 1 and cfg.merged_evidence:
+                    # a merged window: explained with this member against without it
+                    merged_lr = (self.explain_cost(c, [projs[k] for k in expl[j] if k != i], boxes, j)
+                                 - self.explain_cost(c, [projs[k] for k in expl[j]], boxes, j))
                 if n == 1:
                     # the window's likelihood ratio: this track against the best explanation
                     # without it - clutter, or another track of this view left without a window
@@ -780,7 +792,7 @@ class JointTracker:
                 vis = bool(visible[i])
                 if vis and not hidden:
                     tracks[i].log_miss -= self.miss_walk(p)
-                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis)
+                walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis, merged_lr)
                 hit[i] |= n == 1
             extra = []
             for j, mem in expl.items():
