@@ -1,0 +1,160 @@
+"""Where `target_planes`' multi-person MOTA is lost: every unmatched frame, classified.
+
+    python -m scripts.explain_tp_mota DIR [DIR ...] [--param KEY=VALUE ...] [--episodes N]
+
+Runs the multi-person tracker on each occlusion_lab recording as ``scripts/experiment_tsutsui.py``
+does, scores it against the movers (CLEAR MOT, gate 1 m, ``metrics.score.evaluate``) and reads
+each frame the score counts against it with the truth of every person, by the experimenter:
+
+- a false positive (a track matched to no mover) is ``far`` (more than 2 m from anyone), ``off``
+  (1-2 m from the nearest person: a track off its person, whose frame is then a miss as well),
+  ``standing`` (within 1 m of a standing person: the movers' score does not count them),
+  ``duplicate`` (within 1 m of a mover matched to another track that frame) or ``unmatched``
+  (within 1 m of a mover left unmatched: the assignment kept an earlier match);
+- a false negative (a mover matched to no track) is ``no track`` (none within 2 m), ``track 1-2
+  m`` (the nearest 1-2 m away) or ``taken`` (one within 1 m, matched to someone else).
+
+It prints one line per recording (MOTA, false positives and negatives by class) and the totals;
+with ``--episodes N`` also each track's runs of N or more false-positive frames of one class
+(its time span, the nearest person, the mean distance and how far the track moved). The
+recording's own ``scene.toml`` says who walks (the head-on variant's overrides included).
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+FP_CLASSES = ("far", "off", "standing", "duplicate", "unmatched")
+FN_CLASSES = ("no track", "track 1-2 m", "taken")
+
+
+def _nearest(points: pd.DataFrame, x: float, y: float) -> tuple[int, float]:
+    d = np.hypot(points["x"].to_numpy(float) - x, points["y"].to_numpy(float) - y)
+    k = int(np.argmin(d))
+    return k, float(d[k])
+
+
+def classify(tracks: pd.DataFrame, movers: pd.DataFrame, people: pd.DataFrame, matches: pd.DataFrame,
+             gate: float = 1.0) -> pd.DataFrame:
+    """Each unmatched frame of a movers' CLEAR MOT score, classified (module docstring).
+
+    ``tracks``: ``frame, track_id, x, y``; ``movers``: the scored truth, ``frame, person_id, x,
+    y``; ``people``: every person's truth on the same frames (movers and standing people);
+    ``matches``: ``frame, person_id, track_id`` of the score. Returns rows ``frame, kind``
+    ("fp" / "fn"), ``cls``, ``track_id`` (fp) or ``person_id`` (fn), ``near`` (the nearest
+    person; fn: the nearest track), ``d`` (m) and the track's ``x, y`` (fp)."""
+    mover_ids = set(movers["person_id"])
+    matched_t = set(zip(matches["frame"], matches["track_id"]))
+    matched_p = set(zip(matches["frame"], matches["person_id"]))
+    by_frame = {f: g for f, g in people.groupby("frame")}
+    rows = []
+    for r in tracks.itertuples(index=False):
+        if (r.frame, r.track_id) in matched_t:
+            continue
+        P = by_frame.get(r.frame)
+        if P is None or not len(P):
+            rows.append((r.frame, "fp", "far", r.track_id, None, np.inf, r.x, r.y))
+            continue
+        k, d = _nearest(P, r.x, r.y)
+        pid = P["person_id"].iloc[k]
+        if d > 2.0 * gate:
+            cls = "far"
+        elif d > gate:
+            cls = "off"
+        elif pid not in mover_ids:
+            cls = "standing"
+        elif (r.frame, pid) in matched_p:
+            cls = "duplicate"
+        else:
+            cls = "unmatched"
+        rows.append((r.frame, "fp", cls, r.track_id, pid, d, r.x, r.y))
+    tracks_by_frame = {f: g for f, g in tracks.groupby("frame")}
+    for r in movers.itertuples(index=False):
+        if (r.frame, r.person_id) in matched_p:
+            continue
+        T = tracks_by_frame.get(r.frame)
+        if T is None or not len(T):
+            rows.append((r.frame, "fn", "no track", r.person_id, None, np.inf, r.x, r.y))
+            continue
+        k, d = _nearest(T, r.x, r.y)
+        cls = "no track" if d > 2.0 * gate else "track 1-2 m" if d > gate else "taken"
+        rows.append((r.frame, "fn", cls, r.person_id, T["track_id"].iloc[k], d, r.x, r.y))
+    return pd.DataFrame(rows, columns=["frame", "kind", "cls", "id", "near", "d", "x", "y"])
+
+
+def episodes(C: pd.DataFrame, times: np.ndarray, min_frames: int) -> pd.DataFrame:
+    """Each track's false-positive frames of one class, when there are at least ``min_frames``:
+    ``id, cls, frames, t0, t1, near`` (the most frequent nearest person), ``d`` (mean, m) and
+    ``moved`` (the diagonal of the positions' bounding box, m)."""
+    fp = C[C["kind"] == "fp"]
+    out = []
+    for (tid, cls), g in fp.groupby(["id", "cls"]):
+        if len(g) < min_frames:
+            continue
+        near = g["near"].dropna()
+        out.append({"id": tid, "cls": cls, "frames": len(g), "t0": float(times[g["frame"].min()]),
+                    "t1": float(times[g["frame"].max()]), "near": near.mode().iloc[0] if len(near) else None,
+                    "d": float(g["d"].replace(np.inf, np.nan).mean()),
+                    "moved": float(np.hypot(np.ptp(g["x"].to_numpy(float)), np.ptp(g["y"].to_numpy(float))))})
+    return pd.DataFrame(out, columns=["id", "cls", "frames", "t0", "t1", "near", "d", "moved"])
+
+
+def counts(C: pd.DataFrame) -> dict:
+    """False positives and negatives per class (every class listed, zeros included)."""
+    fp = C[C["kind"] == "fp"]["cls"].value_counts()
+    fn = C[C["kind"] == "fn"]["cls"].value_counts()
+    return {**{f"fp {c}": int(fp.get(c, 0)) for c in FP_CLASSES}, **{f"fn {c}": int(fn.get(c, 0)) for c in FN_CLASSES}}
+
+
+def explain(d: str, params: dict) -> tuple[dict, pd.DataFrame, np.ndarray]:
+    """One recording: its score line (seed, MOTA, fp, fn and the class counts), the classified
+    frames and the evaluation's frame times."""
+    from scripts.experiment_tsutsui import movers_only, multi_estimator
+    from trackroom.dataset import read_recording
+    from trackroom.metrics.score import evaluate, truth_at
+    from trackroom.scenes.loader import load_scene
+
+    rec = read_recording(d)
+    scene = load_scene(Path(d) / "scene.toml")
+    tracks = multi_estimator(rec, params).estimate(rec.observations, rec.calibration)
+    ev = evaluate(movers_only(rec, scene), tracks, gate=1.0)
+    people = truth_at(rec, ev.frames.times)
+    C = classify(ev.frames.tracks, ev.frames.truth, people, ev.mot.matches)
+    m = ev.metrics()
+    line = {"recording": d, "seed": rec.seed, "mota": round(float(m["mota"]), 3), "fp": int(m["fp"]), "fn": int(m["fn"]), **counts(C)}
+    return line, C, ev.frames.times
+
+
+def main(argv=None) -> int:
+    from scripts.experiment_tsutsui import parse_params
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR", help="occlusion_lab recording folders (globs allowed)")
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
+    ap.add_argument("--episodes", type=int, default=0, metavar="N", help="also list false-positive runs of N or more frames")
+    a = ap.parse_args(argv)
+    dirs = [d for pat in a.recordings for d in (sorted(glob.glob(pat)) or [pat])]
+    params = parse_params(a.param)
+    lines = []
+    for d in dirs:
+        line, C, times = explain(d, params)
+        lines.append(line)
+        print(" ".join(f"{k} {v}" for k, v in line.items() if k != "recording" and (not isinstance(v, int) or v or k in ("fp", "fn"))), flush=True)
+        if a.episodes:
+            E = episodes(C, times, a.episodes)
+            for e in E.itertuples(index=False):
+                print(f"    track {e.id} {e.cls}: {e.frames} frames {e.t0:.1f}-{e.t1:.1f} s, near {e.near}, "
+                      f"d {e.d:.2f} m, moved {e.moved:.2f} m")
+    if len(lines) > 1:
+        tot = pd.DataFrame(lines).drop(columns=["recording", "seed", "mota"]).sum()
+        print("total " + " ".join(f"{k} {int(v)}" for k, v in tot.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
