@@ -767,6 +767,9 @@ class JointTracker:
             holder = {i: (j, len(mem)) for j, mem in expl.items() for i in mem}
             wide_c = self.wide_clutter(c, tracks, projs, boxes, free[c]) if cfg.split_births else []
             in_wide = {e[3][0] for e in wide_c}  # tracks in a too-wide region left as clutter: merged with someone untracked
+            # a merged window's cost with all its members, once per window (merged_evidence)
+            merged_cost = {j: self.explain_cost(c, [projs[k] for k in mem], boxes, j)
+                           for j, mem in expl.items() if len(mem) > 1} if cfg.merged_evidence else {}
             ids = list(projs)
             visible = dict(zip(ids, self.occluders.visible_many(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2))
                                if self.occluders is not None else np.ones(len(ids), bool)))
@@ -778,8 +781,7 @@ class JointTracker:
                 lr = merged_lr = None
                 if n > 1 and cfg.merged_evidence:
                     # a merged window: explained with this member against without it
-                    merged_lr = (self.explain_cost(c, [projs[k] for k in expl[j] if k != i], boxes, j)
-                                 - self.explain_cost(c, [projs[k] for k in expl[j]], boxes, j))
+                    merged_lr = self.explain_cost(c, [projs[k] for k in expl[j] if k != i], boxes, j) - merged_cost[j]
                 if n == 1:
                     # the window's likelihood ratio: this track against the best explanation
                     # without it - clutter, or another track of this view left without a window
