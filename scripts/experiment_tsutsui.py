@@ -263,6 +263,12 @@ def parse_params(items: list[str]) -> dict:
     return out
 
 
+def expand_recordings(patterns) -> list[str]:
+    """Recording folders from command-line patterns: each quoted glob expanded (sorted), a
+    pattern that matches nothing kept as given (so reading it names the missing folder)."""
+    return [d for pat in patterns for d in (sorted(glob.glob(pat)) or [pat])]
+
+
 def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
     """The command line of the measurement scripts that run target_planes on recordings:
     ``DIR [DIR ...] [--param KEY=VALUE ...]``, and ``[--csv FILE]`` with ``csv_help`` (``doc``:
@@ -274,8 +280,7 @@ def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> t
     if csv_help:
         ap.add_argument("--csv", help=csv_help)
     a = ap.parse_args(argv)
-    dirs = [d for pat in a.recordings for d in (sorted(glob.glob(pat)) or [pat])]
-    return dirs, parse_params(a.param), getattr(a, "csv", None)
+    return expand_recordings(a.recordings), parse_params(a.param), getattr(a, "csv", None)
 
 
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,
@@ -313,8 +318,7 @@ def main(argv=None) -> int:
     if a.recording:
         from trackroom.dataset import read_recording
 
-        dirs = [d for pat in a.recording.split(",") for d in (sorted(glob.glob(pat)) or [pat])]
-        runs = [(None, None, read_recording(d)) for d in dirs]
+        runs = [(None, None, read_recording(d)) for d in expand_recordings(a.recording.split(","))]
         if a.window_errors:
             for _, _, rec in runs:
                 print(f"{rec.scene} seed {rec.seed} ({rec.sensing})")

@@ -22,7 +22,6 @@ recording's own ``scene.toml`` says who walks (the head-on variant's overrides i
 from __future__ import annotations
 
 import argparse
-import glob
 import sys
 from pathlib import Path
 
@@ -33,10 +32,15 @@ FP_CLASSES = ("far", "off", "standing", "duplicate", "unmatched")
 FN_CLASSES = ("no track", "track 1-2 m", "taken")
 
 
-def _nearest(points: pd.DataFrame, x: float, y: float) -> tuple[int, float]:
+def _nearest(by_frame: dict, frame, x: float, y: float) -> tuple[pd.DataFrame | None, int, float]:
+    """The rows of ``by_frame[frame]`` (floor points ``x, y``) and the index of and distance to
+    the one nearest (x, y); (None, -1, inf) when that frame has none."""
+    points = by_frame.get(frame)
+    if points is None or not len(points):
+        return None, -1, np.inf
     d = np.hypot(points["x"].to_numpy(float) - x, points["y"].to_numpy(float) - y)
     k = int(np.argmin(d))
-    return k, float(d[k])
+    return points, k, float(d[k])
 
 
 def classify(tracks: pd.DataFrame, movers: pd.DataFrame, people: pd.DataFrame, matches: pd.DataFrame,
@@ -56,12 +60,8 @@ def classify(tracks: pd.DataFrame, movers: pd.DataFrame, people: pd.DataFrame, m
     for r in tracks.itertuples(index=False):
         if (r.frame, r.track_id) in matched_t:
             continue
-        P = by_frame.get(r.frame)
-        if P is None or not len(P):
-            rows.append((r.frame, "fp", "far", r.track_id, None, np.inf, r.x, r.y))
-            continue
-        k, d = _nearest(P, r.x, r.y)
-        pid = P["person_id"].iloc[k]
+        P, k, d = _nearest(by_frame, r.frame, r.x, r.y)
+        pid = None if P is None else P["person_id"].iloc[k]
         if d > 2.0 * gate:
             cls = "far"
         elif d > gate:
@@ -77,13 +77,9 @@ def classify(tracks: pd.DataFrame, movers: pd.DataFrame, people: pd.DataFrame, m
     for r in movers.itertuples(index=False):
         if (r.frame, r.person_id) in matched_p:
             continue
-        T = tracks_by_frame.get(r.frame)
-        if T is None or not len(T):
-            rows.append((r.frame, "fn", "no track", r.person_id, None, np.inf, r.x, r.y))
-            continue
-        k, d = _nearest(T, r.x, r.y)
+        T, k, d = _nearest(tracks_by_frame, r.frame, r.x, r.y)
         cls = "no track" if d > 2.0 * gate else "track 1-2 m" if d > gate else "taken"
-        rows.append((r.frame, "fn", cls, r.person_id, T["track_id"].iloc[k], d, r.x, r.y))
+        rows.append((r.frame, "fn", cls, r.person_id, None if T is None else T["track_id"].iloc[k], d, r.x, r.y))
     return pd.DataFrame(rows, columns=["frame", "kind", "cls", "id", "near", "d", "x", "y"])
 
 
@@ -131,17 +127,16 @@ def explain(d: str, params: dict) -> tuple[dict, pd.DataFrame, np.ndarray]:
 
 
 def main(argv=None) -> int:
-    from scripts.experiment_tsutsui import parse_params
+    from scripts.experiment_tsutsui import expand_recordings, parse_params
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR", help="occlusion_lab recording folders (globs allowed)")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
     ap.add_argument("--episodes", type=int, default=0, metavar="N", help="also list false-positive runs of N or more frames")
     a = ap.parse_args(argv)
-    dirs = [d for pat in a.recordings for d in (sorted(glob.glob(pat)) or [pat])]
     params = parse_params(a.param)
     lines = []
-    for d in dirs:
+    for d in expand_recordings(a.recordings):
         line, C, times = explain(d, params)
         lines.append(line)
         print(" ".join(f"{k} {v}" for k, v in line.items() if k != "recording" and (not isinstance(v, int) or v or k in ("fp", "fn"))), flush=True)
