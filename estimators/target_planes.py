@@ -206,6 +206,10 @@ class TargetPlanes(Estimator):
         width_tail_sigma: float = param(0.34, "spread of a gross width error, as a share of the predicted width (width_tail)")
         merged_evidence: bool = param(True, "a merged window is evidence for or against each member's existence: its "
                                             "likelihood with the member against without it (else it counts nothing)")
+        wake_by_own: bool = param(True, "a track more likely standing than walking (standing probability at least 1/2, the "
+                                        "likelier mode) is made a walker only by a window of its own: a share of a "
+                                        "merged window counts for neither mode (the others in it may have made it; "
+                                        "else any share sets the standing probability to 0)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")

@@ -76,8 +76,9 @@ Per frame:
    came near enough.
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
-   durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one) says it
-   walks (mu = 0); none anywhere makes standing likelier by ``p_miss`` per camera in view.
+   durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one, unless
+   standing is the likelier mode: ``wake_by_own``) says it walks (mu = 0); none anywhere makes
+   standing likelier by ``p_miss`` per camera in view.
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -159,7 +160,7 @@ class JointTrack:
     Ps: np.ndarray | None = None
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
-    log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras that would see a walker there (``step``)
+    log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras without a window or share of it that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
 
     def estimate(self) -> np.ndarray:
@@ -788,11 +789,11 @@ class JointTracker:
                     alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
                                              for k, q in projs.items() if k != i and k not in holder])
                     lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
-                # for the mode posterior, if no camera has its window: only a camera that would see
-                # a walker there (hidden behind a shelf or another track, walking or standing makes
-                # no window of one's own)
+                # for the mode posterior, if no camera has its window: only a camera without one or
+                # a share of one (``wake_by_own``) that would see a walker there (hidden behind a
+                # shelf or another track, walking or standing makes no window of one's own)
                 vis = bool(visible[i])
-                if vis and not hidden:
+                if vis and not hidden and n == 0:
                     tracks[i].log_miss -= self.miss_walk(p)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis, merged_lr)
                 hit[i] |= n == 1
@@ -874,9 +875,12 @@ class JointTracker:
             if tr.located:
                 self.existence(tr, walk[i], hit[i])  # before the mode posterior: mu is still the prior
             if tr.located:
-                # mode posterior: a window of its own or a share of a merged one says it walks; none
-                # anywhere is likelier standing, by P(no window | walking) over the cameras
-                tr.mu = 0.0 if seen[i] else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
+                # mode posterior: a window of its own says it walks, and so does a share of a merged
+                # one unless the track is likelier standing (``wake_by_own``: the window's others may
+                # have made it; it then counts for neither mode); none anywhere is likelier
+                # standing, by P(no window | walking) over the cameras
+                walks = hit[i] or (seen[i] and not (cfg.wake_by_own and tr.mu >= 0.5))
+                tr.mu = 0.0 if walks else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
             if used[i] or (tr.split and seen[i]):  # a hit: a window that is this track alone (or a share of

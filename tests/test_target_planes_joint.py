@@ -542,6 +542,42 @@ def test_a_walker_hidden_behind_another_track_in_every_view_is_not_made_standing
     assert tr.mu == pytest.approx(prior, abs=1e-12)
 
 
+def test_a_standing_track_is_not_made_a_walker_by_a_share_of_someone_elses_merged_window():
+    """A track standing (standing probability 0.95) while a walker passes 0.8 m away; one camera's
+    window, the walker's, is explained as both of them merged (forced here; on the recordings a
+    wide window or a shared line of sight does it), the other cameras see the walker alone. The
+    others in a merged window may have made it, so with ``wake_by_own`` the share counts for
+    neither mode: the track stays standing where it stands (and the cameras that would see it
+    walk and have no window of it make standing likelier still). Without it the share makes the
+    track a walker (standing probability 0), which the other views then miss."""
+    cams = four_cameras()
+    for wake_by_own in (True, False):
+        cfg, jt = _tracker(cams, wake_by_own=wake_by_own)
+        standing = JointTrack(1, np.r_[3.0, 2.5, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True,
+                              seen=False, hits=20, exist=EXIST_ACCEPT, mu=0.95)
+        standing.xs, standing.Ps = standing.s[:2].copy(), standing.S[:2, :2].copy()
+        walker = JointTrack(2, np.r_[2.4, 3.0, 0.6, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True,
+                            seen=True, hits=20, exist=EXIST_ACCEPT)
+        explain = jt.explain_camera
+
+        def merged_in_first(c, ts, boxes, *args):
+            ex, projs = explain(c, ts, boxes, *args)
+            if c != cams[0].name:
+                return ex, projs
+            pair = tuple(k for k, t in enumerate(ts) if t is standing or t is walker)
+            assert len(pair) == 2 and len(ex) == 1
+            return {j: pair for j in ex}, projs
+
+        jt.explain_camera = merged_in_first
+        jt.step([standing, walker], _frame(cams, walker.xy + [0.06, 0.0], (0.6, 0.0), {c.name for c in cams}), 0.1)
+        assert standing.seen and standing.status[cams[0].name][0] == "merged"
+        if wake_by_own:
+            assert standing.mu > 0.95
+            assert np.linalg.norm(standing.xs - [3.0, 2.5]) < 0.01
+        else:
+            assert standing.mu == 0.0
+
+
 def test_mean_lag_s_is_the_variance_of_a_velocity_about_its_causal_mean():
     """``mean_lag_s``: Var(v(t) - mean of its last n samples) per unit white-acceleration
     intensity, checked against random walks (the walker model's velocity)."""
