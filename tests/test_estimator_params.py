@@ -26,6 +26,24 @@ def test_every_config_field_has_a_doc():
     assert not undocumented, f"Config fields without metadata={{'doc': ...}}: {undocumented}"
 
 
+def test_every_config_default_is_of_its_fields_type():
+    """A default that is not of its field's type is refused, as a value given for it would be (a
+    stray trailing comma after ``param(True, ...)`` makes the default a tuple, which is truthy and
+    would silently turn an option on)."""
+    wrong = []
+    for name, cls in available().items():
+        for f in dataclasses.fields(cls.Config):
+            if f.default is dataclasses.MISSING:
+                continue
+            try:
+                coerce_value(cls, f.name, f.default)
+            except EstimatorError as e:
+                wrong.append(str(e))
+    assert not wrong, wrong
+    with pytest.raises(EstimatorError, match="expected true or false"):
+        coerce_value(get("target_planes"), "merged_evidence", (True,))
+
+
 def test_listing_prints_every_parameter():
     r = subprocess.run([sys.executable, "-m", "trackroom", "estimators"], capture_output=True, text=True, cwd=ROOT,
                        timeout=120)
