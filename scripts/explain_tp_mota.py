@@ -172,9 +172,10 @@ def explain(d: str, params: dict) -> tuple[dict, pd.DataFrame, np.ndarray]:
     rec = read_recording(d)
     scene = load_scene(Path(d) / "scene.toml")
     tracks = multi_estimator(rec, params).estimate(rec.observations, rec.calibration)
-    ev = evaluate(movers_only(rec, scene), tracks, gate=1.0)
+    movers = movers_only(rec, scene)
+    ev = evaluate(movers, tracks, gate=1.0)
     people = truth_at(rec, ev.frames.times)
-    states = mover_states(movers_only(rec, scene).truth.people, ev.frames.times)
+    states = mover_states(movers.truth.people, ev.frames.times)
     C = classify(ev.frames.tracks, ev.frames.truth, people, ev.mot.matches, states=states)
     m = ev.metrics()
     line = {"recording": d, "seed": rec.seed, "mota": round(float(m["mota"]), 3), "fp": int(m["fp"]), "fn": int(m["fn"]), **counts(C)}
