@@ -314,7 +314,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     grids = error_uniforms(rng, det.shape, m, 6)
     if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
         grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
-    out_f, out_p, out_e, out_fl, out_id, out_c = [], [], [], [], [], []
+    out_f, out_p, out_e, out_fl, out_id, out_c, out_cut = [], [], [], [], [], [], []
     split_errors = "u_left_crowded" in m.errors  # models without crowded tables (the bundled fits): one table
     moving = cand & (speed >= MOVING_PX_S)
     for f in range(F):
@@ -331,6 +331,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
             out_c.append(split_errors and crowded(e, frac, moving, f, mem))
+            out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)
     edges = np.asarray(out_e, float).reshape(n, 4)
@@ -343,6 +344,11 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
         if busy.any():
             e_j[busy] = m.error(name + "_crowded").at(grids[j][f[busy], pp[busy]])
         edges[:, j] += e_j
+    # an edge cut by the image border stays on it, as the rendered flow tracker's does
+    # (``perception_flow.current_box``): the image clips the person, its edge has no error
+    cut = np.asarray(out_cut, bool).reshape(n, 2)
+    edges[cut[:, 0], 0] = 0.0
+    edges[cut[:, 1], 1] = cam.width
     if has_flow_frame(m):  # along and across the people's image velocity, by its speed
         k, d = flow_frame(flow)
         along, across = np.zeros(n), np.zeros(n)
