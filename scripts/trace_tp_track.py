@@ -14,7 +14,9 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   window was explained by; a window absent is clutter);
 - its state after the frame's updates, its mode (planes / area / merged / predicted) and each
   camera's status;
-- the true positions of the people, read here by the experimenter (the tracker never sees them).
+- the true positions of the people, read here by the experimenter (the tracker never sees them),
+  and the columns of each person's cylinder (the person model's height and radius) in every
+  camera whose image it falls in.
 
 The frame traces in docs/target_planes.md can be re-made with it (e.g. rendered development
 137, 21.5-22.4 s). Frame times are the estimator's own (``TargetPlanesResult.times``).
@@ -27,7 +29,8 @@ import numpy as np
 
 from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
-from trackroom.estimators import tp_joint
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators import tp_geometry as geo, tp_joint
 
 
 def _state(tr) -> str:
@@ -104,10 +107,17 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     times = np.asarray(res.times, float)
     frames = [(float(times[k]), lines) for k, lines in tracer.frames if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
     truth = ts.people_at(rec.truth.people, np.array([t for t, _ in frames]))
+    cfg = TargetPlanes(**{**ts.estimator_config(rec), **(params or {})}).resolved_config(rec.calibration)
+    cams = {c: (np.asarray(cam.P, float), float(cam.width)) for c, cam in rec.calibration.cameras.items() if c.startswith("obl")}
     out = []
     for t, (before, *rest) in frames:
         now = truth[np.isclose(truth["t"], t)]
         out += [f"t {t:.2f} {before}", *rest, "        truth:  " + " ".join(f"{r.person_id} {r.x:.2f},{r.y:.2f}" for r in now.itertuples())]
+        for c, (P, width) in sorted(cams.items()):
+            cols = [(r.person_id, geo.cylinder_window(P, (r.x, r.y), cfg.height, cfg.radius)) for r in now.itertuples()]
+            seen = " ".join(f"{who} {w[0]:.0f}-{w[1]:.0f}" for who, w in cols if np.isfinite(w).all() and w[1] >= 0 and w[0] <= width)
+            if seen:
+                out.append(f"        truth in {c}: {seen}")
     return out
 
 

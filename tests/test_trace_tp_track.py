@@ -38,3 +38,27 @@ def test_a_track_that_does_not_exist_says_so(rec_dir, capsys):
     assert "track 999 does not exist between 1 and 2 s" in capsys.readouterr().out
     with pytest.raises(SystemExit, match="must not be before"):
         tt.trace(rec_dir, 0, 2.0, 1.0)
+
+
+def test_the_truth_lines_give_each_persons_columns_in_the_cameras_that_see_them(rec_dir):
+    """Each frame's truth is followed by the people's cylinder columns in every oblique camera
+    whose image holds part of them: the person model's projection at the true position, the same
+    numbers as ``tp_geometry.cylinder_window``."""
+    import numpy as np
+
+    from scripts import experiment_tsutsui as ts
+    from trackroom.dataset import read_recording
+    from trackroom.estimators import tp_geometry as geo
+
+    lines = tt.trace(rec_dir, 0, 2.0, 2.0)
+    cols = [ln.strip() for ln in lines if ln.lstrip().startswith("truth in ")]
+    assert cols and all(ln.split(":")[0].split()[-1].startswith("obl_") for ln in cols)
+    rec = read_recording(rec_dir)
+    now = ts.people_at(rec.truth.people, np.array([2.0]))
+    target = now[now.person_id == "target"].iloc[0]
+    for ln in cols:
+        cam = ln.split(":")[0].split()[-1]
+        P = np.asarray(rec.calibration.cameras[cam].P, float)
+        w = geo.cylinder_window(P, (target.x, target.y), 1.8, 0.2)
+        if "target" in ln:
+            assert f"target {w[0]:.0f}-{w[1]:.0f}" in ln
