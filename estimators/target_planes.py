@@ -48,12 +48,13 @@ from trackroom.recording import Calibration, Observations
 
 from . import tp_geometry as geo
 from .base import Estimator, EstimatorError, check_tracks, param, register
-from .tp_frames import CameraBoxes, frame_times, split_boxes
+from .tp_frames import CameraBoxes, frame_times, person_detections, split_boxes
 from .tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from .tp_initiate import propose
 from .tp_joint import LOST, JointTrack, JointTracker, Occluders, on_floor
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
+NO_DETECTIONS = np.zeros(0)
 LOOKAHEAD_GAP = EXCHANGE_LOG_ODDS  # two explanations of the target nearer than 99:1 are both followed, and the second taken when 99:1 likelier (``lookahead``)
 
 
@@ -210,6 +211,24 @@ class TargetPlanes(Estimator):
                                         "likelier mode) is made a walker only by a window of its own: a share of a "
                                         "merged window counts for neither mode (the others in it may have made it; "
                                         "else any share sets the standing probability to 0)")
+        own_wake: bool = param(False, "a track likelier standing is made a walker by its own windows' likelihood ratio "
+                                      "against clutter, with its misses in the other cameras (the mode posterior), "
+                                      "not outright by any window of its own; off: with person_detections it held "
+                                      "standing look-alikes and left ghosts standing as often (docs/target_planes.md)")
+        person_detections: bool = param(False, "a track likelier standing is also tested by the cameras' person detections (the "
+                                               "bearings table's u, its colour labels unused; JointTracker."
+                                               "detection_evidence); off: development recordings gained and lost alike, "
+                                               "and the analytic oblique detector's misses run far longer than rendered "
+                                               "ones (docs/target_planes.md)")
+        p_person_detect: float = param(0.976, "person_detections: P(a detection within half the image width + 3 px of the "
+                                              "axis) for a person wholly in the image, all three rays clear of the floor "
+                                              "plan's boxes (development recordings 100-105, "
+                                              "scripts/measure_person_detections.py: rendered 0.977, analytic 0.976)")
+        person_miss_run: float = param(3.6, "person_detections: mean run of such a person's missed detections, frames (the "
+                                            "same recordings: detected after a miss 0.269 rendered, 0.296 analytic)")
+        coincidence_persistence: float = param(0.97, "person_detections: lag-1 persistence of a detection within the gate of a "
+                                                     "standing point where no one is (the same recordings, points 1 m or more "
+                                                     "from everyone: rendered 0.972, analytic 0.961)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
         area_margin: float = param(0.05, "allowance on target areas, m")
@@ -346,6 +365,7 @@ class TargetPlanes(Estimator):
         jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px),
                           {c: float(calibration.cameras[c].fps) for c in cams})
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
+        detections, det_cams = person_detections(observations, cams) if cfg.person_detections else (None, [])
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
         tracks: list[JointTrack] = []
@@ -375,6 +395,9 @@ class TargetPlanes(Estimator):
             second explanation, ``jt.branch``; ``force``: a camera's explanation forced, ``jt.step``)."""
             dt, st.t_prev = t - st.t_prev, t
             frame = {c: frames.get(t, {}).get(c, CameraBoxes.empty()) for c in cams}
+            if detections is not None:
+                now = detections.get(round(t, 6), {})
+                jt.detections = {c: now.get(c, NO_DETECTIONS) for c in det_cams}
             target = st.target()
             free = jt.step(st.tracks, frame, dt, target if probe else None, force)
             st.cost += jt.frame_cost

@@ -113,3 +113,24 @@ def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -
                 track=track[s:e], u=num[s:e, 0], win=num[s:e, 1:5], flow=num[s:e, 5:7]
             )
     return out
+
+
+def person_detections(observations, cameras: list[str]) -> tuple[dict[float, dict[str, np.ndarray]], list[str]]:
+    """``({t: {camera: u (n,)}}, the cameras with any)``: the oblique cameras' person
+    detections, the ``bearings`` table's columns t, camera and u (time rounded to 1 us; its
+    colour labels are not read). A camera with detections in the table has none at a frame
+    time that is not in the first."""
+    if not observations.has("bearings"):
+        raise RecordingError("person_detections needs the recording's bearings table (person detections); it has none")
+    b = observations["bearings"]
+    missing = [c for c in ("t", "camera", "u") if c not in b.columns]
+    if missing:
+        raise RecordingError(f"bearings: missing columns {missing}")
+    b = b[b["camera"].isin(cameras)]
+    u = b["u"].to_numpy(float)
+    if len(u) and not np.isfinite(u).all():
+        raise RecordingError("bearings: non-finite u")
+    out: dict[float, dict[str, np.ndarray]] = {}
+    for (t, c), g in b.groupby([np.round(b["t"].to_numpy(float), 6), b["camera"].to_numpy(str)]):
+        out.setdefault(float(t), {})[str(c)] = g["u"].to_numpy(float)
+    return out, sorted(set(b["camera"].astype(str)))

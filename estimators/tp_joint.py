@@ -160,6 +160,7 @@ class JointTrack:
     Ps: np.ndarray | None = None
     wide_run: int = 0  # consecutive frames with a window too wide for it (the far side of one: ``JointTracker.split``)
     split: bool = False  # born from the far side of a too-wide window (``JointTracker.split``): its merged windows count as hits
+    det_prev: dict = field(default_factory=dict)  # camera -> whether a person detection was at it last frame (``detection_evidence``)
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras without a window or share of it that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
 
@@ -255,8 +256,9 @@ class Occluders:
     def visible(self, c: str, xy: np.ndarray) -> bool:
         return bool(self.visible_many(c, np.asarray(xy, float)[None, :2])[0])
 
-    def visible_many(self, c: str, xys: np.ndarray) -> np.ndarray:
-        """``visible`` for the floor points xys (N, 2) at once: (N,) bool."""
+    def visible_many(self, c: str, xys: np.ndarray, whole: bool = False) -> np.ndarray:
+        """``visible`` for the floor points xys (N, 2) at once: (N,) bool; ``whole``: all of the
+        rays meet none of the boxes (the person wholly seen, as a person detector needs)."""
         xys = np.asarray(xys, float).reshape(-1, 2)
         if not len(self.boxes):
             return np.ones(len(xys), bool)
@@ -272,7 +274,8 @@ class Occluders:
         tmin = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
         tmax = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
         hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, N V): the segment camera -> point meets the box
-        return (~hidden.any(0)).reshape(len(xys), V).any(1)
+        clear = (~hidden.any(0)).reshape(len(xys), V)
+        return clear.all(1) if whole else clear.any(1)
 
 
 def on_floor(inside_room, xy) -> bool:
@@ -294,6 +297,7 @@ class JointTracker:
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
+        self.detections: dict[str, np.ndarray] | None = None  # this frame's person detections per camera, u (px); None: none used
         self.outline: np.ndarray | None = None  # the floor plan's outline (k, 2), m (None: no floor plan)
         q = (1.0 - cfg.p_detect) / (cfg.p_detect * cfg.miss_run)  # P(a miss | seen the frame before)
         self.p_see_after_hit = 1.0 - min(q, 1.0)
@@ -638,17 +642,64 @@ class JointTracker:
         tr.missed.add(c)
         return float(np.log(max(1.0 - see, 1e-12)))
 
+    def detection_evidence(self, tr: JointTrack, c: str, xy: np.ndarray, Sxy: np.ndarray, projs: dict[int, Projection], i: int,
+                           now: dict[str, bool]) -> float:
+        """Camera c's person detections as the existence test's evidence for track i standing at
+        xy (covariance Sxy): log P(them | a person there) - log P(them | no one). Only where they
+        can say it: the cylinder wholly in the image, all its rays clear of the floor plan's
+        boxes (``Occluders``, whole) and overlapping no other track's projection (``projs``;
+        there a detection may be the other's). A detection within the gate (half the projected
+        width, plus 3 px and two sd of the projected axis) is a hit. Both hypotheses are
+        two-state chains over the frames, the outcome of the last frame kept in ``now`` (the
+        track's ``det_prev`` next frame): a person is detected at the stationary rate
+        ``p_person_detect`` with misses in runs of mean ``person_miss_run`` frames; with no one
+        there, one of the frame's n detections falls in the gate anyway with chance 1 - (1 - 2
+        gate / W)^n, and as a standing ghost and the people seen near its line of sight stay
+        put, that coincidence persists (``coincidence_persistence``) - so a standing person and
+        a ghost are told apart by the frames where the outcomes change, and the first, not by
+        counting the same static scene every frame."""
+        cfg = self.cfg
+        P, W = self.Ps[c], self.widths[c]
+        win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
+        if not np.isfinite(win).all() or win[0] < 0.0 or win[1] > W:
+            return 0.0
+        if self.occluders is not None and not bool(self.occluders.visible_many(c, np.asarray(xy, float)[None], whole=True)[0]):
+            return 0.0
+        if any(k != i and q.win[0] <= win[1] and win[0] <= q.win[1] for k, q in projs.items()):
+            return 0.0
+        X = np.array([xy[0], xy[1], self.hc])
+        (u, _), _ = geo.project(P, X)
+        Ju = geo.flow_jacobian(P, X)[0, :2]
+        gate = 0.5 * (win[1] - win[0]) + 3.0 + 2.0 * float(np.sqrt(max(Ju @ Sxy @ Ju, 0.0)))
+        u_det = self.detections.get(c, np.zeros(0))
+        chance = 1.0 - (1.0 - min(2.0 * gate / W, 1.0)) ** len(u_det)
+        hit = bool(len(u_det)) and float(np.abs(u_det - u).min()) <= gate
+        pd_, run, rho = cfg.p_person_detect, cfg.person_miss_run, cfg.coincidence_persistence
+        prev = tr.det_prev.get(c)
+        if prev is None:
+            p1, p0 = pd_, chance  # P(a hit): stationary
+        elif prev:
+            p1, p0 = 1.0 - (1.0 - pd_) / (pd_ * run), rho + (1.0 - rho) * chance
+        else:
+            p1, p0 = 1.0 / run, (1.0 - rho) * chance
+        now[c] = hit
+        if not hit:
+            p1, p0 = 1.0 - p1, 1.0 - p0
+        return float(np.log(max(p1, 1e-12)) - np.log(max(p0, 1e-12)))
+
     @staticmethod
-    def existence(tr: JointTrack, walk: float, hit: bool) -> None:
+    def existence(tr: JointTrack, walk: float, hit: bool, det: float = 0.0) -> None:
         """The existence test's update for one frame, the two modes marginalised: P(frame | a
         person) = (1 - mu) exp(walk) + mu [no window of its own anywhere] (a standing person
         makes no window; mu is the frame's prior standing probability), against P(frame | no
-        one) (the walk evidence's denominator). The log-odds are capped at ``EXIST_ACCEPT``."""
+        one) (the walk evidence's denominator); times the person detections' likelihood ratio
+        exp(det), the same for both modes (``detection_evidence``). The log-odds are capped at
+        ``EXIST_ACCEPT``."""
         mu = tr.mu
         if hit or mu <= 0.0:
-            tr.exist += float(np.log(max(1.0 - mu, 1e-300))) + walk
+            tr.exist += float(np.log(max(1.0 - mu, 1e-300))) + walk + det
         else:
-            tr.exist += float(np.logaddexp(np.log(max(1.0 - mu, 1e-300)) + walk, np.log(mu)))
+            tr.exist += float(np.logaddexp(np.log(max(1.0 - mu, 1e-300)) + walk, np.log(mu))) + det
         tr.exist = min(tr.exist, EXIST_ACCEPT)
 
     # --- updates --------------------------------------------------------------------------------
@@ -754,6 +805,8 @@ class JointTracker:
         seen = [False] * len(tracks)
         walk = [0.0] * len(tracks)
         hit = [False] * len(tracks)
+        det = [0.0] * len(tracks)  # the person detections' evidence (detection_evidence)
+        own = [0.0] * len(tracks)  # log P(its own windows | walking) against clutter (own_wake)
         for tr in tracks:
             tr.status = {}
             tr.log_miss = 0.0
@@ -797,6 +850,8 @@ class JointTracker:
                     tracks[i].log_miss -= self.miss_walk(p)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis, merged_lr)
                 hit[i] |= n == 1
+                if n == 1:
+                    own[i] += float(np.log(cfg.p_detect)) + lr
             extra = []
             for j, mem in expl.items():
                 tid_j = boxes.track[j]
@@ -864,6 +919,14 @@ class JointTracker:
                 free[c].append(k)
                 self.wide.append((c, i, j, k, near_u))
             frame[c] = boxes
+        if self.detections is not None:
+            # a track likelier standing (this frame's prior): its person detections (detection_evidence)
+            for i, tr in enumerate(tracks):
+                now: dict[str, bool] = {}
+                if tr.located and tr.mu >= 0.5:
+                    xy, Sxy = (tr.xs, tr.Ps) if tr.xs is not None else (tr.xy, tr.S[:2, :2])
+                    det[i] = sum(self.detection_evidence(tr, c, xy, Sxy, plans[c][1], i, now) for c in self.Ps)
+                tr.det_prev = now
         wide = {i for _, i, _, _, _ in self.wide}
         for i, tr in enumerate(tracks):
             tr.wide_run = tr.wide_run + 1 if i in wide else 0
@@ -873,14 +936,24 @@ class JointTracker:
             tr.n_used = used[i]
             tr.seen = seen[i]
             if tr.located:
-                self.existence(tr, walk[i], hit[i])  # before the mode posterior: mu is still the prior
+                # a track likelier standing: its person detections too, when no window of its own
+                # explains it (with ``own_wake`` its own windows may be clutter: the modes stay
+                # marginalised and its detections count then too)
+                sure_walk = hit[i] and not (cfg.own_wake and tr.mu >= 0.5)
+                self.existence(tr, walk[i], sure_walk, 0.0 if sure_walk else det[i])  # before the mode posterior: mu is still the prior
             if tr.located:
                 # mode posterior: a window of its own says it walks, and so does a share of a merged
                 # one unless the track is likelier standing (``wake_by_own``: the window's others may
                 # have made it; it then counts for neither mode); none anywhere is likelier
                 # standing, by P(no window | walking) over the cameras
-                walks = hit[i] or (seen[i] and not (cfg.wake_by_own and tr.mu >= 0.5))
-                tr.mu = 0.0 if walks else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
+                standing = tr.mu >= 0.5
+                if cfg.own_wake and standing and hit[i]:
+                    # likelier standing: its own windows wake it by their likelihood ratio against
+                    # clutter (a speck does not outweigh a long stand), with its misses elsewhere
+                    tr.mu = tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(min(own[i] + tr.log_miss, 700.0))))
+                else:
+                    walks = hit[i] or (seen[i] and not (cfg.wake_by_own and standing))
+                    tr.mu = 0.0 if walks else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt
             if used[i] or (tr.split and seen[i]):  # a hit: a window that is this track alone (or a share of

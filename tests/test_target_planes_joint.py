@@ -690,3 +690,64 @@ def test_a_flow_gain_that_is_not_positive_is_refused_by_name(gain, message):
     obs, start = short_walk(cams)
     with pytest.raises(EstimatorError, match=message):
         TargetPlanes(initial_xy=start, flow_gain=gain).run(obs, calib(cams))
+
+
+def test_person_detections_keep_a_standing_person_and_reject_a_standing_ghost():
+    """Two tracks standing (standing probability 0.99), no flow window anywhere: one where a
+    person stands, whom every camera's person detector reports on its axis, one 2.5 m away
+    where no one is. Flow windows cannot tell them apart (a standing person makes none), so
+    without ``person_detections`` both keep their existence; with it the person's track keeps
+    it and the ghost's falls below the rejection level within a second."""
+    cams = four_cameras()
+    person, ghost = np.array([3.0, 2.5]), np.array([5.5, 2.0])
+    dets = {}
+    for c in cams:
+        (u, _), _ = geo.project(c.P, np.r_[person, 0.9])
+        (u_ghost, _), _ = geo.project(c.P, np.r_[ghost, 0.9])
+        w = np.diff(geo.cylinder_window(c.P, ghost, 1.8, 0.2)[:2])[0]
+        assert abs(u - u_ghost) > 0.5 * w + 10.0  # the person's detection is not on the ghost's axis
+        dets[c.name] = np.array([u + 1.0])
+    for used in (False, True):
+        cfg, jt = _tracker(cams, person_detections=used)
+        tracks = [JointTrack(k, np.r_[xy, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False,
+                             hits=20, exist=EXIST_ACCEPT, mu=0.99) for k, xy in ((1, person), (2, ghost))]
+        for tr in tracks:
+            tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+        if used:
+            jt.detections = dets
+        for _ in range(10):
+            jt.step(tracks, _empty(cams), 0.1)
+        assert tracks[0].exist > EXIST_ACCEPT - 0.5
+        assert (tracks[1].exist < EXIST_REJECT) == used, tracks[1].exist
+
+
+def test_person_detections_forgive_a_miss_run_and_reject_a_ghost_on_others_lines_of_sight():
+    """The detections' evidence follows two-state chains: a person's misses come in runs, and
+    with no one there a detection that falls on a standing ghost's axis (someone standing on
+    its line of sight) stays there. A person missed by one camera for 4 frames in 20 (a miss
+    run) keeps an existence near acceptance; a ghost on the line of sight of people standing in
+    two cameras and with nothing at its axis in the other two is rejected, though half its
+    cameras 'see' it every frame."""
+    cams = four_cameras()
+    person = np.array([3.0, 2.5])
+    axis = {c.name: geo.project(c.P, np.r_[person, 0.9])[0][0] for c in cams}
+    cfg, jt = _tracker(cams, person_detections=True)
+    tr = JointTrack(1, np.r_[person, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False,
+                    hits=20, exist=EXIST_ACCEPT, mu=0.99)
+    tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+    for k in range(20):
+        jt.detections = {c.name: (np.zeros(0) if c is cams[0] and 8 <= k < 12 else np.array([axis[c.name]])) for c in cams}
+        jt.step([tr], _empty(cams), 0.1)
+    assert tr.exist > EXIST_ACCEPT - 1.0, tr.exist
+    ghost = np.array([5.5, 2.0])
+    cfg, jt = _tracker(cams, person_detections=True)
+    tr = JointTrack(2, np.r_[ghost, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False,
+                    hits=20, exist=EXIST_ACCEPT, mu=0.99)
+    tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+    on_axis = {c.name: geo.project(c.P, np.r_[ghost, 0.9])[0][0] for c in cams[:2]}
+    for _ in range(20):
+        jt.detections = {c.name: np.array([on_axis[c.name] + 2.0]) if c.name in on_axis else np.array([axis[c.name]]) for c in cams}
+        jt.step([tr], _empty(cams), 0.1)
+        if tr.exist < EXIST_REJECT:
+            break
+    assert tr.exist < EXIST_REJECT, tr.exist

@@ -1,0 +1,120 @@
+"""The person detections' rates, for ``target_planes``' ``person_detections`` parameters.
+
+    python scripts/measure_person_detections.py DIR [DIR ...]     # occlusion_lab recordings, either mode
+
+The tracker reads the ``bearings`` table's u (a person detector's column of each body centre;
+the colour labels unused) as evidence that someone stands where a still track is
+(``tp_joint.JointTracker.detection_evidence``). Measured here, over the camera frames of each
+recording (the truth read by the experimenter):
+
+- people: every person wholly in a camera's image, all three rays of ``Occluders`` clear of the
+  floor plan's boxes (``whole``): whether a detection lies within the gate (half the projected
+  width + 3 px) of the projected axis; the rate (``p_person_detect``) and the rate after a
+  frame with one and after a frame without (a miss run's mean, ``person_miss_run``, is one
+  over the latter);
+- ghosts: ``GHOSTS`` random floor points per recording, standing (seed 0), at frames when
+  they are 1 m or more from everyone, tested the same way with the gate of a track of position
+  sd 0.1 m: how often a detection falls within it, against the chance the tracker computes
+  from the frame's number of detections, and its lag-1 persistence P(c | c) - P(c | no c)
+  (``coincidence_persistence``).
+"""
+from __future__ import annotations
+
+import glob
+import sys
+
+import numpy as np
+import pandas as pd
+
+from trackroom.dataset import read_recording
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.tp_joint import Occluders
+
+HEIGHT, RADIUS, CENTRE = 1.8, 0.2, 0.9  # the tracker's person model (m) and the axis point it projects
+GHOSTS = 60
+GHOST_SD = 0.1  # m
+
+
+def _in_image(P: np.ndarray, xy, width: float) -> np.ndarray | None:
+    win = geo.cylinder_window(P, xy, HEIGHT, RADIUS)
+    return win if np.isfinite(win).all() and win[0] >= 0 and win[1] <= width else None
+
+
+def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
+    """P(hit | hit the frame before), P(hit | miss the frame before) over consecutive frames."""
+    df = df.sort_values([*keys, "t"])
+    prev = df.groupby(keys).hit.shift(1)
+    step = df.groupby(keys).t.diff().round(3)
+    dt = float(np.median(step.dropna())) if step.notna().any() else np.nan
+    ok = step == round(dt, 3)
+    return float(df[ok & (prev == True)].hit.mean()), float(df[ok & (prev == False)].hit.mean())  # noqa: E712
+
+
+def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(people rows, ghost rows) of one recording: t, camera, who, hit (and chance for ghosts)."""
+    rec = read_recording(d)
+    cams = {c: cam for c, cam in rec.calibration.cameras.items() if cam.kind == "oblique"}
+    Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
+    occ = Occluders(rec.calibration.floorplan, Ps, HEIGHT)
+    b = rec.observations["bearings"]
+    times = np.round(np.sort(b["t"].unique()), 6)
+    dets = {k: g["u"].to_numpy(float) for k, g in b.groupby([np.round(b["t"].to_numpy(float), 6), "camera"])}
+    people = rec.truth.people.assign(tk=lambda p: np.round(p["t"].to_numpy(float), 6))
+    people = people[np.isin(people["tk"], times)]
+    at = {t: g[["x", "y"]].to_numpy(float) for t, g in people.groupby("tk")}
+    ghosts = rng.uniform([0.0, 0.0], [1.0, 1.0], (GHOSTS, 2))
+    outline = np.asarray(rec.calibration.floorplan.outline, float)
+    lo, hi = outline.min(0), outline.max(0)
+    ghosts = lo + ghosts * (hi - lo)
+    ghosts = ghosts[np.asarray(rec.calibration.floorplan.inside(ghosts), bool)]
+    rows, grows = [], []
+    for c, P in Ps.items():
+        W = float(cams[c].width)
+        whole = occ.visible_many(c, people[["x", "y"]].to_numpy(float), whole=True)
+        for r, wh in zip(people.itertuples(), whole):
+            win = _in_image(P, (r.x, r.y), W) if wh else None
+            if win is None:
+                continue
+            (u, _), _ = geo.project(P, np.array([r.x, r.y, r.z]))
+            us = dets.get((r.tk, c), np.zeros(0))
+            rows.append((r.tk, c, r.person_id, bool(len(us)) and float(np.abs(us - u).min()) <= 0.5 * (win[1] - win[0]) + 3.0))
+        for k, (q, wh) in enumerate(zip(ghosts, occ.visible_many(c, ghosts, whole=True))):
+            win = _in_image(P, q, W) if wh else None
+            if win is None:
+                continue
+            X = np.r_[q, CENTRE]
+            (u, _), _ = geo.project(P, X)
+            gate = 0.5 * (win[1] - win[0]) + 3.0 + 2.0 * GHOST_SD * float(np.linalg.norm(geo.flow_jacobian(P, X)[0, :2]))
+            for t in times:
+                if np.hypot(*(at[t] - q).T).min() < 1.0:
+                    continue
+                us = dets.get((t, c), np.zeros(0))
+                chance = 1.0 - (1.0 - min(2.0 * gate / W, 1.0)) ** len(us)
+                grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance))
+    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit"]),
+            pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance"]))
+
+
+def main(argv: list[str]) -> int:
+    dirs = sorted(d for p in argv for d in glob.glob(p))
+    if not dirs:
+        sys.exit(__doc__)
+    rng = np.random.default_rng(0)
+    people, ghosts = [], []
+    for d in dirs:
+        p, g = measure(d, rng)
+        people.append(p.assign(rec=d))
+        ghosts.append(g.assign(rec=d))
+    p, g = pd.concat(people), pd.concat(ghosts)
+    after_hit, after_miss = _chain(p, ["rec", "camera", "who"])
+    print(f"people wholly seen: {len(p)} camera frames, detected {p.hit.mean():.3f}; after a detection {after_hit:.3f}, "
+          f"after a miss {after_miss:.3f} (mean miss run {1.0 / after_miss:.1f} frames)")
+    g_hit, g_miss = _chain(g, ["rec", "camera", "who"])
+    print(f"ghosts (standing points 1 m or more from everyone): {len(g)} camera frames, a detection in the gate "
+          f"{g.hit.mean():.3f} against the computed chance {g.chance.mean():.3f}; after one {g_hit:.3f}, after none "
+          f"{g_miss:.3f} (persistence {g_hit - g_miss:.3f})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
