@@ -794,3 +794,21 @@ def test_a_standing_track_is_woken_by_windows_that_fit_it_not_by_a_speck():
     for k in range(2):
         jt.step([tr], _frame(cams, np.array([3.0 + 0.06 * (k + 1), 2.5]), (0.6, 0.0), {c.name for c in cams}), 0.1)
     assert tr.mu < 0.1 and tr.exist > EXIST_ACCEPT - 1.0
+
+
+def test_person_detections_name_a_missing_or_broken_bearings_table():
+    """``person_detections`` reads the recording's bearings table: without one, or with a
+    non-finite column, the run stops with an error that names it, before any frame."""
+    from trackroom.recording import RecordingError
+
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 1.0, 0.1), 6)
+    boxes = boxes_table([south, west], {"C": line_path([2.0, 2.0], [3.0, 3.0], times)}, times)
+    est = TargetPlanes(multi_person=True, person_detections=True)
+    with pytest.raises(RecordingError, match="bearings table"):
+        est.run(Observations({"boxes": boxes}, 1.0), calib([south, west]))
+    bad = pd.DataFrame({"t": [0.0], "camera": ["south"], "u": [np.nan], "label": ["red"]})
+    with pytest.raises(RecordingError, match="non-finite u"):
+        est.run(Observations({"boxes": boxes, "bearings": bad}, 1.0), calib([south, west]))
+    ok = pd.DataFrame({"t": [0.0], "camera": ["south"], "u": [100.0], "label": ["red"]})
+    assert len(est.run(Observations({"boxes": boxes, "bearings": ok}, 1.0), calib([south, west])).tracks)
