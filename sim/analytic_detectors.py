@@ -18,12 +18,20 @@ from trackroom.scenes.camera import Camera
 from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
 
 
-def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, m: DetectorModel) -> np.ndarray:
+WHOLE = 0.999  # a person seen whole: this share of the rays reaching them and of their image width inside the image
+
+
+def detected(rng: np.random.Generator, cand: np.ndarray, p: np.ndarray, m: DetectorModel,
+             whole: np.ndarray | None = None) -> np.ndarray:
     """(F, P) bool: candidates kept unless missed; misses come in runs (``run_events`` with
-    ``m.miss_stay``: a held uniform below 1 - P(detect); models without it: missed where the
-    AR(1) copula's uniform, correlation ``m.rho``, falls above P(detect))."""
+    ``m.miss_stay``: a held uniform below 1 - P(detect); with ``m.miss_stay_whole`` and ``whole``
+    (F, P), the people seen whole take that stay instead; models without a stay: missed where
+    the AR(1) copula's uniform, correlation ``m.rho``, falls above P(detect))."""
     if not cand.any():
         return cand.copy()
+    if m.miss_stay is not None and m.miss_stay_whole is not None and whole is not None:
+        missed = run_events(rng, 1.0 - p, m.miss_stay, cand & ~whole) | run_events(rng, 1.0 - p, m.miss_stay_whole, cand & whole)
+        return cand & ~missed
     if m.miss_stay is not None:
         return cand & ~run_events(rng, 1.0 - p, m.miss_stay, cand)
     return cand & (correlated_uniforms(rng, cand.shape, m.rho) < p)
@@ -205,7 +213,7 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
           colours: list[str], palette: list[str]) -> pd.DataFrame | None:
     """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
     a, b, clip, cand = blob_candidates(g, cam.width)
-    det = detected(rng, cand, m.detect(frac, clip), m)
+    det = detected(rng, cand, m.detect(frac, clip), m, whole=(frac >= WHOLE) & (clip >= WHOLE))
     o, ok = span_pairs(a, b)
     root = merge_roots(rng, det, o, ok, m)
     F, P = det.shape

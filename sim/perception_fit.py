@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, crowded, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (WHOLE, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, crowded, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -635,6 +635,40 @@ def fit_miss_stay(s: DetectorStats, p: np.ndarray, seed: int = 0) -> float:
     return fit_run_stay(_sequences(s.runs), 1.0 - np.asarray(p, float), miss_runs(s), seed)
 
 
+def whole_candidates(s: DetectorStats) -> np.ndarray:
+    """(candidates,) bool: a bearing blob detector's candidates seen whole (its features: the
+    seen share of the rays and the share of the image width inside the image, both 1)."""
+    X, _ = s.arrays(2)
+    return (X[:, 0] >= WHOLE) & (X[:, 1] >= WHOLE) if len(X) else np.zeros(0, bool)
+
+
+def split_sequences(seqs: list[np.ndarray], mask: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each sequence cut into its unbroken stretches where ``mask`` holds and where it does not."""
+    yes, no = [], []
+    for seq in seqs:
+        if not len(seq):
+            continue
+        for chunk in np.split(seq, np.nonzero(np.diff(mask[seq].astype(int)))[0] + 1):
+            (yes if mask[chunk[0]] else no).append(chunk)
+    return yes, no
+
+
+def miss_runs_split(s: DetectorStats) -> tuple[float, float]:
+    """Mean miss runs (frames) of a bearing blob detector's candidates seen whole and of the rest."""
+    whole, part = split_sequences(_sequences(s.runs), whole_candidates(s))
+    misses = ~np.asarray(s.hit, bool)
+    return mean_run(whole, misses), mean_run(part, misses)
+
+
+def fit_miss_stays(s: DetectorStats, p: np.ndarray, seed: int = 0) -> tuple[float, float]:
+    """(miss_stay, miss_stay_whole) of a bearing blob detector: each stay's simulated mean miss
+    run = the measured one, over the candidates partly seen and over those seen whole."""
+    whole, part = split_sequences(_sequences(s.runs), whole_candidates(s))
+    misses = ~np.asarray(s.hit, bool)
+    q = 1.0 - np.asarray(p, float)
+    return (fit_run_stay(part, q, mean_run(part, misses), seed), fit_run_stay(whole, q, mean_run(whole, misses), seed))
+
+
 def fit_merge_stay(s: DetectorStats, merge: Table, seed: int = 0) -> float:
     """The merge uniform's stay probability: simulated mean merge run = the measured one."""
     if not s.pair_merged:
@@ -791,8 +825,11 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
             if len(s.errors.get(name + "_r", ())) < 30:
                 errors.pop(name + "_r", None), errors.pop(name + "_t", None)
         n_clutter_ids = max(len(s.clutter_ids), 1)
+        # the oblique blob detector: people seen whole miss for short runs of their own, the partly
+        # hidden for as long as they stay so (one stay for both made the first run for seconds)
+        stays = fit_miss_stays(s, p) if k == "oblique" else (fit_miss_stay(s, p), None)
         out[k] = DetectorModel(
-            detect=detect, miss_stay=fit_miss_stay(s, p), err_rho=fit_err_rho(s, head_gain), head_gain=head_gain, merge=merge,
+            detect=detect, miss_stay=stays[0], miss_stay_whole=stays[1], err_rho=fit_err_rho(s, head_gain), head_gain=head_gain, merge=merge,
             flow_persist=fit_flow_persist(s) if k == "windows" and flow_persist else None,
             merge_stay=fit_merge_stay(s, merge), errors=errors,
             label=(sum(s.label_ok) + 1) / (len(s.label_ok) + 1) if s.label_ok else 1.0,
@@ -867,7 +904,13 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
                     m.merge_rho = float(np.clip(1.0 - (1.0 - m.merge_rho) * ratio(run_a, run_r), 0.0, 0.998))
         # miss runs likewise (models with miss_stay only: misses the model's other mechanisms make
         # shorten or lengthen the measured runs)
-        run_r, run_a = miss_runs(r), miss_runs(a)
+        if m.miss_stay_whole is not None:  # the two stays, each on its own candidates' runs
+            (whole_r, part_r), (whole_a, part_a) = miss_runs_split(r), miss_runs_split(a)
+            if whole_r > 0 and whole_a > 0:
+                m.miss_stay_whole = float(np.clip(1.0 - (1.0 - m.miss_stay_whole) * ratio(whole_a, whole_r), 0.0, MAX_STAY))
+            run_r, run_a = part_r, part_a
+        else:
+            run_r, run_a = miss_runs(r), miss_runs(a)
         if m.miss_stay is not None and run_r > 0 and run_a > 0:
             m.miss_stay = float(np.clip(1.0 - (1.0 - m.miss_stay) * ratio(run_a, run_r), 0.0, MAX_STAY))
         if m.tail is not None:  # episodes cut short by misses and merges, or added by the tables' own tails

@@ -263,6 +263,10 @@ class DetectorModel:
     # (``run_events``); None: the AR(1) copulas of rho and merge_rho instead (older models)
     miss_stay: float | None = None
     merge_stay: float | None = None
+    # (bearing blobs) the stay of the misses of people seen whole (all rays reach them, wholly in
+    # the image), whose misses are the detector's own and short, while partly hidden people's
+    # last as long as the occlusion (``miss_stay``); None: ``miss_stay`` for everyone (older models)
+    miss_stay_whole: float | None = None
     errors: dict[str, Quantiles] = field(default_factory=dict)
     label: float = 1.0
     clutter: float = 0.0  # false detections per camera frame
@@ -302,7 +306,8 @@ class DetectorModel:
         return {
             "detect": self.detect.to_dict(), "rho": round(self.rho, 4), "err_rho": round(self.err_rho, 4), "merge": self.merge.to_dict(),
             "merge_rho": round(self.merge_rho, 4),
-            **{k: round(v, 5) for k, v in (("miss_stay", self.miss_stay), ("merge_stay", self.merge_stay)) if v is not None},
+            **{k: round(v, 5) for k, v in (("miss_stay", self.miss_stay), ("miss_stay_whole", self.miss_stay_whole),
+                                           ("merge_stay", self.merge_stay)) if v is not None},
             "errors": {k: v.to_dict() for k, v in self.errors.items()}, "label": round(self.label, 6),
             "clutter": round(self.clutter, 6), "clutter_frames": round(self.clutter_frames, 3),
             "clutter_unlabelled": round(self.clutter_unlabelled, 6), "fragment": round(self.fragment, 6),
@@ -321,6 +326,7 @@ class DetectorModel:
                 merge_rho=float(d["merge_rho"]),
                 miss_stay=float(d["miss_stay"]) if "miss_stay" in d else None,
                 merge_stay=float(d["merge_stay"]) if "merge_stay" in d else None,
+                miss_stay_whole=float(d["miss_stay_whole"]) if "miss_stay_whole" in d else None,
                 errors={k: Quantiles.from_dict(v) for k, v in d["errors"].items()}, label=float(d["label"]),
                 clutter=float(d["clutter"]), clutter_frames=float(d["clutter_frames"]),
                 clutter_unlabelled=float(d["clutter_unlabelled"]), fragment=float(d["fragment"]),
@@ -337,7 +343,7 @@ class DetectorModel:
         for name in ("rho", "err_rho", "merge_rho", "label", "restart", "swap", "clutter_unlabelled", "fragment_label"):
             if not 0.0 <= getattr(m, name) <= 1.0:
                 raise ValueError(f"{name} must lie in [0, 1], got {getattr(m, name)}")
-        for name in ("miss_stay", "merge_stay"):
+        for name in ("miss_stay", "miss_stay_whole", "merge_stay"):
             v = getattr(m, name)
             if v is not None and not 0.0 <= v < 1.0:
                 raise ValueError(f"{name} must lie in [0, 1), got {v}")

@@ -158,6 +158,7 @@ def test_fit_recovers_known_parameters(tmp_path):
     def edit(m):
         m["oblique"].detect = constant(0.75)
         m["oblique"].rho = 0.0
+        m["oblique"].miss_stay = m["oblique"].miss_stay_whole = None  # misses independent from frame to frame
         m["oblique"].label = 0.9
         m["oblique"].fragment = 0.0
         m["oblique"].clutter = 0.0
@@ -331,6 +332,7 @@ def test_merges_come_in_runs_and_the_fit_recovers_their_correlation(tmp_path, me
     def edit(m):
         o = m["oblique"]
         o.detect, o.rho, o.merge, o.merge_rho = constant(1.0), 0.0, constant(0.5), merge_rho
+        o.miss_stay = o.miss_stay_whole = o.merge_stay = None  # the AR(1) copulas, as the test fits
         o.fragment, o.clutter, o.label = 0.0, 0.0, 1.0
     path = _model_file(tmp_path, edit)
     scene = parse_scene({**ROOM, "sensors": {"perception": path}})
@@ -948,3 +950,32 @@ def test_flow_errors_persisting_on_two_time_scales_are_drawn_and_fitted_back(tmp
     bad.write_text(json.dumps(d))
     with pytest.raises(ModelError, match="flow_persist"):
         load_model(bad)
+
+
+def test_people_seen_whole_take_their_own_miss_stay_and_the_fit_finds_both():
+    """A bearing blob detector's misses of people seen whole are its own and short, a partly
+    hidden person's last as long as the occlusion: with ``miss_stay_whole`` 0 and ``miss_stay``
+    0.95 (P(detect) 0.8), misses of the whole come in runs of 1 / 0.8 = 1.25 frames and the rest
+    in runs of 1 / (0.05 x 0.8) = 25 (hand-computed). Fitted from those misses (candidates'
+    features: seen share, share of the width in the image), each stay comes back from its own
+    candidates' runs."""
+    from trackroom.sim.analytic_detectors import detected
+    from trackroom.sim.perception_model import DetectorModel
+
+    rng = np.random.default_rng(0)
+    F, P = 20_000, 4
+    cand = np.ones((F, P), bool)
+    whole = np.zeros((F, P), bool)
+    whole[:, :2] = True
+    m = DetectorModel(detect=constant(0.8), miss_stay=0.95, miss_stay_whole=0.0)
+    det = detected(rng, cand, np.full((F, P), 0.8), m, whole=whole)
+    s = pf.DetectorStats()
+    for p in range(P):
+        for f in range(F):
+            s.runs.append(("rec", p, f, len(s.hit)))
+            s.feats.append((1.0, 1.0) if whole[f, p] else (2 / 3, 1.0))
+            s.hit.append(bool(det[f, p]))
+    run_whole, run_part = pf.miss_runs_split(s)
+    assert run_whole == pytest.approx(1.25, rel=0.05) and run_part == pytest.approx(25.0, rel=0.15)
+    stay, stay_whole = pf.fit_miss_stays(s, np.full(len(s.hit), 0.8))
+    assert stay_whole < 0.15 and stay == pytest.approx(0.95, abs=0.02)
