@@ -6,6 +6,7 @@
     python scripts/experiment_tsutsui.py --recording "DIR/seed_4[0-9][0-9]" --table   # a glob; one line per run
     python scripts/experiment_tsutsui.py --sensing analytic --seeds 400,401 --duration 35 --table \
         --set "walkers.people.1.waypoints=[[1.0, 1.2], [5.0, 1.2]]" --param hold_s=4   # scene overrides, Config values
+    python scripts/experiment_tsutsui.py --sensing analytic --seeds 100,101 --duration 35 --json --draw 2   # another perception draw
 
 Rendered recordings declare the flow detector's measured window noise in their calibration
 (``sim.perception_flow.RENDERED_WINDOW_NOISE``); recordings saved before that are given it here.
@@ -284,10 +285,13 @@ def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> t
 
 
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,
-        params: dict | None = None, overrides: list[str] | None = None) -> tuple[Recording, TargetPlanesResult, dict]:
+        params: dict | None = None, overrides: list[str] | None = None, draw: int = 0) -> tuple[Recording, TargetPlanesResult, dict]:
+    """One run (``draw`` > 0: an analytic recording's camera tables redrawn through the perception
+    model, ``simulate(..., perception_draw=draw)``: the same walkers, click and phones)."""
     scene = load_scene("occlusion_lab", overrides or None)
     t0 = time.time()
-    rec = recording if recording is not None else simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress)
+    rec = recording if recording is not None else simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress,
+                                                           perception_draw=draw)
     t_sim = time.time() - t0
     if recording is not None:
         sensing, seed, duration = rec.meta.get("sensing", "?"), rec.meta.get("seed", "?"), rec.observations.duration
@@ -295,6 +299,8 @@ def run(sensing: str, duration: float, seed: int, progress: bool = False, record
     res = run_target(rec, params)
     t_est = time.time() - t0
     m = {"sensing": sensing, "seed": seed, "duration": duration, "sim_s": round(t_sim, 1), "estimate_s": round(t_est, 2)}
+    if draw:
+        m["perception_draw"] = draw
     m.update(single_target_metrics(rec, res))
     multi = multi_estimator(rec, params).estimate(rec.observations, rec.calibration)
     ev = evaluate(movers_only(rec, scene), multi, gate=1.0)
@@ -314,7 +320,12 @@ def main(argv=None) -> int:
     ap.add_argument("--param", action="append", default=[], help="estimator Config KEY=VALUE (repeatable), e.g. hold_s=4")
     ap.add_argument("--set", dest="overrides", action="append", default=[], help="scene override KEY=VALUE for simulated runs (repeatable)")
     ap.add_argument("--table", action="store_true", help="print one line per run with the issue's figures")
+    ap.add_argument("--draw", type=int, default=0, help="analytic runs: the perception model's draw K of each seed's camera "
+                    "tables (0: the seed's own recording; K > 0 redraws them, same walkers and click), to judge a change "
+                    "over several draws")
     a = ap.parse_args(argv)
+    if a.draw < 0 or (a.draw and (a.recording or a.sensing != "analytic")):
+        ap.error("--draw K needs K >= 0, and K > 0 only with --sensing analytic (it redraws simulated camera tables)")
     if a.recording:
         from trackroom.dataset import read_recording
 
@@ -330,7 +341,7 @@ def main(argv=None) -> int:
     rows = []
     for mode, seed, rec in runs:
         _, _, m = run(mode, a.duration, seed, progress=not (a.json or a.table), recording=rec, params=parse_params(a.param),
-                      overrides=a.overrides)
+                      overrides=a.overrides, draw=a.draw)
         rows.append(m)
         if a.json:
             print(json.dumps(m), flush=True)
