@@ -278,6 +278,25 @@ class Occluders:
         return clear.all(1) if whole else clear.any(1)
 
 
+def wholly_in_image(win: np.ndarray, width: float) -> bool:
+    """Whether a projected cylinder's window [u_l, u_r, ...] (px) lies wholly inside an image
+    ``width`` px wide."""
+    return bool(np.isfinite(win).all() and win[0] >= 0.0 and win[1] <= width)
+
+
+def detection_gate(win: np.ndarray, var_u: float = 0.0) -> float:
+    """Half-width (px) of the column band about a person's projected axis within which a person
+    detection counts as theirs: half the projected width, 3 px, and two sd of the axis's column
+    (``var_u``, px^2: the track's position spread)."""
+    return 0.5 * float(win[1] - win[0]) + 3.0 + 2.0 * float(np.sqrt(max(var_u, 0.0)))
+
+
+def coincidence_chance(gate: float, width: float, n: int) -> float:
+    """P(at least one of a frame's ``n`` detections falls within ``gate`` of a point where no one
+    is), the detections spread over an image ``width`` px wide: 1 - (1 - 2 gate / W)^n."""
+    return 1.0 - (1.0 - min(2.0 * gate / width, 1.0)) ** n
+
+
 def on_floor(inside_room, xy) -> bool:
     """Whether the floor point xy (2,) lies on the floor plan (``inside_room``: the floor plan's
     ``inside``, which takes points (n, 2))."""
@@ -661,7 +680,7 @@ class JointTracker:
         cfg = self.cfg
         P, W = self.Ps[c], self.widths[c]
         win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
-        if not np.isfinite(win).all() or win[0] < 0.0 or win[1] > W:
+        if not wholly_in_image(win, W):
             return 0.0
         if self.occluders is not None and not bool(self.occluders.visible_many(c, np.asarray(xy, float)[None], whole=True)[0]):
             return 0.0
@@ -670,9 +689,9 @@ class JointTracker:
         X = np.array([xy[0], xy[1], self.hc])
         (u, _), _ = geo.project(P, X)
         Ju = geo.flow_jacobian(P, X)[0, :2]
-        gate = 0.5 * (win[1] - win[0]) + 3.0 + 2.0 * float(np.sqrt(max(Ju @ Sxy @ Ju, 0.0)))
+        gate = detection_gate(win, float(Ju @ Sxy @ Ju))
         u_det = self.detections.get(c, np.zeros(0))
-        chance = 1.0 - (1.0 - min(2.0 * gate / W, 1.0)) ** len(u_det)
+        chance = coincidence_chance(gate, W, len(u_det))
         hit = bool(len(u_det)) and float(np.abs(u_det - u).min()) <= gate
         pd_, run, rho = cfg.p_person_detect, cfg.person_miss_run, cfg.coincidence_persistence
         prev = tr.det_prev.get(c)

@@ -28,7 +28,7 @@ import pandas as pd
 
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
-from trackroom.estimators.tp_joint import Occluders
+from trackroom.estimators.tp_joint import Occluders, coincidence_chance, detection_gate, wholly_in_image
 
 HEIGHT, RADIUS, CENTRE = 1.8, 0.2, 0.9  # the tracker's person model (m) and the axis point it projects
 GHOSTS = 60
@@ -37,7 +37,7 @@ GHOST_SD = 0.1  # m
 
 def _in_image(P: np.ndarray, xy, width: float) -> np.ndarray | None:
     win = geo.cylinder_window(P, xy, HEIGHT, RADIUS)
-    return win if np.isfinite(win).all() and win[0] >= 0 and win[1] <= width else None
+    return win if wholly_in_image(win, width) else None
 
 
 def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
@@ -53,7 +53,7 @@ def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
 def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(people rows, ghost rows) of one recording: t, camera, who, hit (and chance for ghosts)."""
     rec = read_recording(d)
-    cams = {c: cam for c, cam in rec.calibration.cameras.items() if cam.kind == "oblique"}
+    cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
     occ = Occluders(rec.calibration.floorplan, Ps, HEIGHT)
     b = rec.observations["bearings"]
@@ -77,19 +77,19 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
                 continue
             (u, _), _ = geo.project(P, np.array([r.x, r.y, r.z]))
             us = dets.get((r.tk, c), np.zeros(0))
-            rows.append((r.tk, c, r.person_id, bool(len(us)) and float(np.abs(us - u).min()) <= 0.5 * (win[1] - win[0]) + 3.0))
+            rows.append((r.tk, c, r.person_id, bool(len(us)) and float(np.abs(us - u).min()) <= detection_gate(win)))
         for k, (q, wh) in enumerate(zip(ghosts, occ.visible_many(c, ghosts, whole=True))):
             win = _in_image(P, q, W) if wh else None
             if win is None:
                 continue
             X = np.r_[q, CENTRE]
             (u, _), _ = geo.project(P, X)
-            gate = 0.5 * (win[1] - win[0]) + 3.0 + 2.0 * GHOST_SD * float(np.linalg.norm(geo.flow_jacobian(P, X)[0, :2]))
+            gate = detection_gate(win, (GHOST_SD * float(np.linalg.norm(geo.flow_jacobian(P, X)[0, :2]))) ** 2)
             for t in times:
                 if np.hypot(*(at[t] - q).T).min() < 1.0:
                     continue
                 us = dets.get((t, c), np.zeros(0))
-                chance = 1.0 - (1.0 - min(2.0 * gate / W, 1.0)) ** len(us)
+                chance = coincidence_chance(gate, W, len(us))
                 grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance))
     return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit"]),
             pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance"]))

@@ -108,7 +108,7 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     frames = [(float(times[k]), lines) for k, lines in tracer.frames if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
     truth = ts.people_at(rec.truth.people, np.array([t for t, _ in frames]))
     cfg = TargetPlanes(**{**ts.estimator_config(rec), **(params or {})}).resolved_config(rec.calibration)
-    cams = {c: (np.asarray(cam.P, float), float(cam.width)) for c, cam in rec.calibration.cameras.items() if c.startswith("obl")}
+    cams = {c: (np.asarray(cam.P, float), float(cam.width)) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
     out = []
     for t, (before, *rest) in frames:
         now = truth[np.isclose(truth["t"], t)]

@@ -653,18 +653,23 @@ def split_sequences(seqs: list[np.ndarray], mask: np.ndarray) -> tuple[list[np.n
     return yes, no
 
 
+def _split_misses(s: DetectorStats) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """(sequences of candidates seen whole, the other sequences, misses (candidates,) bool) of a
+    bearing blob detector."""
+    whole, part = split_sequences(_sequences(s.runs), whole_candidates(s))
+    return whole, part, ~np.asarray(s.hit, bool)
+
+
 def miss_runs_split(s: DetectorStats) -> tuple[float, float]:
     """Mean miss runs (frames) of a bearing blob detector's candidates seen whole and of the rest."""
-    whole, part = split_sequences(_sequences(s.runs), whole_candidates(s))
-    misses = ~np.asarray(s.hit, bool)
+    whole, part, misses = _split_misses(s)
     return mean_run(whole, misses), mean_run(part, misses)
 
 
 def fit_miss_stays(s: DetectorStats, p: np.ndarray, seed: int = 0) -> tuple[float, float]:
     """(miss_stay, miss_stay_whole) of a bearing blob detector: each stay's simulated mean miss
     run = the measured one, over the candidates partly seen and over those seen whole."""
-    whole, part = split_sequences(_sequences(s.runs), whole_candidates(s))
-    misses = ~np.asarray(s.hit, bool)
+    whole, part, misses = _split_misses(s)
     q = 1.0 - np.asarray(p, float)
     return (fit_run_stay(part, q, mean_run(part, misses), seed), fit_run_stay(whole, q, mean_run(whole, misses), seed))
 
