@@ -665,7 +665,8 @@ class JointTracker:
                            now: dict[str, bool]) -> float:
         """Camera c's person detections as the existence test's evidence for track i standing at
         xy (covariance Sxy): log P(them | a person there) - log P(them | no one). Only where they
-        can say it: the cylinder wholly in the image, all its rays clear of the floor plan's
+        can say it: a camera whose detector reports in the recording (a key of ``detections``),
+        the cylinder wholly in the image, all its rays clear of the floor plan's
         boxes (``Occluders``, whole) and overlapping no other track's projection (``projs``;
         there a detection may be the other's). A detection within the gate (half the projected
         width, plus 3 px and two sd of the projected axis) is a hit. Both hypotheses are
@@ -678,9 +679,10 @@ class JointTracker:
         a ghost are told apart by the frames where the outcomes change, and the first, not by
         counting the same static scene every frame."""
         cfg = self.cfg
+        u_det = self.detections.get(c)  # None: a camera whose detector reports no one in the recording
         P, W = self.Ps[c], self.widths[c]
         win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
-        if not wholly_in_image(win, W):
+        if u_det is None or not wholly_in_image(win, W):
             return 0.0
         if self.occluders is not None and not bool(self.occluders.visible_many(c, np.asarray(xy, float)[None], whole=True)[0]):
             return 0.0
@@ -690,7 +692,6 @@ class JointTracker:
         (u, _), _ = geo.project(P, X)
         Ju = geo.flow_jacobian(P, X)[0, :2]
         gate = detection_gate(win, float(Ju @ Sxy @ Ju))
-        u_det = self.detections.get(c, np.zeros(0))
         chance = coincidence_chance(gate, W, len(u_det))
         hit = bool(len(u_det)) and float(np.abs(u_det - u).min()) <= gate
         pd_, run, rho = cfg.p_person_detect, cfg.person_miss_run, cfg.coincidence_persistence

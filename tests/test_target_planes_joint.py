@@ -812,3 +812,20 @@ def test_person_detections_name_a_missing_or_broken_bearings_table():
         est.run(Observations({"boxes": boxes, "bearings": bad}, 1.0), calib([south, west]))
     ok = pd.DataFrame({"t": [0.0], "camera": ["south"], "u": [100.0], "label": ["red"]})
     assert len(est.run(Observations({"boxes": boxes, "bearings": ok}, 1.0), calib([south, west])).tracks)
+
+
+def test_a_camera_without_person_detections_says_nothing():
+    """A camera whose person detector reports nothing in the whole recording (absent from the
+    frame's detections, ``jt.detections``) cannot test a standing track: no evidence, either way,
+    where a camera that reports someone elsewhere and no one at the track says no one is there."""
+    cams = four_cameras()
+    xy = np.array([3.0, 2.5])
+    cfg, jt = _tracker(cams, person_detections=True)
+    tr = JointTrack(1, np.r_[xy, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False, hits=20,
+                    exist=EXIST_ACCEPT, mu=0.99)
+    tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
+    win = geo.cylinder_window(cams[0].P, xy, H, R)
+    jt.detections = {}
+    assert jt.detection_evidence(tr, cams[0].name, xy, tr.Ps, {}, 0, {}) == 0.0
+    jt.detections = {cams[0].name: np.array([win[1] + 100.0])}
+    assert jt.detection_evidence(tr, cams[0].name, xy, tr.Ps, {}, 0, {}) < -1.0
