@@ -465,10 +465,17 @@ class JointTracker:
         explaining it are predicted cut by that border (their window is the part inside the
         image; its centroid is the visible part's); 0: otherwise (a window at the border that
         the prediction does not reach is compared as any other)."""
+        left, right = self.cut_edges(c, boxes, j, projs)
+        return -1 if left and not right else 1 if right and not left else 0
+
+    def cut_edges(self, c: str, boxes: CameraBoxes, j: int, projs: list[Projection]) -> tuple[bool, bool]:
+        """Whether window j's left / right edge is the image border cutting the tracks ``projs``
+        (the edge on the border and their predicted union reaching past it): such an edge is
+        where the image ends, not where a person does."""
         W = self.widths[c]
         left = abs(boxes.win[j, 0]) <= BORDER_PX and min(p.win[0] for p in projs) < 0.0
         right = abs(boxes.win[j, 1] - W) <= BORDER_PX and max(p.win[1] for p in projs) > W
-        return -1 if left and not right else 1 if right and not left else 0
+        return bool(left), bool(right)
 
     def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
@@ -742,6 +749,14 @@ class JointTracker:
         a, b, g = row
         kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max)
 
+    def update_own_edge(self, tr: JointTrack, c: str, p: Projection, boxes: CameraBoxes, j: int, left: bool) -> None:
+        """A too-wide window's edge on the track's side (``left``: its left edge) as the track's
+        own, the axis a radius inside it; none where that edge is the image border cutting the
+        track (``cut_edges``)."""
+        cut = self.cut_edges(c, boxes, j, [p])[0 if left else 1] if self.cfg.border_edges else False
+        if not cut:
+            self.update_plane(tr, c, p, float(boxes.win[j, 0] if left else boxes.win[j, 1]), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+
     def plane_row(self, c: str, p: Projection, u: float, offset_sign: float = 0.0) -> tuple[np.ndarray, float, float] | None:
         """(a, b, g) of ``update_plane``'s measurement a [x, y]^T = b (m) for column u, and the
         image's rate g = |du/dxy| (px/m) that turns its pixel sigma into metres; None where the
@@ -895,7 +910,7 @@ class JointTracker:
                     # track's side is its own, the far side a birth candidate
                     left = abs(boxes.win[j, 0] - p.win[0]) <= abs(boxes.win[j, 1] - p.win[1])
                     edge = boxes.win[j, 0] if left else boxes.win[j, 1]
-                    self.update_plane(tr, c, p, float(edge), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+                    self.update_own_edge(tr, c, p, boxes, j, left)
                     self.update_flow(tr, c, p, boxes.flow[j], extra_var=self.flow_sigma[c] ** 2)
                     far = np.array([boxes.win[j, 1] - p.width, boxes.win[j, 1]] if left else [boxes.win[j, 0], boxes.win[j, 0] + p.width])
                     near_u = float(edge + 0.5 * p.width if left else edge - 0.5 * p.width)
@@ -907,6 +922,10 @@ class JointTracker:
                 spread = float(fs.var(0).sum())  # px^2/s^2: |f_a - f_b|^2 / 4 for two
                 lo = min(range(len(mem)), key=lambda k: ps[k].win[0])
                 hi = max(range(len(mem)), key=lambda k: ps[k].win[1])
+                if cfg.border_edges:
+                    # an outer edge the image border cuts is no one's edge: it updates no member
+                    cut_l, cut_r = self.cut_edges(c, boxes, j, ps)
+                    lo, hi = (None if cut_l else lo), (None if cut_r else hi)
                 for k, i in enumerate(mem):
                     tr, p = tracks[i], ps[k]
                     seen[i] = True
@@ -928,8 +947,7 @@ class JointTracker:
                     # side by side in every view has no update and lags out of the region
                     i, j = e[3][0], e[3][1]
                     tr, p = tracks[i], projs[i]
-                    left = abs(boxes.win[j, 0] - p.win[0]) <= abs(boxes.win[j, 1] - p.win[1])
-                    self.update_plane(tr, c, p, float(boxes.win[j, 0] if left else boxes.win[j, 1]), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+                    self.update_own_edge(tr, c, p, boxes, j, abs(boxes.win[j, 0] - p.win[0]) <= abs(boxes.win[j, 1] - p.win[1]))
                     self.update_flow(tr, c, p, boxes.flow[j], extra_var=self.flow_sigma[c] ** 2)
                     seen[i] = True
                     tr.status[c] = (UNRELIABLE, "width", None)

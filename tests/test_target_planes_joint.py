@@ -14,7 +14,7 @@ from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s
-from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, JointTrack, JointTracker
+from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, UNRELIABLE, JointTrack, JointTracker
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
 
@@ -377,6 +377,55 @@ def test_a_window_cut_by_the_image_border_is_compared_with_the_projection_inside
         pulled[on] = jt.project("south", tr).u - r[0]
     assert cost[True] < 0.1 and cost[False] > 5.0 * cost[True]
     assert 0.0 < pulled[True] <= pulled[False]  # both into the image (the radius offset is shorter than the bounding box's half-width here)
+
+
+def test_a_merged_windows_edge_cut_by_the_image_border_moves_no_one():
+    """Two people side by side at the left of south's view, the left one's cylinder cut by the left
+    border: south reports their merged window, cut at u = 0. The left member's predicted cylinder
+    reaches past the border, so that edge is where the image ends, not where the person does; it
+    must not pull the member into the image (before the fix it moved the track 0.13 m into it).
+    The right edge still updates the right member."""
+    south, _ = right_angle_pair()
+    truth = [np.array([-0.85, 3.0]), np.array([-0.2, 3.0])]
+    a, b = (window_row(south, xy, (0.0, 0.0)) for xy in truth)
+    assert a[1] < -10.0 and a[2] > b[1]  # the left cylinder is cut by the border; the two overlap
+    ur = b[2]
+    win = np.array([[0.0, ur, min(a[3], b[3]), max(a[4], b[4])]])
+    cfg, jt = _tracker([south])
+    tracks = []
+    for i, xy in enumerate(truth):
+        S = np.diag([0.2**2, 0.2**2, 0.3**2, 0.3**2])
+        tracks.append(JointTrack(i, np.r_[xy + [0.0 if i == 0 else -0.15, 0.0], 0.0, 0.0], S, confirmed=True, seen=True))
+    frame = {"south": CameraBoxes(np.array([7], object), np.array([0.5 * ur]), win, np.zeros((1, 2)))}
+    p0 = jt.project("south", tracks[0])
+    assert jt.cut_edges("south", frame["south"], 0, [p0, jt.project("south", tracks[1])]) == (True, False)
+    x1 = tracks[1].s[0]
+    jt.step(tracks, frame, 0.0)
+    assert [tr.status["south"][0] for tr in tracks] == [MERGED, MERGED]
+    assert np.linalg.norm(tracks[0].xy - truth[0]) < 0.02  # the border edge left it where it was
+    assert tracks[1].s[0] > x1 + 0.05  # its outer edge, a person's, moved it towards the truth
+
+
+def test_a_too_wide_windows_edge_cut_by_the_image_border_moves_no_one():
+    """As above, but only the left person is tracked and the other stands 0.95 m to its right (a
+    flow region joining both, 10 px apart): the window, cut at u = 0, is wider than the track's
+    predicted cylinder, and the edge on the track's side is the border. With ``split_births``
+    (the explanation leaves the window as clutter; ``wide_clutter`` gives the track its side of
+    it) the track is not pulled into the image by that edge, and the far side is still a birth
+    candidate."""
+    south, _ = right_angle_pair()
+    truth = [np.array([-0.85, 3.0]), np.array([0.1, 3.0])]
+    a, b = (window_row(south, xy, (0.0, 0.0)) for xy in truth)
+    win = np.array([[0.0, b[2], min(a[3], b[3]), max(a[4], b[4])]])
+    cfg, jt = _tracker([south], split_births=True)
+    S = np.diag([0.2**2, 0.2**2, 0.3**2, 0.3**2])
+    tr = JointTrack(0, np.r_[truth[0], 0.0, 0.0], S, confirmed=True, seen=True)
+    p = jt.project("south", tr)
+    assert (b[2] - p.width) / p.width > cfg.width_ratio_threshold  # too wide for one person
+    frame = {"south": CameraBoxes(np.array([7], object), np.array([0.5 * b[2]]), win, np.zeros((1, 2)))}
+    free = jt.step([tr], frame, 0.0)
+    assert tr.status["south"][0] == UNRELIABLE and free["south"] == [0, 1]  # the window (clutter) and its far side: birth candidates
+    assert np.linalg.norm(tr.xy - truth[0]) < 0.02
 
 
 def test_prune_records_why_each_confirmed_track_ended():
