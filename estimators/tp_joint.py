@@ -176,6 +176,17 @@ class JointTrack:
 
 
 @dataclass
+class StillDetection:
+    """One camera's person detection followed over frames (``JointTracker.follow_detections``)."""
+
+    u0: float  # the column it has stayed near since ``since`` (px)
+    u: float  # its column now (px)
+    since: float  # s (``JointTracker.clock``)
+    last: float  # s: last seen
+    taken: bool = False  # a track has been updated by it (``update_by_detections``)
+
+
+@dataclass
 class Projection:
     """What one camera expects of one track: predicted window [u_l, u_r, v_t, v_b] (px), centroid
     column ``u`` and its variance ``var_u`` (px^2), image velocity ``flow`` (px/s) and its
@@ -318,6 +329,8 @@ class JointTracker:
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
         self.detections: dict[str, np.ndarray] | None = None  # this frame's person detections per camera, u (px); None: none used
         self.outline: np.ndarray | None = None  # the floor plan's outline (k, 2), m (None: no floor plan)
+        self.clock = 0.0  # s since the first frame (step's dt summed)
+        self.still: dict[str, list[StillDetection]] = {}  # camera -> its person detections followed over frames (detection_planes)
         q = (1.0 - cfg.p_detect) / (cfg.p_detect * cfg.miss_run)  # P(a miss | seen the frame before)
         self.p_see_after_hit = 1.0 - min(q, 1.0)
         self.p_see_after_miss = 1.0 / cfg.miss_run
@@ -714,6 +727,79 @@ class JointTracker:
             p1, p0 = 1.0 - p1, 1.0 - p0
         return float(np.log(max(p1, 1e-12)) - np.log(max(p0, 1e-12)))
 
+    def follow_detections(self, c: str, u_all: np.ndarray) -> list[StillDetection]:
+        """Camera c's person detections this frame, each followed from the last frame (the
+        nearest within the stillness band, 3 ``detection_sigma_px``) so that how long it has
+        stayed in one column is known; detections unseen for a second are forgotten."""
+        band = 3.0 * self.cfg.detection_sigma_px
+        hist = self.still.setdefault(c, [])
+        free = set(range(len(hist)))
+        out = []
+        for ud in np.asarray(u_all, float):
+            k = min(free, key=lambda h: abs(hist[h].u - ud), default=None)
+            if k is not None and abs(hist[k].u - ud) <= band:
+                free.discard(k)
+                e = hist[k]
+                e.u, e.last = float(ud), self.clock
+                if abs(ud - e.u0) > band:  # it moved: still from now on
+                    e.u0, e.since = float(ud), self.clock
+            else:
+                e = StillDetection(float(ud), float(ud), self.clock, self.clock)
+                hist.append(e)
+            out.append(e)
+        self.still[c] = [e for e in hist if self.clock - e.last <= 1.0]
+        return out
+
+    def update_by_detections(self, tracks: list[JointTrack], plans: dict) -> None:
+        """``detection_planes``: each camera's person detections as target planes (eq. 4 at the
+        detection's column) for the tracks without a window of their own there (standing,
+        merged, missed), wholly in the image and clear of the floor plan's boxes. Detections carry
+        no flow and no identity, so a pair is used only when unambiguous: the one detection within
+        the track's gate (``PLANE_OUTLIER`` on the detection noise and the track's projected
+        spread) and within no other track's. A detection that has stayed in one column longer
+        than a mover could (twice the stillness band at ``mover_flow_px``) and that no track has
+        taken is someone standing whom no track follows, and is left out. The walking state's
+        position and the standing state's are both updated."""
+        cfg = self.cfg
+        sig = cfg.detection_sigma_px
+        still_s = 2.0 * 3.0 * sig / cfg.mover_flow_px
+        for c in self.Ps:
+            u_all = self.detections.get(c)
+            if u_all is None:
+                continue
+            followed = self.follow_detections(c, u_all)
+            keep = [k for k, e in enumerate(followed) if e.taken or self.clock - e.since < still_s]
+            if not keep:
+                continue
+            u_det = np.asarray(u_all, float)[keep]
+            followed = [followed[k] for k in keep]
+            projs = plans[c][1]
+            ids = [i for i, p in projs.items() if tracks[i].located and wholly_in_image(p.win, self.widths[c])
+                   and tracks[i].status.get(c, ("",))[0] != TRACKING]
+            if ids and self.occluders is not None:
+                vis = self.occluders.visible_many(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2), whole=True)
+                ids = [i for i, v in zip(ids, vis) if v]
+            if not ids:
+                continue
+            every = [i for i in projs if tracks[i].located]
+            inside = np.array([[(ud - projs[i].u) ** 2 <= PLANE_OUTLIER * (projs[i].var_u + sig**2) for ud in u_det] for i in every])
+            for i in ids:
+                js = np.flatnonzero(inside[every.index(i)])
+                if len(js) != 1 or inside[:, js[0]].sum() != 1:
+                    continue
+                b = int(js[0])
+                followed[b].taken = True
+                tr, p = tracks[i], projs[i]
+                self.update_plane(tr, c, p, float(u_det[b]), sig, own=False)
+                if tr.xs is not None and (row := self.plane_row(c, p, float(u_det[b]))) is not None:
+                    a, rhs, g = row
+                    Pa = tr.Ps @ a
+                    var = float(a @ Pa) + (sig / g) ** 2
+                    nu = rhs - float(a @ tr.xs)
+                    if nu * nu / var <= PLANE_OUTLIER:
+                        k = Pa / var
+                        tr.xs, tr.Ps = tr.xs + k * nu, tr.Ps - np.outer(k, Pa)
+
     @staticmethod
     def existence(tr: JointTrack, walk: float, hit: bool, det: float = 0.0) -> None:
         """The existence test's update for one frame, the two modes marginalised: P(frame | a
@@ -817,6 +903,7 @@ class JointTracker:
         than in the best (``explain_camera``), None without one; ``force`` (camera, track,
         window index or None): that camera's explanation gives the track that window (or none)."""
         cfg = self.cfg
+        self.clock += dt
         self.wide = []  # too-wide windows explained by one track: (camera, track index, window, far side's window, near side's centre u)
         for tr in tracks:
             self.predict(tr, dt)
@@ -957,7 +1044,9 @@ class JointTracker:
                 free[c].append(k)
                 self.wide.append((c, i, j, k, near_u))
             frame[c] = boxes
-        if self.detections is not None:
+        if self.detections is not None and cfg.detection_planes:
+            self.update_by_detections(tracks, plans)
+        if self.detections is not None and cfg.person_detections:
             # a track likelier standing (this frame's prior): its person detections (detection_evidence)
             for i, tr in enumerate(tracks):
                 now: dict[str, bool] = {}

@@ -11,7 +11,9 @@ recording (the truth read by the experimenter):
   floor plan's boxes (``whole``): whether a detection lies within the gate (half the projected
   width + 3 px) of the projected axis; the rate (``p_person_detect``) and the rate after a
   frame with one and after a frame without (a miss run's mean, ``person_miss_run``, is one
-  over the latter);
+  over the latter); and the column error of those detections about the projected axis (its
+  core spread is the noise a detection's target plane would have: docs/target_planes.md,
+  "person detections as target planes");
 - ghosts: ``GHOSTS`` random floor points per recording, standing (seed 0), at frames when
   they are 1 m or more from everyone, tested the same way with the gate of a track of position
   sd 0.1 m: how often a detection falls within it, against the chance the tracker computes
@@ -77,7 +79,8 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
                 continue
             (u, _), _ = geo.project(P, np.array([r.x, r.y, r.z]))
             us = dets.get((r.tk, c), np.zeros(0))
-            rows.append((r.tk, c, r.person_id, bool(len(us)) and float(np.abs(us - u).min()) <= detection_gate(win)))
+            res = float((us - u)[np.argmin(np.abs(us - u))]) if len(us) else np.nan
+            rows.append((r.tk, c, r.person_id, bool(len(us)) and abs(res) <= detection_gate(win), res))
         for k, (q, wh) in enumerate(zip(ghosts, occ.visible_many(c, ghosts, whole=True))):
             win = _in_image(P, q, W) if wh else None
             if win is None:
@@ -91,7 +94,7 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
                 us = dets.get((t, c), np.zeros(0))
                 chance = coincidence_chance(gate, W, len(us))
                 grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance))
-    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit"]),
+    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit", "resid"]),
             pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance"]))
 
 
@@ -109,6 +112,11 @@ def main(argv: list[str]) -> int:
     after_hit, after_miss = _chain(p, ["rec", "camera", "who"])
     print(f"people wholly seen: {len(p)} camera frames, detected {p.hit.mean():.3f}; after a detection {after_hit:.3f}, "
           f"after a miss {after_miss:.3f} (mean miss run {1.0 / after_miss:.1f} frames)")
+    r = p.resid[p.hit]
+    mad = 1.4826 * float((r - r.median()).abs().median())
+    print(f"their detections' columns against the projected axis: mean {r.mean():+.2f} px, sd {r.std():.2f} px "
+          f"(tails: another person's detection in the gate), robust sd (1.4826 MAD) {mad:.2f} px, within 3 px "
+          f"{float((r.abs() <= 3.0).mean()):.3f}")
     g_hit, g_miss = _chain(g, ["rec", "camera", "who"])
     print(f"ghosts (standing points 1 m or more from everyone): {len(g)} camera frames, a detection in the gate "
           f"{g.hit.mean():.3f} against the computed chance {g.chance.mean():.3f}; after one {g_hit:.3f}, after none "

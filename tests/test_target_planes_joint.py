@@ -878,3 +878,77 @@ def test_a_camera_without_person_detections_says_nothing():
     assert jt.detection_evidence(tr, cams[0].name, xy, tr.Ps, {}, 0, {}) == 0.0
     jt.detections = {cams[0].name: np.array([win[1] + 100.0])}
     assert jt.detection_evidence(tr, cams[0].name, xy, tr.Ps, {}, 0, {}) < -1.0
+
+
+def _axis_u(c, xy):
+    (u, _), _ = geo.project(c.P, np.r_[xy, 0.9])
+    return float(u)
+
+
+def test_detection_planes_bring_a_track_without_windows_onto_its_person():
+    """A person standing (no flow window anywhere) whose track is 0.3 m off, where it lost the
+    windows: every camera's person detector reports the person on its axis. With
+    ``detection_planes`` each detection's target plane brings the track's position, and its
+    standing state's, within 0.1 m of the person in a second; without, nothing moves it."""
+    cams = four_cameras()
+    person = np.array([3.0, 2.5])
+    dets = {c.name: np.array([_axis_u(c, person)]) for c in cams}
+    end = {}
+    for used in (False, True):
+        cfg, jt = _tracker(cams, detection_planes=used)
+        start = person + np.array([0.3, 0.0])
+        tr = JointTrack(0, np.r_[start, 0.0, 0.0], np.diag([0.15**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False,
+                        hits=20, exist=EXIST_ACCEPT)
+        if used:
+            jt.detections = dets
+        for _ in range(10):
+            jt.step([tr], _empty(cams), 0.1)
+        end[used] = (np.linalg.norm(tr.xy - person), np.linalg.norm(tr.xs - person))
+    assert end[True][0] < 0.1 and end[True][1] < 0.1, end
+    assert end[False][0] > 0.25, end
+
+
+def test_a_detection_in_two_tracks_gates_moves_neither():
+    """Two tracks whose projected axes lie 1 px apart in one camera, one detection between them:
+    either may be its person's, so neither is moved by it (with one track only, it is)."""
+    cams = four_cameras()
+    c = cams[0]
+    a = np.array([3.0, 2.5])
+    # the second track on a's line of sight from c, 0.6 m further: the same column there
+    ray = a - c.position[:2]
+    b = a + 0.6 * ray / np.linalg.norm(ray)
+    assert abs(_axis_u(c, a) - _axis_u(c, b)) < 1.0
+    u = 0.5 * (_axis_u(c, a) + _axis_u(c, b)) + 2.0
+    for both in (False, True):
+        cfg, jt = _tracker([c], detection_planes=True)
+        S = np.diag([0.1**2] * 2 + [0.1**2] * 2)
+        tracks = [JointTrack(0, np.r_[a, 0.0, 0.0], S.copy(), confirmed=True, seen=False, hits=20, exist=EXIST_ACCEPT)]
+        if both:
+            tracks.append(JointTrack(1, np.r_[b, 0.0, 0.0], S.copy(), confirmed=True, seen=False, hits=20, exist=EXIST_ACCEPT))
+        jt.detections = {c.name: np.array([u])}
+        jt.step(tracks, _empty([c]), 0.1)
+        moved = abs(jt.project(c.name, tracks[0]).u - _axis_u(c, a))
+        assert (moved < 0.1) == both, moved
+
+
+def test_a_detection_still_and_never_taken_is_left_to_the_person_standing_there():
+    """Someone standing whom no track follows: their detection stays in one column. A walker's
+    track that comes near that column, without a window (merged or missed), is not pulled onto
+    it once the detection has been still and untaken for longer than a mover could be (twice the
+    detection's stillness band at ``mover_flow_px``); a fresh detection there would pull it."""
+    cams = four_cameras()
+    c = cams[0]
+    stander = np.array([3.0, 2.5])
+    u = _axis_u(c, stander)
+    for wait in (0, 30):
+        cfg, jt = _tracker([c], detection_planes=True)
+        jt.detections = {c.name: np.array([u])}
+        for _ in range(wait):  # frames with the detection and no track near it
+            jt.step([], _empty([c]), 0.1)
+        near = stander + np.array([0.1, 0.0])
+        tr = JointTrack(0, np.r_[near, 0.0, 0.0], np.diag([0.1**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False, hits=20,
+                        exist=EXIST_ACCEPT)
+        before = jt.project(c.name, tr).u
+        jt.step([tr], _empty([c]), 0.1)
+        moved = abs(jt.project(c.name, tr).u - before)
+        assert (moved > 0.5) == (wait == 0), (wait, moved)
