@@ -702,9 +702,7 @@ class JointTracker:
         u_det = self.detections.get(c)  # None: a camera whose detector reports no one in the recording
         P, W = self.Ps[c], self.widths[c]
         win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
-        if u_det is None or not wholly_in_image(win, W):
-            return 0.0
-        if self.occluders is not None and not bool(self.occluders.visible_many(c, np.asarray(xy, float)[None], whole=True)[0]):
+        if u_det is None or not self.seen_whole(c, xy, win):
             return 0.0
         if any(k != i and q.win[0] <= win[1] and win[0] <= q.win[1] for k, q in projs.items()):
             return 0.0
@@ -726,6 +724,14 @@ class JointTracker:
         if not hit:
             p1, p0 = 1.0 - p1, 1.0 - p0
         return float(np.log(max(p1, 1e-12)) - np.log(max(p0, 1e-12)))
+
+    def seen_whole(self, c: str, xy: np.ndarray, win: np.ndarray) -> bool:
+        """Whether camera c sees a person at floor point xy whole, as a person detector needs: the
+        projected cylinder ``win`` inside the image and all its rays clear of the floor plan's
+        boxes (``Occluders``, whole)."""
+        if not wholly_in_image(win, self.widths[c]):
+            return False
+        return self.occluders is None or bool(self.occluders.visible_many(c, np.asarray(xy, float)[None], whole=True)[0])
 
     def follow_detections(self, c: str, u_all: np.ndarray) -> list[StillDetection]:
         """Camera c's person detections this frame, each followed from the last frame (the
@@ -774,11 +780,8 @@ class JointTracker:
             u_det = np.asarray(u_all, float)[keep]
             followed = [followed[k] for k in keep]
             projs = plans[c][1]
-            ids = [i for i, p in projs.items() if tracks[i].located and wholly_in_image(p.win, self.widths[c])
-                   and tracks[i].status.get(c, ("",))[0] != TRACKING]
-            if ids and self.occluders is not None:
-                vis = self.occluders.visible_many(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2), whole=True)
-                ids = [i for i, v in zip(ids, vis) if v]
+            ids = [i for i, p in projs.items() if tracks[i].located and tracks[i].status.get(c, ("",))[0] != TRACKING
+                   and self.seen_whole(c, tracks[i].xy, p.win)]
             if not ids:
                 continue
             every = [i for i in projs if tracks[i].located]

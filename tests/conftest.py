@@ -22,3 +22,19 @@ settings.register_profile("ci", max_examples=100, deadline=None, derandomize=Tru
                           suppress_health_check=_QUIET)
 settings.register_profile("slow", max_examples=1000, deadline=None, print_blob=True, suppress_health_check=_QUIET)
 settings.load_profile(HYPOTHESIS_PROFILE)
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def occlusion_lab_6s(tmp_path_factory) -> str:
+    """Folder of an analytic occlusion_lab recording, seed 3, 6 s, written once for the session
+    (scripts' tests that read a recording from disk)."""
+    from trackroom.dataset import write_recording
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
+
+    out = tmp_path_factory.mktemp("occlusion_lab_6s") / "rec"
+    write_recording(simulate(load_scene("occlusion_lab"), 3, 6.0, "analytic"), out)
+    return str(out)

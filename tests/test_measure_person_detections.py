@@ -1,21 +1,16 @@
 """scripts/measure_person_detections.py: the person detector's rates and column error, measured
-against the truth on a short analytic occlusion_lab recording."""
+against the truth on a short analytic occlusion_lab recording (``occlusion_lab_6s``, conftest)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from scripts import measure_person_detections as mpd
-from trackroom.dataset import write_recording
-from trackroom.scenes.loader import load_scene
-from trackroom.sim.simulate import simulate
 
 
 @pytest.fixture(scope="module")
-def rec_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("persons") / "rec"
-    write_recording(simulate(load_scene("occlusion_lab"), 3, 4.0, "analytic"), out)
-    return str(out)
+def rec_dir(occlusion_lab_6s):
+    return occlusion_lab_6s
 
 
 def test_people_seen_whole_are_detected_near_their_axis(rec_dir):

@@ -4,17 +4,12 @@ from __future__ import annotations
 import pytest
 
 from scripts import trace_tp_track as tt
-from trackroom.dataset import write_recording
 from trackroom.estimators import tp_joint
-from trackroom.scenes.loader import load_scene
-from trackroom.sim.simulate import simulate
 
 
 @pytest.fixture(scope="module")
-def rec_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("trace") / "rec"
-    write_recording(simulate(load_scene("occlusion_lab"), 3, 6.0, "analytic"), out)
-    return str(out)
+def rec_dir(occlusion_lab_6s):
+    return occlusion_lab_6s
 
 
 def test_a_trace_has_every_frame_in_range_and_puts_the_tracker_back(rec_dir):
