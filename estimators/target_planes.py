@@ -408,8 +408,10 @@ class TargetPlanes(Estimator):
             free = jt.step(st.tracks, frame, dt, target if probe else None, force)
             st.cost += jt.frame_cost
             st.branch = jt.branch
-            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room)
-            taken = jt.locate(target, proposals, frame, accept) if target is not None and not target.located else set()
+            locating = target is not None and not target.located
+            prefer = (lambda xy: float(np.linalg.norm(np.asarray(xy, float) - target.xy)) if accept(xy) else None) if locating else None
+            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room, prefer)
+            taken = jt.locate(target, proposals, frame, accept) if locating else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in st.tracks if tr.located):
                     continue  # a tracked person (its far side, a fragment): not someone new

@@ -6,7 +6,10 @@ point (eq. 6) is a candidate; it is kept only if it lies inside both windows' si
 areas (section 3.2: depth from the top/bottom rows, width from the edges) and on the floor. Each
 further camera with an unclaimed window that also contains the point (centroid within the
 position tolerance of the projected person model, and the point in its target area) supports it.
-Candidates are taken greedily, most support first, each window used once.
+Candidates are taken greedily, most support first, each window used once. While the hand-chosen
+target is not yet located, the crossings its locating test accepts go first, nearest its click
+first (``prefer``): which of two crossings sharing a window survives must not turn on their
+coordinates when one of them is the person the user clicked.
 """
 from __future__ import annotations
 
@@ -18,11 +21,14 @@ from . import tp_geometry as geo
 from .tp_frames import CameraBoxes
 
 
-def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room) -> list[tuple[np.ndarray, dict[str, int]]]:
+def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room,
+            prefer=None) -> list[tuple[np.ndarray, dict[str, int]]]:
     """New target positions and the windows (camera -> box index) that support them.
 
     ``margin_px``: the target areas' allowance for window noise (px); ``free``: per camera, the indices of boxes no target claims; ``inside_room``: callable
-    telling whether floor points (k, 2) are inside the room.
+    telling whether floor points (k, 2) are inside the room; ``prefer``: None, or a callable
+    giving a crossing (xy) a distance when it may be the hand-chosen target and None otherwise:
+    those crossings are taken first, the nearest first.
     """
     min_angle = np.radians(cfg.min_plane_angle_deg)
     planes, areas = {}, {}
@@ -58,7 +64,11 @@ def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, C
             if abs(frame[k[0]].u[k[1]] - 0.5 * (w[0] + w[1])) <= cfg.position_tol * wc and areas[k].contains(xy, cfg.consistency_margin):
                 support.setdefault(k[0], k[1])
         cands.append((len(support), xy, support))
-    cands.sort(key=lambda c: (-c[0], c[1][0], c[1][1]))
+    def order(c):
+        d = prefer(c[1]) if prefer is not None else None
+        return (0, d, 0.0, 0.0) if d is not None else (1, -c[0], c[1][0], c[1][1])
+
+    cands.sort(key=order)
     used: set = set()
     out = []
     for n, xy, support in cands:

@@ -13,7 +13,8 @@ import pytest
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s
+from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s, split_boxes
+from trackroom.estimators.tp_initiate import propose
 from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, UNRELIABLE, JointTrack, JointTracker
 from trackroom.recording import Observations
 from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
@@ -952,3 +953,49 @@ def test_a_detection_still_and_never_taken_is_left_to_the_person_standing_there(
         jt.step([tr], _empty([c]), 0.1)
         moved = abs(jt.project(c.name, tr).u - before)
         assert (moved > 0.5) == (wait == 0), (wait, moved)
+
+
+def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_its_window():
+    """In the first half second south sees the target only as a band of rows (a fragment: its
+    depth loose) and west sees the target whole and a fragment of someone farther off on its line
+    of sight through a point 0.6 m beyond the target on south's. Two crossings share south's
+    window, both two cameras strong and both within ``locate``'s disc about the click: the
+    target's and a ghost's. Births keep one crossing per window, and the ghost's sorts first by
+    its coordinates (``propose`` without the click); the target's, nearer the click, must locate
+    the target (head-on evaluation seed 887: the old order located a ghost 0.5 m off, and the
+    target was lost for 25 s)."""
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 3.0, 0.1), 6)
+    tgt = line_path([2.6, 2.6], [4.4, 4.4], times)  # 0.85 m/s, diagonal: across both views
+    away = (tgt - south.position[:2]) / np.linalg.norm(tgt - south.position[:2], axis=1, keepdims=True)
+    ghost = tgt + 0.6 * away
+    towards = (ghost - west.position[:2]) / np.linalg.norm(ghost - west.position[:2], axis=1, keepdims=True)
+    other = ghost + 1.2 * towards
+
+    def band(row):  # the window's middle 12 rows
+        mid = 0.5 * (row[3] + row[4])
+        return np.r_[row[:3], mid - 6.0, mid + 6.0, row[5:]]
+
+    rows = []
+    for k, t in enumerate(times):
+        lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
+        vel = (tgt[hi] - tgt[lo]) / (times[hi] - times[lo])
+        early = t < 0.5
+        s_row = window_row(south, tgt[k], vel)
+        rows += [(t, "south", 1, *(band(s_row) if early else s_row)), (t, "west", 1, *window_row(west, tgt[k], vel))]
+        if early:
+            rows.append((t, "west", 2, *band(window_row(west, other[k], vel))))
+    boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
+    click = (tgt[0] + [0.1, -0.2]).tolist()
+    cams = [south, west]
+    cfg = TargetPlanes(initial_xy=click).resolved_config(calib(cams))
+    frame = split_boxes(boxes, ["south", "west"])[0.0]
+    free = {"south": np.array([0]), "west": np.array([0, 1])}
+    Ps = {c.name: c.P for c in cams}
+    everywhere = lambda p: np.ones(len(p), bool)  # noqa: E731
+    (xy, _), = propose(cfg, 2.0, Ps, frame, free, everywhere)
+    assert np.linalg.norm(xy - ghost[0]) < 0.05  # the trap: without the click the ghost's crossing is kept
+    within = lambda p: float(np.linalg.norm(np.asarray(p) - click)) <= cfg.init_radius + 2.0 * cfg.radius  # noqa: E731
+    assert within(ghost[0]) and within(tgt[0])
+    tr = TargetPlanes(initial_xy=click).run(Observations({"boxes": boxes}, 3.0), calib(cams)).tracks
+    assert np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1]).max() < 0.05
