@@ -1,0 +1,135 @@
+"""Which tracks `target_planes` drops, and whether a person is left untracked by it.
+
+    python -m scripts.explain_tp_ends DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+
+Runs the single-target tracker as ``scripts/experiment_tsutsui.py`` does (the same click; every
+mover is a track inside it) and reads each confirmed track it dropped (``TargetPlanesResult.ends``:
+``existence``, ``duplicate``, ``unseen``, ``off floor``) against the truth, by the experimenter:
+
+- ``who``, ``dist``: the true person the dropped track was on - the nearest on average over its
+  last ``LIFE_S`` seconds (a track drawn off its person just before the end still counts as that
+  person's) - and that mean distance, m; or, when the end leaves someone untracked (below), that
+  person;
+- ``speed``: that person's speed over the half second before, m/s (a person stopping or standing
+  makes no flow window);
+- ``cover_now``, ``cover_1s``: the distance from that person to the track matched to it among the
+  others the tracker held (confirmed or not), in the frame of the end and 1 s later, m (inf: none).
+
+Each end is classed (``classify``): ``ghost`` (no one within ``NEAR_M`` of it on average: the
+test did its job), ``person untracked`` (of the people within ``BESIDE_M`` of it when it ended,
+one that a track - the dropped one or another - followed in the second before (at -1, -0.5 or 0 s)
+is matched to none of
+the other tracks a second after: people and tracks one to one, each pair within ``ON_M``; a real
+person lost its track for a second or more, and when two tracks were drawn onto one person and
+one of them was dropped, the person the pair left is that one; people no track ever followed,
+such as those standing still all along, do not count), or ``second track`` (every one of them
+stays tracked). The summary counts them by reason; the untracked ones are listed with
+where they happened.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+
+from scripts.experiment_tsutsui import recordings_and_params, run_target
+from trackroom.dataset import read_recording
+
+NEAR_M = 0.7  # a dropped track this near a person (on average) was on that person
+BESIDE_M = 1.5  # the people this near its end are the ones it may leave untracked
+ON_M = 0.5  # another track this near a person (matched one to one) still follows it
+LATER_S = 1.0  # ... this long after the end
+BEFORE_S = 1.0  # a person some track (the dropped one too) followed this long before the end was tracked
+SPEED_S = 0.5  # the person's speed over this span before the end
+LIFE_S = 2.0  # the person a track followed: the nearest on average over this span before its end
+
+
+def _at(table: pd.DataFrame, t: float, key: str) -> pd.DataFrame:
+    """Rows of ``table`` in the frame nearest t (within half a 10 Hz frame), one per ``key``."""
+    rows = table[np.abs(table["t"].to_numpy(float) - t) < 0.05 + 1e-9]
+    return rows.groupby(key)[["x", "y"]].mean()
+
+
+def classify(dist: float, untracked: bool) -> str:
+    """The class of one dropped track (the module's docstring): ``dist`` its mean distance from
+    the person it was on, ``untracked`` whether someone beside it was left without a track."""
+    if not dist <= NEAR_M:
+        return "ghost"
+    return "person untracked" if untracked else "second track"
+
+
+def matched_cover(people_xy: pd.DataFrame, tracks_xy: pd.DataFrame) -> dict[str, float]:
+    """Each person's distance to the track matched to it, people and tracks one to one (least
+    total distance), a pair only within ``ON_M``; inf for a person matched to none."""
+    out = {str(w): np.inf for w in people_xy.index}
+    if not len(people_xy) or not len(tracks_xy):
+        return out
+    D = np.hypot(people_xy["x"].to_numpy()[:, None] - tracks_xy["x"].to_numpy()[None],
+                 people_xy["y"].to_numpy()[:, None] - tracks_xy["y"].to_numpy()[None])
+    r, c = linear_sum_assignment(np.where(D <= ON_M, D, 1e6))
+    for i, j in zip(r, c):
+        if D[i, j] <= ON_M:
+            out[str(people_xy.index[i])] = float(D[i, j])
+    return out
+
+
+def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.DataFrame) -> list[dict]:
+    """One row per dropped track: ``people`` the truth (t, person_id, x, y), ``internal`` every
+    track the tracker held (t, track_id, x, y), ``ends`` its dropped tracks (t, track_id, x, y,
+    reason, other)."""
+    rows = []
+    for e in ends.itertuples():
+        now = _at(people, e.t, "person_id")
+        if not len(now):
+            continue
+        mine = internal[(internal["track_id"] == e.track_id) & (internal["t"] >= e.t - LIFE_S - 1e-9) & (internal["t"] <= e.t + 1e-9)]
+        d = pd.concat([np.hypot(p["x"] - r.x, p["y"] - r.y) for r in mine.itertuples()
+                       if len(p := _at(people, r.t, "person_id"))] or [np.hypot(now["x"] - e.x, now["y"] - e.y)], axis=1).mean(axis=1)
+        beside = now.index[np.hypot(now["x"] - e.x, now["y"] - e.y) <= BESIDE_M].union([d.idxmin()])
+        others = internal[internal["track_id"] != e.track_id]
+        def cover(dt: float, tracks: pd.DataFrame) -> dict[str, float]:
+            p = _at(people, e.t + dt, "person_id")
+            return matched_cover(p.loc[p.index.intersection(beside)], _at(tracks, e.t + dt, "track_id"))
+
+        # tracked in the second before the end (by any track, the dropped one too: at any of three
+        # frames), and by none of the others a second after
+        before = [cover(-dt, internal) for dt in (BEFORE_S, 0.5 * BEFORE_S, 0.0)]
+        covers = [cover(0.0, others), cover(LATER_S, others)]
+        left = [str(w) for w in beside if any(np.isfinite(b.get(str(w), np.inf)) for b in before) and np.isinf(covers[1].get(str(w), np.inf))]
+        who = min(left, key=lambda w: float(d[w])) if left else str(d.idxmin())
+        earlier = _at(people, e.t - SPEED_S, "person_id")
+        speed = float(np.hypot(*(now.loc[who] - earlier.loc[who]))) / SPEED_S if who in earlier.index else float("nan")
+        c0, c1 = covers[0].get(who, np.inf), covers[1].get(who, np.inf)
+        rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "x": round(float(e.x), 2),
+                     "y": round(float(e.y), 2), "who": who, "dist": round(float(d[who]), 2), "speed": round(speed, 2),
+                     "cover_now": round(c0, 2), "cover_1s": round(c1, 2), "class": classify(float(d.min()), bool(left))})
+    return rows
+
+
+def main(argv=None) -> int:
+    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write the dropped tracks here")
+    rows = []
+    for d in dirs:
+        rec = read_recording(d)
+        res = run_target(rec, params)
+        for r in ends_against_truth(rec.truth.people, res.internal, res.ends):
+            rows.append({"recording": d, "seed": rec.seed, **r})
+    df = pd.DataFrame(rows)
+    if csv:
+        df.to_csv(csv, index=False)
+    if not len(df):
+        print(f"{len(dirs)} recordings: no confirmed track dropped")
+        return 0
+    print(f"{len(dirs)} recordings, {len(df)} confirmed tracks dropped:")
+    print(df.groupby(["reason", "class"]).size().unstack(fill_value=0).to_string())
+    lost = df[df["class"] == "person untracked"]
+    if len(lost):
+        print(f"\na person left untracked ({len(lost)}):")
+        for r in lost.itertuples():
+            print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({r.reason}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
+                  f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
