@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -409,7 +410,7 @@ class TargetPlanes(Estimator):
             st.cost += jt.frame_cost
             st.branch = jt.branch
             locating = target is not None and not target.located
-            prefer = (lambda xy: float(np.linalg.norm(np.asarray(xy, float) - target.xy)) if accept(xy) else None) if locating else None
+            prefer = functools.partial(jt.locate_distance, target, accept) if locating else None
             proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room, prefer)
             taken = jt.locate(target, proposals, frame, accept) if locating else set()
             for k, (xy, support) in enumerate(proposals):

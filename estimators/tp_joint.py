@@ -1108,15 +1108,25 @@ class JointTracker:
         tr = JointTrack(tid, np.r_[xy, V[:2]], S, hits=1, seen=True, n_used=len(support))
         return tr
 
+    @staticmethod
+    def locate_distance(tr: JointTrack, accept, xy) -> float | None:
+        """How far a crossing ``xy`` lies from the hand-chosen target's click (``tr`` not yet
+        located: it is held there), m, when ``accept`` (xy -> bool) takes it as the target; None
+        otherwise. ``locate`` takes the nearest; ``tp_initiate.propose`` (``prefer``) puts those
+        crossings first in the births' greedy pass, so that a crossing sharing a window with the
+        target's own does not take it."""
+        return float(np.linalg.norm(np.asarray(xy, float) - tr.xy)) if accept(xy) else None
+
     def locate(self, tr: JointTrack, proposals: list, frame: dict[str, CameraBoxes], accept) -> set[int]:
         """The hand-chosen target before it is located: the two-camera crossing
-        (``tp_initiate.propose``) nearest the click that ``accept`` (xy -> bool) takes becomes its
-        state, as a birth would (a click is a few tenths of a metre off; a single window near it
-        may be someone else or a fragment). Returns the proposals used."""
+        (``tp_initiate.propose``) nearest the click that ``accept`` (xy -> bool) takes
+        (``locate_distance``) becomes its state, as a birth would (a click is a few tenths of a
+        metre off; a single window near it may be someone else or a fragment). Returns the
+        proposals used."""
         best, dbest = None, np.inf
         for k, (xy, _) in enumerate(proposals):
-            m = float(np.linalg.norm(np.asarray(xy, float) - tr.xy))
-            if accept(xy) and m < dbest:
+            m = self.locate_distance(tr, accept, xy)
+            if m is not None and m < dbest:
                 best, dbest = k, m
         if best is None:
             return set()

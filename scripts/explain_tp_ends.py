@@ -32,22 +32,26 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
-from scripts.experiment_tsutsui import recordings_and_params, run_target
+from scripts.experiment_tsutsui import distances_at, people_at, recordings_and_params, run_target
+from scripts.explain_tp_losses import NEAR_M as BESIDE_M  # the people this near its end are the ones it may leave untracked
+from scripts.explain_tp_losses import ON_M  # another track this near a person (matched one to one) still follows it
 from trackroom.dataset import read_recording
 
 NEAR_M = 0.7  # a dropped track this near a person (on average) was on that person
-BESIDE_M = 1.5  # the people this near its end are the ones it may leave untracked
-ON_M = 0.5  # another track this near a person (matched one to one) still follows it
 LATER_S = 1.0  # ... this long after the end
 BEFORE_S = 1.0  # a person some track (the dropped one too) followed this long before the end was tracked
 SPEED_S = 0.5  # the person's speed over this span before the end
 LIFE_S = 2.0  # the person a track followed: the nearest on average over this span before its end
 
 
-def _at(table: pd.DataFrame, t: float, key: str) -> pd.DataFrame:
-    """Rows of ``table`` in the frame nearest t (within half a 10 Hz frame), one per ``key``."""
-    rows = table[np.abs(table["t"].to_numpy(float) - t) < 0.05 + 1e-9]
-    return rows.groupby(key)[["x", "y"]].mean()
+def _people(ppl: pd.DataFrame, t: float) -> pd.DataFrame:
+    """The true people's x, y at t (``people_at``: the nearest simulation step), indexed by person_id."""
+    return people_at(ppl, np.array([t])).set_index("person_id")[["x", "y"]]
+
+
+def _tracks(internal: pd.DataFrame, t: float) -> pd.DataFrame:
+    """The tracks' x, y in the frame nearest t (within half a 10 Hz frame), indexed by track_id."""
+    return internal[np.abs(internal["t"].to_numpy(float) - t) < 0.05 + 1e-9].groupby("track_id")[["x", "y"]].mean()
 
 
 def classify(dist: float, untracked: bool) -> str:
@@ -79,17 +83,20 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
     reason, other)."""
     rows = []
     for e in ends.itertuples():
-        now = _at(people, e.t, "person_id")
+        now = _people(people, e.t)
         if not len(now):
             continue
         mine = internal[(internal["track_id"] == e.track_id) & (internal["t"] >= e.t - LIFE_S - 1e-9) & (internal["t"] <= e.t + 1e-9)]
-        d = pd.concat([np.hypot(p["x"] - r.x, p["y"] - r.y) for r in mine.itertuples()
-                       if len(p := _at(people, r.t, "person_id"))] or [np.hypot(now["x"] - e.x, now["y"] - e.y)], axis=1).mean(axis=1)
+        if not len(mine):
+            mine = pd.DataFrame({"t": [e.t], "x": [e.x], "y": [e.y]})
+        names, D = distances_at(people, mine["t"], mine[["x", "y"]])
+        d = pd.Series(D.mean(axis=0), index=names)
         beside = now.index[np.hypot(now["x"] - e.x, now["y"] - e.y) <= BESIDE_M].union([d.idxmin()])
         others = internal[internal["track_id"] != e.track_id]
+
         def cover(dt: float, tracks: pd.DataFrame) -> dict[str, float]:
-            p = _at(people, e.t + dt, "person_id")
-            return matched_cover(p.loc[p.index.intersection(beside)], _at(tracks, e.t + dt, "track_id"))
+            p = _people(people, e.t + dt)
+            return matched_cover(p.loc[p.index.intersection(beside)], _tracks(tracks, e.t + dt))
 
         # tracked in the second before the end (by any track, the dropped one too: at any of three
         # frames), and by none of the others a second after
@@ -97,7 +104,7 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
         covers = [cover(0.0, others), cover(LATER_S, others)]
         left = [str(w) for w in beside if any(np.isfinite(b.get(str(w), np.inf)) for b in before) and np.isinf(covers[1].get(str(w), np.inf))]
         who = min(left, key=lambda w: float(d[w])) if left else str(d.idxmin())
-        earlier = _at(people, e.t - SPEED_S, "person_id")
+        earlier = _people(people, e.t - SPEED_S)
         speed = float(np.hypot(*(now.loc[who] - earlier.loc[who]))) / SPEED_S if who in earlier.index else float("nan")
         c0, c1 = covers[0].get(who, np.inf), covers[1].get(who, np.inf)
         rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "x": round(float(e.x), 2),
