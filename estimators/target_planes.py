@@ -206,6 +206,12 @@ class TargetPlanes(Estimator):
                                          "walker: 1.14 % wider than 1.33 times the person, 0.34 % than 1.5, 0.09 % than "
                                          "1.75; scripts/measure_flow_errors.py --widths: 0.029 and 0.34)")
         width_tail_sigma: float = param(0.34, "spread of a gross width error, as a share of the predicted width (width_tail)")
+        width_depth: bool = param(True, "a window of one track whose person is seen whole (in the image, clear of the "
+                                        "floor plan's boxes, overlapping no other track) measures depth by its width "
+                                        "(JointTracker.update_width): the image width of the body's cylindrical part at "
+                                        "the track against the window's, noise and gate those of the explanation's width "
+                                        "term and of a plane; no value of its own (docs/target_planes.md, twenty-eighth "
+                                        "session: RMSE lower on every development set)")
         merged_evidence: bool = param(True, "a merged window is evidence for or against each member's existence: its "
                                             "likelihood with the member against without it (else it counts nothing)")
         detection_planes: bool = param(False, "each camera's person detections (the bearings table's columns; colour labels "

@@ -864,6 +864,32 @@ class JointTracker:
         calibrated flow noise and ``flow_model_sigma``."""
         return self.flow_sigma[c] ** 2 + self.cfg.flow_model_sigma**2
 
+    def body_width(self, c: str, xy: np.ndarray) -> np.ndarray:
+        """Image width (px) of the person's body at floor points xy (..., 2): the cylindrical part
+        of a capsule-shaped person (rims at ``radius`` and ``height`` - ``radius``), which a window
+        of a person seen whole spans (the rims at the floor and at ``height`` of the cylinder
+        model overstate it near a camera)."""
+        cfg = self.cfg
+        pts = geo.cylinder_points(xy, cfg.height - 2.0 * cfg.radius, cfg.radius)
+        pts[..., 2] += cfg.radius
+        uv, _ = geo.project(self.Ps[c], pts)
+        return uv[..., 0].max(-1) - uv[..., 0].min(-1)
+
+    def update_width(self, tr: JointTrack, c: str, width: float, p: Projection) -> None:
+        """A window of the track alone, its person seen whole (``width_depth``): its width as a
+        measurement of depth (a person's image is wider the nearer the camera), linearised at
+        the prediction (central differences, 1 cm); noise as the explanation's width term,
+        hypot(2 box_sigma, ``edge_sigma_frac`` w); beyond the plane gate (a gross width error)
+        not used."""
+        xy = tr.s[:2].copy()
+        h = 0.01
+        w = self.body_width(c, xy + np.array([[0.0, 0.0], [h, 0.0], [-h, 0.0], [0.0, h], [0.0, -h]]))
+        if not np.isfinite(w).all():
+            return
+        w0, g = float(w[0]), np.array([w[1] - w[2], w[3] - w[4]]) / (2.0 * h)
+        sw = float(np.hypot(2.0 * self.box_sigma, self.cfg.edge_sigma_frac * w0))
+        kf_update(tr, np.r_[g, 0.0, 0.0], np.array([width - w0 + g @ xy]), np.array([[sw**2]]), gate=PLANE_OUTLIER)
+
     def update_depth(self, tr: JointTrack, c: str, boxes: CameraBoxes, j: int) -> None:
         """Section 3.2's depth range as an interval: pulls the track in only from outside it."""
         cfg = self.cfg
@@ -991,6 +1017,9 @@ class JointTracker:
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
                         else:
                             self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
+                            if cfg.width_depth and self.seen_whole(c, tr.xy, p.win) and not any(
+                                    k != i and q.win[0] <= p.win[1] and p.win[0] <= q.win[1] for k, q in projs.items()):
+                                self.update_width(tr, c, float(boxes.width[j]), p)
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
                         used[i] += 1

@@ -999,3 +999,47 @@ def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_i
     assert within(ghost[0]) and within(tgt[0])
     tr = TargetPlanes(initial_xy=click).run(Observations({"boxes": boxes}, 3.0), calib(cams)).tracks
     assert np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1]).max() < 0.05
+
+
+def _body_width(c, xy):
+    """Image width (px) of the body's cylindrical part (rims at R and H - R) at floor point xy."""
+    pts = geo.cylinder_points(np.asarray(xy, float), H - 2.0 * R, R)
+    pts[..., 2] += R
+    uv, _ = geo.project(c.P, pts)
+    return float(uv[..., 0].max() - uv[..., 0].min())
+
+
+def test_a_windows_width_measures_depth_along_the_line_of_sight():
+    """``width_depth``: a track 0.6 m too far along south's line of sight has the right column
+    (its target plane holds both), so only the window's width says where it is: the body's image
+    is wider the nearer the camera. The width update moves the track towards the person along
+    the line of sight and not across it; a window twice as wide (someone else joined to it) is
+    beyond the gate and moves nothing; in a frame's update (with the depth bound of the window's rows)
+    the track ends nearer the person with it than without it."""
+    south, _ = right_angle_pair()
+    truth, off = np.array([3.0, -1.0]), np.array([3.0, -0.4])
+    w_true = _body_width(south, truth)
+    assert w_true - _body_width(south, off) > 5.0  # 0.6 m nearer: several pixels wider
+
+    def track():
+        return JointTrack(0, np.r_[off, 0.0, 0.0], np.diag([0.3**2, 0.3**2, 0.1**2, 0.1**2]), confirmed=True, seen=True, exist=EXIST_ACCEPT)
+
+    _, jt = _tracker([south], width_depth=True)
+    tr = track()
+    jt.update_width(tr, "south", w_true, jt.project("south", tr))
+    assert abs(tr.s[1] - truth[1]) < 0.3 and abs(tr.s[0] - truth[0]) < 0.02
+    tr = track()
+    jt.update_width(tr, "south", 2.0 * w_true, jt.project("south", tr))
+    np.testing.assert_allclose(tr.s[:2], off)  # a gross width error: not used
+
+    r = window_row(south, truth, (0.0, 0.0))
+    cols = [r[0] - 0.5 * w_true, r[0] + 0.5 * w_true]
+    frame = {"south": CameraBoxes(np.array([1], object), np.array([r[0]]), np.array([[cols[0], cols[1], r[3], r[4]]]), np.zeros((1, 2)))}
+    err = {}
+    for on in (True, False):
+        _, jt = _tracker([south], width_depth=on)
+        tr = track()
+        jt.step([tr], frame, 0.0)
+        assert tr.status["south"][0] == TRACKING
+        err[on] = float(np.linalg.norm(tr.s[:2] - truth))
+    assert err[True] < 0.7 * err[False], err
