@@ -704,7 +704,7 @@ class JointTracker:
         win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
         if u_det is None or not self.seen_whole(c, xy, win):
             return 0.0
-        if any(k != i and q.win[0] <= win[1] and win[0] <= q.win[1] for k, q in projs.items()):
+        if self.overlapped(i, win, projs):
             return 0.0
         X = np.array([xy[0], xy[1], self.hc])
         (u, _), _ = geo.project(P, X)
@@ -724,6 +724,12 @@ class JointTracker:
         if not hit:
             p1, p0 = 1.0 - p1, 1.0 - p0
         return float(np.log(max(p1, 1e-12)) - np.log(max(p0, 1e-12)))
+
+    @staticmethod
+    def overlapped(i: int, win: np.ndarray, projs: dict[int, Projection]) -> bool:
+        """Whether the columns of window ``win`` (track i's projection) overlap another track's
+        projected window in ``projs`` (index -> Projection): hidden by it, or merged with it."""
+        return any(k != i and q.win[0] <= win[1] and win[0] <= q.win[1] for k, q in projs.items())
 
     def seen_whole(self, c: str, xy: np.ndarray, win: np.ndarray) -> bool:
         """Whether camera c sees a person at floor point xy whole, as a person detector needs: the
@@ -982,7 +988,7 @@ class JointTracker:
                 j, n = holder.get(i, (None, 0))
                 # its projected cylinder overlaps another track's: hidden by it, or merged with it
                 # into a window the explanation may have given to the other alone
-                hidden = n == 0 and any(k != i and q.win[0] <= p.win[1] and p.win[0] <= q.win[1] for k, q in projs.items())
+                hidden = n == 0 and self.overlapped(i, p.win, projs)
                 lr = merged_lr = None
                 if n > 1 and cfg.merged_evidence:
                     # a merged window: explained with this member against without it
@@ -1017,8 +1023,7 @@ class JointTracker:
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
                         else:
                             self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
-                            if cfg.width_depth and self.seen_whole(c, tr.xy, p.win) and not any(
-                                    k != i and q.win[0] <= p.win[1] and p.win[0] <= q.win[1] for k, q in projs.items()):
+                            if cfg.width_depth and self.seen_whole(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs):
                                 self.update_width(tr, c, float(boxes.width[j]), p)
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
