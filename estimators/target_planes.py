@@ -244,6 +244,12 @@ class TargetPlanes(Estimator):
                                                      "from everyone: rendered 0.972, analytic 0.961)")
         flow_model_sigma: float = param(3.0, "flow error beyond the calibrated noise (a region's mean flow vs its "
                                              "centre's motion), px/s")
+        fragment_flow_sigma: float = param(28.0, "horizontal flow error of a window narrower than half its one "
+                                                 "person's projection (a fragment of the flow region), added in the "
+                                                 "joint explanation's flow term only, px/s (rendered development "
+                                                 "100-119, flow over 5 frames, windows of one walker: rms 29-30 px/s "
+                                                 "under half the person's width against 11.5 whole, sqrt(30^2 - 11.5^2); "
+                                                 "the vertical error does not grow); 0: off")
         area_margin: float = param(0.05, "allowance on target areas, m")
         window_margin_px: float = param(1.0, "allowance on windows, px (plus 3 sigma of the calibrated window noise)")
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "

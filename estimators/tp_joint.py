@@ -17,7 +17,9 @@ Per frame:
    at an image border that its track is predicted across is compared with the projection clipped
    to the image, ``border_side``; a window wider than predicted may be a gross error of one
    edge, probability ``width_tail``, measured on the rendered windows, which moves the centre by
-   half the excess: the centre and width terms are then that mixture's) and, with
+   half the excess: the centre and width terms are then that mixture's; a window narrower than
+   half its one track's projection, a fragment of the flow region, has ``fragment_flow_sigma``
+   added to its horizontal flow noise, ``fragment_var``) and, with
    ``fit_normalised`` (the default), the Gaussian's
    normalisation against a perfectly located track's (``explain_terms``), plus
    ``c_clutter`` per clutter window and ``c_miss`` per moving track without a window (0 for a
@@ -453,6 +455,8 @@ class JointTracker:
             sw = 0.5 * w_narrow  # one person partly hidden (an obstacle, the image border) or a fragment
         df = boxes.flow[j] - f_pred
         Sf = var_f + self.flow_var(c) * np.eye(2)
+        if len(projs) == 1 and not side:
+            Sf[0, 0] += self.fragment_var(projs[0], float(boxes.width[j]))
         d2f = min(float(df @ np.linalg.solve(Sf, df)), FLOW_CAP)
         norm = 0.0
         if cfg.fit_normalised:
@@ -905,6 +909,16 @@ class JointTracker:
             return  # inside, or no bound (a window whose top or bottom row meets no floor or head plane)
         bound = area.s_min if s < area.s_min else area.s_max
         kf_update(tr, np.r_[area.direction, 0.0, 0.0], np.array([bound + float(area.direction @ area.origin)]), np.array([[cfg.radius**2]]), gate=PLANE_OUTLIER)
+
+    def fragment_var(self, p: Projection, width: float) -> float:
+        """Extra variance (px^2/s^2) of the horizontal flow of a window ``width`` px wide explained
+        as the one person ``p``, in the explanation: ``fragment_flow_sigma``^2 when narrower than
+        half the person's projection (a limb, a sliver stuck on the background, the part out of
+        an obstacle's shadow: the rendered fragments' region-mean flow is off by about the
+        image speed), else 0. Such a window's flow then says little about whose it is; the flow
+        update (``update_flow``) keeps the calibrated noise and its gate, which leaves a grossly
+        wrong fragment flow out rather than taking it with a wide noise."""
+        return self.cfg.fragment_flow_sigma**2 if width < 0.5 * p.width else 0.0
 
     def flow_map(self, J: np.ndarray) -> np.ndarray:
         """Floor velocity -> the window's flow (2, 2): eq. 7's J (at the body centre) times the

@@ -1041,3 +1041,31 @@ def test_a_windows_width_measures_depth_along_the_line_of_sight():
         assert tr.status["south"][0] == TRACKING
         err[on] = float(np.linalg.norm(tr.s[:2] - truth))
     assert err[True] < 0.7 * err[False], err
+
+
+def test_a_fragments_flow_hardly_tells_whose_it_is():
+    """``fragment_flow_sigma``: a window a third as wide as the person (a fragment of the flow
+    region: a limb, a sliver stuck on the background) whose flow is none, against the walking
+    track's predicted 60 px/s, costs the track less with the measured fragment noise than
+    without it (its flow says little about whose it is); a window of the person's whole width
+    costs the same either way, and a fragment's flow update is the same either way (the
+    calibrated noise and its gate)."""
+    south, _ = right_angle_pair()
+    xy, vel = np.array([3.0, 1.0]), np.array([1.0, 0.0])
+    r = window_row(south, xy, vel)
+    w = r[2] - r[1]
+    assert r[5] > 50.0
+
+    def fit(width_share: float, sigma: float, step: bool = False):
+        _, jt = _tracker([south], fragment_flow_sigma=sigma)
+        tr = JointTrack(0, np.r_[xy, vel], np.diag([0.05**2, 0.05**2, 0.2**2, 0.2**2]), confirmed=True, seen=True, exist=EXIST_ACCEPT)
+        half = 0.5 * width_share * w
+        boxes = CameraBoxes(np.array([1], object), np.array([r[0]]), np.array([[r[0] - half, r[0] + half, r[3], r[4]]]), np.array([[0.0, r[6]]]))
+        if step:
+            jt.step([tr], {"south": boxes}, 0.0)
+            return tr.s
+        return jt.explain_cost("south", [jt.project("south", tr)], boxes, 0)
+
+    assert fit(1 / 3, 0.0) - fit(1 / 3, 28.0) > 1.5  # 6.7 -> 4.8: the flow term no longer at its cap
+    assert fit(1.0, 28.0) == fit(1.0, 0.0)
+    np.testing.assert_allclose(fit(1 / 3, 28.0, step=True), fit(1 / 3, 0.0, step=True))
