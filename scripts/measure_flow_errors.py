@@ -1,6 +1,6 @@
 """Flow windows' region flow against the true image velocity, by image speed.
 
-    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths]   # occlusion_lab recordings, either mode
+    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths] [--fragments]   # occlusion_lab recordings, either mode
 
 For every window of the ``boxes`` table that holds exactly one walking mover (the scene's target
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
@@ -27,6 +27,15 @@ horizontal flow error is about as large as the image speed itself (below half th
 quantile 30-60 px/s against 4 px/s for whole windows), its vertical flow error does not grow;
 the analytic windows model draws fragments moving with their person's flow, so its errors do not
 depend on the share (docs/target_planes.md, "Five single changes measured").
+
+Fragments (``--fragments``; issue 12's twenty-ninth session): ``--by-share`` needs a window to
+cover 30 % of its person's width, so it counts no window narrower than that. With
+``--fragments`` a window holds a person once it covers 30 % of the narrower of the two (window and
+person), and the table by share starts at 0 in finer bins, with each bin's rms horizontal flow
+error and the share of errors over 25 px/s: ``target_planes``' ``fragment_flow_sigma`` is
+sqrt(rms(share < 0.5)^2 - rms(0.85-1.15)^2). Rendered development 100-119, flow over 5 frames:
+rms 30.5 / 29.2 / 30.0 px/s at shares 0-0.15 / 0.15-0.3 / 0.3-0.5, 16.6 at 0.5-0.7, 11.5 at
+0.85-1.15 (28 px/s).
 
 How often a window is much wider than its one person (``--widths``; issue 12's twenty-second
 session): the share of windows wider than 1.2 ... 2 times the person's projected width, and the
@@ -66,7 +75,7 @@ SPEED_BINS = (5, 10, 20, 30, 40, 60, 80, 1000)  # px/s
 MAX_LAG = 30  # frames
 
 
-def errors(d, flow_window: int = 1) -> pd.DataFrame:
+def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
     rec = read_recording(d)
     people = rec.truth.people
     Ps = {c: np.asarray(cam.P, float) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
@@ -82,7 +91,10 @@ def errors(d, flow_window: int = 1) -> pd.DataFrame:
             continue
         spans = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS)[:2] for x, y in zip(g.x, g.y)])
         overlap = np.clip(np.minimum(spans[:, 1], b.u_right) - np.maximum(spans[:, 0], b.u_left), 0.0, None)
-        holds = overlap > 0.3 * np.maximum(spans[:, 1] - spans[:, 0], 1.0)
+        covered = np.maximum(spans[:, 1] - spans[:, 0], 1.0)
+        if fragments:  # a narrow window holds a person it lies on, however small a part of the person
+            covered = np.minimum(covered, max(float(b.u_right - b.u_left), 1.0))
+        holds = overlap > 0.3 * covered
         if holds.sum() != 1:
             continue
         k = int(np.argmax(holds))
@@ -142,22 +154,25 @@ def table(df: pd.DataFrame) -> pd.DataFrame:
 
 
 SHARE_BINS = (0.0, 0.3, 0.5, 0.7, 0.85, 1.15, 1.5, 10.0)  # window width / the person's projected width
+FRAGMENT_BINS = (0.0, 0.15, 0.3, 0.5, 0.7, 0.85, 1.15, 1.5, 10.0)  # the same, with --fragments
+BIG_ERROR = 25.0  # px/s: a flow error this large is about the image speed of a walker at 3-4 m
 
 
-def share_table(df: pd.DataFrame) -> pd.DataFrame:
+def share_table(df: pd.DataFrame, bins=SHARE_BINS) -> pd.DataFrame:
     """The flow error in image axes (``e_u``, ``e_v``, px/s) per bin of the window's share of its
     person's projected width, windows of people cut by the image border left out: count, robust
     standard deviation, 90 % quantile of the size, and the 90 % quantile of |e_u| relative to the
     true image speed."""
     g0 = df[~df["border"].astype(bool)]
     out = []
-    for lo, hi in zip(SHARE_BINS[:-1], SHARE_BINS[1:]):
+    for lo, hi in zip(bins[:-1], bins[1:]):
         g = g0[(g0.share > lo) & (g0.share <= hi)]
         if not len(g):
             continue
         out.append({"share": f"{lo:g}-{hi:g}", "n": len(g), "flow_u rsd": rsd(g.e_u), "flow_u q90": g.e_u.abs().quantile(0.9),
                     "flow_v rsd": rsd(g.e_v), "flow_v q90": g.e_v.abs().quantile(0.9),
-                    "flow_u q90 / speed": (g.e_u.abs() / g.speed).quantile(0.9)})
+                    "flow_u q90 / speed": (g.e_u.abs() / g.speed).quantile(0.9),
+                    "flow_u rms": float(np.sqrt((g.e_u**2).mean())), f"|e| > {BIG_ERROR:g}": float((np.hypot(g.e_u, g.e_v) > BIG_ERROR).mean())})
     return pd.DataFrame(out)
 
 
@@ -233,16 +248,18 @@ def main(argv=None) -> int:
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--flow-window", type=int, default=1, metavar="N", help="average each window's flow over N frames of its track first")
     ap.add_argument("--by-share", action="store_true", help="also the flow error by the window's share of its person's width")
+    ap.add_argument("--fragments", action="store_true", help="count windows narrower than 30 %% of their person too (by share, finer bins)")
     ap.add_argument("--widths", action="store_true", help="also how often a window is much wider than its person, and the fit of target_planes' width_tail")
     a = ap.parse_args(argv)
-    df = pd.concat([errors(d, a.flow_window) for d in a.recordings], ignore_index=True)
+    df = pd.concat([errors(d, a.flow_window, a.fragments) for d in a.recordings], ignore_index=True)
     fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
     print(f"{len(df)} windows holding one walking mover; flow error (px/s, flow averaged over {a.flow_window} frame(s)) by true image speed:")
     print(table(df).round(2).to_string(index=False))
     print(f"gain (median of the flow along the motion over the true image speed, 10-120 px/s; target_planes flow_gain): {gain(df):.3f}")
-    if a.by_share:
-        print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out):")
-        print(share_table(df).round(2).to_string(index=False))
+    if a.by_share or a.fragments:
+        print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out"
+              + ("; windows covering 30 % of the narrower of window and person" if a.fragments else "") + "):")
+        print(share_table(df, FRAGMENT_BINS if a.fragments else SHARE_BINS).round(2).to_string(index=False))
     if a.widths:
         sh = df.loc[~df.border, "share"]
         print(f"window width over its person's projected width ({len(sh)} windows, people cut by the image border left out): "

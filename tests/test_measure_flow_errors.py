@@ -5,7 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import autocorrelation, corr_time, gain, persistent_fit, share_table, short_runs, width_tail
+from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, corr_time, errors, gain, persistent_fit, share_table, short_runs,
+                                         width_tail)
 
 
 def _table(values: np.ndarray, speed: float = 50.0) -> pd.DataFrame:
@@ -102,3 +103,36 @@ def test_width_tail_recovers_the_gross_width_errors_of_synthetic_windows():
     assert abs(e - 0.03) < 0.006 and abs(sigma - 0.34) < 0.04
     e0, s0 = width_tail(pd.Series(1.0 + 0.05 * rng.standard_normal(n)))
     assert np.isnan(e0) and np.isnan(s0)
+
+
+def test_fragments_are_counted_in_finer_share_bins_with_their_rms_and_big_errors():
+    """``--fragments``: the share table from 0 in finer bins, each with its rms horizontal flow
+    error (``fragment_flow_sigma`` is sqrt(rms(< 0.5)^2 - rms(0.85-1.15)^2)) and the share of
+    errors over 25 px/s."""
+    rng = np.random.default_rng(2)
+    n = 6000
+    share = rng.uniform(0.05, 1.1, n)
+    e_u = rng.standard_normal(n) * np.where(share < 0.5, 30.0, 10.0)
+    df = pd.DataFrame({"speed": 50.0, "e_u": e_u, "e_v": np.zeros(n), "share": share, "border": False})
+    tab = share_table(df, FRAGMENT_BINS).set_index("share")
+    assert list(tab.index)[:3] == ["0-0.15", "0.15-0.3", "0.3-0.5"]
+    for b in ("0-0.15", "0.15-0.3", "0.3-0.5"):
+        assert tab.loc[b, "flow_u rms"] == pytest.approx(30.0, rel=0.1)
+        assert tab.loc[b, "|e| > 25"] == pytest.approx(2 * (1 - 0.7977), abs=0.05)  # P(|N(0, 30)| > 25)
+    assert tab.loc["0.85-1.15", "flow_u rms"] == pytest.approx(10.0, rel=0.1)
+
+
+def test_with_fragments_narrow_windows_are_counted_and_the_rest_unchanged(occlusion_lab_6s):
+    """``errors(..., fragments=True)`` admits windows that cover 30 % of the narrower of window and
+    person: it counts windows under 30 % of their person's width, which the plain count cannot;
+    a window counted both ways has the same error (a window that now also lies on a second person
+    is left out: it no longer holds exactly one)."""
+    key = ["t", "camera", "track"]
+    plain = errors(occlusion_lab_6s, 5)
+    wide = errors(occlusion_lab_6s, 5, fragments=True)
+    assert len(plain) > 0 and (plain["share"] > 0.3).all()
+    assert (wide["share"] <= 0.3).any()
+    both = plain.merge(wide, on=key, suffixes=("", "_f"))
+    assert len(both) >= 0.9 * len(plain)
+    np.testing.assert_allclose(both["e_u"], both["e_u_f"])
+    np.testing.assert_allclose(both["share"], both["share_f"])
