@@ -915,9 +915,9 @@ class JointTracker:
         as the one person ``p``, in the explanation: ``fragment_flow_sigma``^2 when narrower than
         half the person's projection (a limb, a sliver stuck on the background, the part out of
         an obstacle's shadow: the rendered fragments' region-mean flow is off by about the
-        image speed), else 0. Such a window's flow then says little about whose it is; the flow
-        update (``update_flow``) keeps the calibrated noise and its gate, which leaves a grossly
-        wrong fragment flow out rather than taking it with a wide noise."""
+        image speed), else 0. Such a window's flow then says little about whose it is. The flow
+        update (``update_flow``) keeps the calibrated noise and its gate: the same noise there
+        too lost head-on development 191 and 130 (docs/target_planes.md, twenty-ninth session)."""
         return self.cfg.fragment_flow_sigma**2 if width < 0.5 * p.width else 0.0
 
     def flow_map(self, J: np.ndarray) -> np.ndarray:
