@@ -28,7 +28,8 @@ of the pair's states before and after it, with both assignments kept until then:
   the paper's velocity discrimination over position and velocity together, for the pair. The
   identities are exchanged when log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01)
   (the design's 1 % error level, as the existence test's); otherwise they are kept (a pair
-  whose track is gone: the hand-over below).
+  whose track is gone: the hand-over below). A pair that has separated when the recording ends,
+  its lag not yet passed, is decided at the last frame with the states there are (``finish``).
 - **Retroactive relabelling, within the output lag**: the output is final ``output_lag_s`` after
   each frame (at least ``lag_s``). An exchange holds from the frame of the encounter where the
   two tracks were nearest on the floor, no earlier than ``output_lag_s`` before the decision (nor
@@ -398,9 +399,24 @@ class IdentityLag:
             self._link(t, tid, gone, llr)
 
     def finish(self, tracks) -> None:
-        """The end of the recording: links still waiting for a hand-over that will not come are
-        made (``_release``)."""
+        """The end of the recording: what still waits for its lag is decided with the states there
+        are, as a fixed-lag smoother ends - an encounter whose pair has separated (t1 passed, the
+        lag not) is decided (``decide``) and a pending hand-over made or refused (``hand_over``),
+        both at the last frame; then links still waiting for a hand-over that will not come are
+        made (``_release``). (An encounter still ambiguous at the end is left as tracked: its
+        pair has not come apart.)"""
         alive = {tr.tid: tr for tr in tracks}
+        if self.last:
+            t_end = max(v[2] for v in self.last.values())
+            for key, ep in list(self.episodes.items()):
+                if self.episodes.get(key) is not ep:
+                    continue
+                if ep.gone is not None:
+                    del self.episodes[key]
+                    self.hand_over(t_end, ep, alive)
+                elif ep.t1 is not None and ep.a in alive and ep.b in alive:
+                    del self.episodes[key]
+                    self.decide(t_end, ep, alive[ep.a], alive[ep.b])
         for gone in list(self.deferred):
             self._release(gone, alive)
 

@@ -417,3 +417,27 @@ def test_a_link_still_waiting_for_its_hand_over_when_the_recording_ends_is_made(
     assert idl.links == [] and set(idl.deferred) == {1}
     idl.finish(trs)
     assert [(new, ended) for _, new, ended, _ in idl.links] == [(2, 1)] and idl.identity(2) == 1 and not idl.deferred
+
+
+def test_an_encounter_still_waiting_for_its_decision_when_the_recording_ends_is_decided_then():
+    """The head-on swap cut at 2.8 s: the pair separated at t1 = 2.3 s, but the lag (1 s) has not
+    passed when the recording ends. ``finish`` decides it with the states there are (0.5 s after
+    the separation: opposite velocities already): the exchange is made. Decided 0.5 s after t1,
+    within the output lag (1 s) of the pair's nearest approach (2.0 s), it holds from there, by
+    the rule every decision follows (``reach``). Without ``finish`` nothing is decided."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0)
+    rows = []
+    for t in TIMES[TIMES <= 2.8 + 1e-9]:
+        on = ("A", "B") if t < 2.05 else ("B", "A")
+        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        idl.update(float(t), trs)
+        rows += [(t, k) for k in (0, 1)]
+    assert idl.log == [] and idl.holder(0) == 0
+    idl.finish(trs)
+    (td, a, b, llr), = idl.log
+    assert abs(td - 2.8) < 1e-6 and llr > EXCHANGE_LOG_ODDS and idl.holder(0) == 1
+    t, tid = np.array(rows).T
+    ident = idl.relabel(t, tid.astype(int))
+    assert set(tid[(ident == 0) & (t >= 2.0 - 1e-9)].astype(int)) == {1}
+    assert set(tid[(ident == 0) & (t < 2.0 - 1e-9)].astype(int)) == {0}
