@@ -140,6 +140,15 @@ def cylinder_window(P: np.ndarray, xy, height: float, radius: float, n: int = 16
     return np.where((h > 1e-6).all(-1)[..., None], win, np.nan)
 
 
+def cylinder_image_width(P: np.ndarray, xy, z0: float, z1: float, radius: float, n: int = 16) -> np.ndarray:
+    """Image width (px, (...)) of vertical cylinders at floor points xy (..., 2) between heights
+    z0 and z1: the horizontal extent of their rims' projections."""
+    pts = cylinder_points(xy, z1 - z0, radius, n)
+    pts[..., 2] += z0
+    uv, _ = project(P, pts)
+    return uv[..., 0].max(-1) - uv[..., 0].min(-1)
+
+
 # --- single-camera target area (section 3.2) -----------------------------------------------
 @dataclass(frozen=True)
 class TargetArea:

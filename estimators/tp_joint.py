@@ -880,10 +880,7 @@ class JointTracker:
         of a person seen whole spans (the rims at the floor and at ``height`` of the cylinder
         model overstate it near a camera)."""
         cfg = self.cfg
-        pts = geo.cylinder_points(xy, cfg.height - 2.0 * cfg.radius, cfg.radius)
-        pts[..., 2] += cfg.radius
-        uv, _ = geo.project(self.Ps[c], pts)
-        return uv[..., 0].max(-1) - uv[..., 0].min(-1)
+        return geo.cylinder_image_width(self.Ps[c], xy, cfg.radius, cfg.height - cfg.radius, cfg.radius)
 
     def update_width(self, tr: JointTrack, c: str, width: float, p: Projection) -> None:
         """A window of the track alone, its person seen whole (``width_depth``): its width as a

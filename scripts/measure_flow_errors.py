@@ -160,9 +160,10 @@ BIG_ERROR = 25.0  # px/s: a flow error this large is about the image speed of a 
 
 def share_table(df: pd.DataFrame, bins=SHARE_BINS) -> pd.DataFrame:
     """The flow error in image axes (``e_u``, ``e_v``, px/s) per bin of the window's share of its
-    person's projected width, windows of people cut by the image border left out: count, robust
-    standard deviation, 90 % quantile of the size, and the 90 % quantile of |e_u| relative to the
-    true image speed."""
+    person's projected width (``bins``: ``SHARE_BINS``, or ``FRAGMENT_BINS`` with --fragments),
+    windows of people cut by the image border left out: count, robust standard deviation, 90 %
+    quantile of the size, the 90 % quantile of |e_u| relative to the true image speed, the rms of
+    e_u and the share of errors (both axes) larger than ``BIG_ERROR``."""
     g0 = df[~df["border"].astype(bool)]
     out = []
     for lo, hi in zip(bins[:-1], bins[1:]):

@@ -25,14 +25,6 @@ HEIGHT, RADIUS = 1.8, 0.2  # target_planes' person model (Config height, radius)
 BORDER_PX = 1.0  # a window or model this close to the image's side is cut by it
 
 
-def image_width(P: np.ndarray, xy, z0: float, z1: float, radius: float) -> float:
-    """Image width (px) of a vertical cylinder at floor point xy between heights z0 and z1."""
-    pts = geo.cylinder_points(np.asarray(xy, float), z1 - z0, radius)
-    pts[..., 2] += z0
-    uv, _ = geo.project(P, pts)
-    return float(uv[..., 0].max() - uv[..., 0].min())
-
-
 def width_table(rec) -> pd.DataFrame:
     """One row per window of a walker seen whole: camera, window width, the two models' widths."""
     E = window_errors(rec)
@@ -54,7 +46,7 @@ def width_table(rec) -> pd.DataFrame:
         if full[0] < BORDER_PX or full[1] > W - BORDER_PX or b.u_left < BORDER_PX or b.u_right > W - BORDER_PX:
             continue
         rows.append({"camera": r.camera, "window": float(b.u_right - b.u_left), "cylinder": float(full[1] - full[0]),
-                     "body": image_width(P, xy, RADIUS, HEIGHT - RADIUS, RADIUS)})
+                     "body": float(geo.cylinder_image_width(P, xy, RADIUS, HEIGHT - RADIUS, RADIUS))})
     return pd.DataFrame(rows, columns=["camera", "window", "cylinder", "body"])
 
 

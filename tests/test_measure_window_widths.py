@@ -1,9 +1,11 @@
-"""scripts/measure_window_widths.py: the models' image widths and the summary of window widths."""
+"""scripts/measure_window_widths.py: the models' image widths (``tp_geometry.cylinder_image_width``)
+and the summary of window widths."""
 import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_window_widths import image_width, summary
+from scripts.measure_window_widths import summary
+from trackroom.estimators.tp_geometry import cylinder_image_width as image_width
 from tests.test_target_planes import right_angle_pair
 
 

@@ -17,7 +17,6 @@ from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s, split_boxes
 from trackroom.estimators.tp_initiate import propose
 from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, UNRELIABLE, JointTrack, JointTracker
 from trackroom.recording import Observations
-from scripts.measure_window_widths import image_width
 from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
 
 H, R = 1.8, 0.2  # the estimator's person model (Config height, radius)
@@ -1004,7 +1003,7 @@ def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_i
 
 def _body_width(c, xy):
     """Image width (px) of the body's cylindrical part (rims at R and H - R) at floor point xy."""
-    return image_width(c.P, xy, R, H - R, R)
+    return float(geo.cylinder_image_width(c.P, xy, R, H - R, R))
 
 
 def test_a_windows_width_measures_depth_along_the_line_of_sight():
