@@ -225,23 +225,7 @@ class IdentityLag:
                 ep.t1 = t
             if ep is not None and ep.gone is None:
                 ep.dist.append((t, d_ab))
-        for key, ep in list(self.episodes.items()):
-            if self.episodes.get(key) is not ep:
-                continue  # closed by a decision earlier in this loop (its tracks' other encounters)
-            if ep.gone is not None:
-                if t - ep.t_end >= self.lag_s - 1e-9:
-                    del self.episodes[key]
-                    self.hand_over(t, ep, alive)
-            elif ep.a not in alive or ep.b not in alive:
-                if ep.a in alive or ep.b in alive:
-                    ep.gone, ep.t_end = (ep.a if ep.a not in alive else ep.b), t  # decided with a new track, lag_s on
-                else:
-                    del self.episodes[key]  # a track of the pair is gone: nothing to exchange
-                    for k in key:
-                        self._release(k, alive)
-            elif ep.t1 is not None and t - ep.t1 >= self.lag_s - 1e-9:
-                del self.episodes[key]
-                self.decide(t, ep, alive[ep.a], alive[ep.b])
+        self._close(t, alive)
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
         if self.relink_area is not None:
@@ -398,6 +382,31 @@ class IdentityLag:
         if tid in alive and self.ident.get(tid, tid) == tid and self.ident.get(gone, gone) not in held:
             self._link(t, tid, gone, llr)
 
+    def _close(self, t: float, alive: dict, end: bool = False) -> None:
+        """Episodes whose lag has passed at t: a pair apart since t1 is decided, a pair one of
+        whose tracks has ended is handed over; one whose track ends now waits its lag for the
+        hand-over. ``end`` (the recording's last frame, ``finish``): the lag counts as passed."""
+        def due(t0: float) -> bool:
+            return end or t - t0 >= self.lag_s - 1e-9
+
+        for key, ep in list(self.episodes.items()):
+            if self.episodes.get(key) is not ep:
+                continue  # closed by a decision earlier in this loop (its tracks' other encounters)
+            if ep.gone is not None:
+                if due(ep.t_end):
+                    del self.episodes[key]
+                    self.hand_over(t, ep, alive)
+            elif ep.a not in alive or ep.b not in alive:
+                if ep.a in alive or ep.b in alive:
+                    ep.gone, ep.t_end = (ep.a if ep.a not in alive else ep.b), t  # decided with a new track, lag_s on
+                else:
+                    del self.episodes[key]  # a track of the pair is gone: nothing to exchange
+                    for k in key:
+                        self._release(k, alive)
+            elif ep.t1 is not None and due(ep.t1):
+                del self.episodes[key]
+                self.decide(t, ep, alive[ep.a], alive[ep.b])
+
     def finish(self, tracks) -> None:
         """The end of the recording: what still waits for its lag is decided with the states there
         are, as a fixed-lag smoother ends - an encounter whose pair has separated (t1 passed, the
@@ -407,16 +416,7 @@ class IdentityLag:
         pair has not come apart.)"""
         alive = {tr.tid: tr for tr in tracks}
         if self.last:
-            t_end = max(v[2] for v in self.last.values())
-            for key, ep in list(self.episodes.items()):
-                if self.episodes.get(key) is not ep:
-                    continue
-                if ep.gone is not None:
-                    del self.episodes[key]
-                    self.hand_over(t_end, ep, alive)
-                elif ep.t1 is not None and ep.a in alive and ep.b in alive:
-                    del self.episodes[key]
-                    self.decide(t_end, ep, alive[ep.a], alive[ep.b])
+            self._close(max(v[2] for v in self.last.values()), alive, end=True)
         for gone in list(self.deferred):
             self._release(gone, alive)
 
