@@ -255,6 +255,12 @@ class TargetPlanes(Estimator):
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "
                                                 "target area, m")
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
+        ghost_test: bool = param(True, "a crossing of two target planes that two or more further cameras would see "
+                                 "whole (in the image, not behind the floor plan's boxes) and show no window at is "
+                                 "two people's planes crossing, not a person: it neither locates the target nor "
+                                 "starts a track (``JointTracker.sees_no_one``; no parameter value: one camera "
+                                 "seeing no one is common for people too - measured with "
+                                 "scripts/measure_ghost_crossings.py, docs/target_planes.md)")
         split_births: bool = param(False, "start a track at the far side of a window too wide for the one track it "
                                    "holds (eq. 8) when a second camera's window is too wide for one person as well "
                                    "(both see two people side by side; issue 12: a look-alike walking beside the "
@@ -423,7 +429,8 @@ class TargetPlanes(Estimator):
             st.branch = jt.branch
             locating = target is not None and not target.located
             prefer = functools.partial(jt.locate_distance, target, accept) if locating else None
-            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room, prefer)
+            ghost = (lambda c, xy: jt.sees_no_one(c, xy, frame[c])) if cfg.ghost_test else None
+            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room, prefer, ghost)
             taken = jt.locate(target, proposals, frame, accept) if locating else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in st.tracks if tr.located):

@@ -9,7 +9,9 @@ position tolerance of the projected person model, and the point in its target ar
 Candidates are taken greedily, most support first, each window used once. While the hand-chosen
 target is not yet located, the crossings its locating test accepts go first, nearest its click
 first (``prefer``): which of two crossings sharing a window survives must not turn on their
-coordinates when one of them is the person the user clicked.
+coordinates when one of them is the person the user clicked. A crossing that two or more further
+cameras would see whole and show no window at (``ghost``) is two people's planes crossing, not a
+person: it is not a candidate.
 """
 from __future__ import annotations
 
@@ -22,13 +24,17 @@ from .tp_frames import CameraBoxes
 
 
 def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, CameraBoxes], free: dict[str, np.ndarray], inside_room,
-            prefer=None) -> list[tuple[np.ndarray, dict[str, int]]]:
+            prefer=None, ghost=None) -> list[tuple[np.ndarray, dict[str, int]]]:
     """New target positions and the windows (camera -> box index) that support them.
 
     ``margin_px``: the target areas' allowance for window noise (px); ``free``: per camera, the indices of boxes no target claims; ``inside_room``: callable
     telling whether floor points (k, 2) are inside the room; ``prefer``: None, or a callable
     giving a crossing (xy) a distance when it may be the hand-chosen target and None otherwise:
-    those crossings are taken first, the nearest first.
+    those crossings are taken first, the nearest first; ``ghost``: None, or a callable (camera,
+    xy) -> bool telling that a further camera sees no one at a crossing
+    (``JointTracker.sees_no_one``): a crossing two or more further cameras see no one at is two
+    people's planes, not a person, and is dropped (one camera seeing no one is common for a
+    person too: a missed window, someone standing in front).
     """
     min_angle = np.radians(cfg.min_plane_angle_deg)
     planes, areas = {}, {}
@@ -63,6 +69,8 @@ def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, C
             wc = max(w[1] - w[0], 1.0)
             if abs(frame[k[0]].u[k[1]] - 0.5 * (w[0] + w[1])) <= cfg.position_tol * wc and areas[k].contains(xy, cfg.consistency_margin):
                 support.setdefault(k[0], k[1])
+        if ghost is not None and sum(ghost(c, xy) for c in Ps if c not in support) >= 2:
+            continue
         cands.append((len(support), xy, support))
     def order(c):
         d = prefer(c[1]) if prefer is not None else None

@@ -1281,6 +1281,21 @@ class JointTracker:
                 return False
         return True
 
+    def sees_no_one(self, c: str, xy: np.ndarray, boxes: CameraBoxes) -> bool:
+        """Camera c would see a person at floor point xy whole (the projected cylinder's columns
+        inside its image, not hidden by the floor plan's boxes) and has no window, of any flow,
+        within ``margin_px`` of those columns: it sees no one there. A crossing of two target
+        planes that two or more further cameras see no one at is two people's planes crossing (a
+        ghost), not a person (``tp_initiate.propose``, ``ghost_test``)."""
+        w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
+        if not np.isfinite(w).all() or w[0] < 0 or w[1] > self.widths[c]:
+            return False
+        if self.occluders is not None and not self.occluders.visible(c, xy):
+            return False
+        if not len(boxes):
+            return True
+        return not bool(((boxes.win[:, 0] - self.margin_px <= w[1]) & (w[0] <= boxes.win[:, 1] + self.margin_px)).any())
+
     def contradicts(self, c: str, xy_f: np.ndarray, xy_n: np.ndarray, boxes: CameraBoxes) -> bool:
         """Camera c has a window holding the projected cylinder at xy_n (the track) and none
         holding the one at xy_f (the second person), though xy_f is in its view and not hidden

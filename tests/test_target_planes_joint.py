@@ -17,7 +17,7 @@ from trackroom.estimators.tp_frames import CameraBoxes, mean_lag_s, split_boxes
 from trackroom.estimators.tp_initiate import propose
 from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, MERGED, TRACKING, UNRELIABLE, JointTrack, JointTracker
 from trackroom.recording import Observations
-from tests.test_target_planes import calib, four_cameras, line_path, right_angle_pair, synth_boxes
+from tests.test_target_planes import cam, calib, four_cameras, line_path, right_angle_pair, synth_boxes
 
 H, R = 1.8, 0.2  # the estimator's person model (Config height, radius)
 
@@ -999,6 +999,63 @@ def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_i
     assert within(ghost[0]) and within(tgt[0])
     tr = TargetPlanes(initial_xy=click).run(Observations({"boxes": boxes}, 3.0), calib(cams)).tracks
     assert np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1]).max() < 0.05
+
+
+def test_a_crossing_two_further_cameras_see_no_one_at_is_a_ghost_and_locates_nothing():
+    """``ghost_test``: for the first half second south sees the target and west sees only someone
+    farther off, whose target plane crosses the target's 0.6 m beyond it on south's line of sight,
+    within ``locate``'s disc about the click (both windows a band of middle rows, depth loose). Two
+    further cameras, in the south-west and south-east corners, see the target and that other person
+    whole (their flow too slow to start a crossing at first), and no one at the crossing: two
+    people's planes, not a person (one camera seeing no one is not enough: windows are missed).
+    The crossing must not locate the target; the target's own crossing, once west sees it, must
+    (rendered evaluation seed 1063: the ghost of the target's and the look-alike's planes located
+    the target 0.85 m off, and it was lost for 27 s)."""
+    south, west = right_angle_pair()
+    corners = [cam("sw", [-0.5, 1.0, 2.5], [3.0, 3.0, 0.9]), cam("se", [8.0, 1.0, 2.5], [3.0, 3.0, 0.9])]  # the three apart in their images
+    cams = [south, west, *corners]
+    times = np.round(np.arange(0, 3.0, 0.1), 6)
+    tgt = line_path([2.6, 2.6], [4.4, 4.4], times)
+    away = (tgt - south.position[:2]) / np.linalg.norm(tgt - south.position[:2], axis=1, keepdims=True)
+    ghost = tgt + 0.6 * away
+    towards = (ghost - west.position[:2]) / np.linalg.norm(ghost - west.position[:2], axis=1, keepdims=True)
+    other = ghost + 1.2 * towards
+
+    def band(row):  # the window's middle 12 rows
+        mid = 0.5 * (row[3] + row[4])
+        return np.r_[row[:3], mid - 6.0, mid + 6.0, row[5:]]
+
+    rows = []
+    for k, t in enumerate(times):
+        lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
+        vel = (tgt[hi] - tgt[lo]) / (times[hi] - times[lo])
+        early = t < 0.5
+        s_row = window_row(south, tgt[k], vel)
+        slow = 0.1 if early else 1.0  # the corners' windows too slow to start a crossing (mover_flow_px) at first
+        rows.append((t, "south", 1, *(band(s_row) if early else s_row)))
+        rows += [(t, c.name, n, *window_row(c, xy, slow * vel)) for c in corners for n, xy in ((1, tgt[k]), (2, other[k]))]
+        rows.append((t, "west", 2, *band(window_row(west, other[k], vel))) if early else (t, "west", 1, *window_row(west, tgt[k], vel)))
+    boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
+    click = (tgt[0] + [0.1, -0.2]).tolist()
+    cfg, jt = _tracker(cams)
+    frame = split_boxes(boxes, [c.name for c in cams])[0.0]
+    assert all(jt.sees_no_one(c.name, ghost[0], frame[c.name]) and not jt.sees_no_one(c.name, tgt[0], frame[c.name]) for c in corners)
+    free = {"south": np.array([0]), "west": np.array([0]), "sw": np.array([], int), "se": np.array([], int)}
+    everywhere = lambda p: np.ones(len(p), bool)  # noqa: E731
+    (xy, _), = propose(cfg, jt.margin_px, jt.Ps, frame, free, everywhere)
+    assert np.linalg.norm(xy - ghost[0]) < 0.05  # the trap: without the third camera's word the ghost is a crossing
+    assert float(np.linalg.norm(ghost[0] - click)) <= cfg.init_radius + 2.0 * cfg.radius  # and locate would take it
+    assert propose(cfg, jt.margin_px, jt.Ps, frame, free, everywhere, ghost=lambda c, p: jt.sees_no_one(c, p, frame[c])) == []
+    one = lambda c, p: c == "sw" and jt.sees_no_one(c, p, frame[c])  # noqa: E731  (se's window missed)
+    assert len(propose(cfg, jt.margin_px, jt.Ps, frame, free, everywhere, ghost=one)) == 1
+    early = (times > 0.0) & (times < 0.5)
+    for test in (True, False):
+        tr = TargetPlanes(initial_xy=click, ghost_test=test).run(Observations({"boxes": boxes}, 3.0), calib(cams)).tracks
+        at_ghost = np.hypot(tr.x - ghost[:, 0], tr.y - ghost[:, 1])[early] < 0.1
+        if test:
+            assert not at_ghost.any() and np.hypot(tr.x - tgt[:, 0], tr.y - tgt[:, 1])[times >= 0.5].max() < 0.05
+        else:
+            assert at_ghost.all()  # the trap: the ghost located the target
 
 
 def _body_width(c, xy):
