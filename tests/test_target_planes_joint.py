@@ -955,6 +955,31 @@ def test_a_detection_still_and_never_taken_is_left_to_the_person_standing_there(
         assert (moved > 0.5) == (wait == 0), (wait, moved)
 
 
+def _ghost_pair(south, west):
+    """Frame times, the target walking diagonally across south's and west's views (0.85 m/s), the
+    ghost 0.6 m beyond it on south's line of sight, and someone farther off on west's line of
+    sight through the ghost (1.2 m nearer west): west's window of that someone and south's of the
+    target cross at the ghost."""
+    times = np.round(np.arange(0, 3.0, 0.1), 6)
+    tgt = line_path([2.6, 2.6], [4.4, 4.4], times)
+    away = (tgt - south.position[:2]) / np.linalg.norm(tgt - south.position[:2], axis=1, keepdims=True)
+    ghost = tgt + 0.6 * away
+    towards = (ghost - west.position[:2]) / np.linalg.norm(ghost - west.position[:2], axis=1, keepdims=True)
+    return times, tgt, ghost, ghost + 1.2 * towards
+
+
+def _velocity(path, times, k):
+    """Central-difference velocity of ``path`` at frame k."""
+    lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
+    return (path[hi] - path[lo]) / (times[hi] - times[lo])
+
+
+def _band(row):
+    """A window row cut to its middle 12 rows (a fragment: its depth loose)."""
+    mid = 0.5 * (row[3] + row[4])
+    return np.r_[row[:3], mid - 6.0, mid + 6.0, row[5:]]
+
+
 def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_its_window():
     """In the first half second south sees the target only as a band of rows (a fragment: its
     depth loose) and west sees the target whole and a fragment of someone farther off on its line
@@ -965,26 +990,15 @@ def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_i
     the target (head-on evaluation seed 887: the old order located a ghost 0.5 m off, and the
     target was lost for 25 s)."""
     south, west = right_angle_pair()
-    times = np.round(np.arange(0, 3.0, 0.1), 6)
-    tgt = line_path([2.6, 2.6], [4.4, 4.4], times)  # 0.85 m/s, diagonal: across both views
-    away = (tgt - south.position[:2]) / np.linalg.norm(tgt - south.position[:2], axis=1, keepdims=True)
-    ghost = tgt + 0.6 * away
-    towards = (ghost - west.position[:2]) / np.linalg.norm(ghost - west.position[:2], axis=1, keepdims=True)
-    other = ghost + 1.2 * towards
-
-    def band(row):  # the window's middle 12 rows
-        mid = 0.5 * (row[3] + row[4])
-        return np.r_[row[:3], mid - 6.0, mid + 6.0, row[5:]]
-
+    times, tgt, ghost, other = _ghost_pair(south, west)
     rows = []
     for k, t in enumerate(times):
-        lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
-        vel = (tgt[hi] - tgt[lo]) / (times[hi] - times[lo])
+        vel = _velocity(tgt, times, k)
         early = t < 0.5
         s_row = window_row(south, tgt[k], vel)
-        rows += [(t, "south", 1, *(band(s_row) if early else s_row)), (t, "west", 1, *window_row(west, tgt[k], vel))]
+        rows += [(t, "south", 1, *(_band(s_row) if early else s_row)), (t, "west", 1, *window_row(west, tgt[k], vel))]
         if early:
-            rows.append((t, "west", 2, *band(window_row(west, other[k], vel))))
+            rows.append((t, "west", 2, *_band(window_row(west, other[k], vel))))
     boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
     click = (tgt[0] + [0.1, -0.2]).tolist()
     cams = [south, west]
@@ -1014,27 +1028,16 @@ def test_a_crossing_two_further_cameras_see_no_one_at_is_a_ghost_and_locates_not
     south, west = right_angle_pair()
     corners = [cam("sw", [-0.5, 1.0, 2.5], [3.0, 3.0, 0.9]), cam("se", [8.0, 1.0, 2.5], [3.0, 3.0, 0.9])]  # the three apart in their images
     cams = [south, west, *corners]
-    times = np.round(np.arange(0, 3.0, 0.1), 6)
-    tgt = line_path([2.6, 2.6], [4.4, 4.4], times)
-    away = (tgt - south.position[:2]) / np.linalg.norm(tgt - south.position[:2], axis=1, keepdims=True)
-    ghost = tgt + 0.6 * away
-    towards = (ghost - west.position[:2]) / np.linalg.norm(ghost - west.position[:2], axis=1, keepdims=True)
-    other = ghost + 1.2 * towards
-
-    def band(row):  # the window's middle 12 rows
-        mid = 0.5 * (row[3] + row[4])
-        return np.r_[row[:3], mid - 6.0, mid + 6.0, row[5:]]
-
+    times, tgt, ghost, other = _ghost_pair(south, west)
     rows = []
     for k, t in enumerate(times):
-        lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
-        vel = (tgt[hi] - tgt[lo]) / (times[hi] - times[lo])
+        vel = _velocity(tgt, times, k)
         early = t < 0.5
         s_row = window_row(south, tgt[k], vel)
         slow = 0.1 if early else 1.0  # the corners' windows too slow to start a crossing (mover_flow_px) at first
-        rows.append((t, "south", 1, *(band(s_row) if early else s_row)))
+        rows.append((t, "south", 1, *(_band(s_row) if early else s_row)))
         rows += [(t, c.name, n, *window_row(c, xy, slow * vel)) for c in corners for n, xy in ((1, tgt[k]), (2, other[k]))]
-        rows.append((t, "west", 2, *band(window_row(west, other[k], vel))) if early else (t, "west", 1, *window_row(west, tgt[k], vel)))
+        rows.append((t, "west", 2, *_band(window_row(west, other[k], vel))) if early else (t, "west", 1, *window_row(west, tgt[k], vel)))
     boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
     click = (tgt[0] + [0.1, -0.2]).tolist()
     cfg, jt = _tracker(cams)
