@@ -224,10 +224,11 @@ class TargetPlanes(Estimator):
                                         "likelier mode) is made a walker only by a window of its own: a share of a "
                                         "merged window counts for neither mode (the others in it may have made it; "
                                         "else any share sets the standing probability to 0)")
-        own_wake: bool = param(False, "a track likelier standing is made a walker by its own windows' likelihood ratio "
-                                      "against clutter, with its misses in the other cameras (the mode posterior), "
-                                      "not outright by any window of its own; off: with person_detections it held "
-                                      "standing look-alikes and left ghosts standing as often (docs/target_planes.md)")
+        own_wake: bool = param(True, "a track likelier standing is made a walker by its own windows' likelihood ratio "
+                                     "against clutter, with its misses in the other cameras (the mode posterior), "
+                                     "not outright by any window of its own; on with wake_once since the thirtieth "
+                                     "session (alone, with person_detections, it held standing look-alikes and left "
+                                     "ghosts standing as often; docs/target_planes.md)")
         person_detections: bool = param(False, "a track likelier standing is also tested by the cameras' person detections (the "
                                                "bearings table's u, its colour labels unused; JointTracker."
                                                "detection_evidence); off: development recordings gained and lost alike, "
@@ -255,6 +256,12 @@ class TargetPlanes(Estimator):
         consistency_margin: float = param(0.15, "a crossing starting a track may lie this far outside a window's "
                                                 "target area, m")
         init_radius: float = param(0.5, "the hand-given initial position is this close to the target, m")
+        wake_once: bool = param(True, "a track that may be standing pays the walking prior, -log(1 - mu), once over the "
+                                "cameras that would see it, not in each one's explanation: each camera's share is "
+                                "1 / their number (JointTracker.wake_share); the mode is then decided over all "
+                                "cameras' evidence by own_wake. No parameter value (docs/target_planes.md, thirtieth "
+                                "session: a person setting off after a short stop had windows explained as clutter "
+                                "and a second track)")
         ghost_test: bool = param(True, "a crossing of two target planes that two or more further cameras would see "
                                  "whole (in the image, not behind the floor plan's boxes) and show no window at is "
                                  "two people's planes crossing, not a person: it neither locates the target nor "

@@ -329,6 +329,7 @@ class JointTracker:
         self.margin_px = cfg.window_margin_px + 3.0 * box_sigma
         self.hc = cfg.flow_height_fraction * cfg.height
         self.occluders: Occluders | None = None  # the floor plan's boxes (None: nothing hides anyone)
+        self.wake_share: dict = {}  # id(track) -> share of its walking prior a camera's explanation pays (``wake_once``)
         self.detections: dict[str, np.ndarray] | None = None  # this frame's person detections per camera, u (px); None: none used
         self.outline: np.ndarray | None = None  # the floor plan's outline (k, 2), m (None: no floor plan)
         self.clock = 0.0  # s since the first frame (step's dt summed)
@@ -584,7 +585,7 @@ class JointTracker:
         result: dict[int, tuple[int, ...]] = {}
         cache: dict = {}
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
-        walk = {i: self.walk_cost(tracks[i].mu) for i in projs}
+        walk = {i: self.walk_cost(tracks[i].mu) * self.wake_share.get(id(tracks[i]), 1.0) for i in projs}
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
@@ -956,6 +957,14 @@ class JointTracker:
         active = [tr for tr in tracks if tr.located]
         k_probe = next((k for k, tr in enumerate(active) if tr is probe), None)
         self.frame_cost, self.branch = 0.0, None
+        # the walking prior of a track that may stand, paid once over the cameras that would see it
+        # (``wake_once``; the mode is decided over all of them by the mode posterior, ``own_wake``)
+        self.wake_share = {}
+        if cfg.wake_once:
+            for tr in active:
+                if tr.mu > 0.0:
+                    n = sum(self.in_view(c, tr.xy) for c in self.Ps)
+                    self.wake_share[id(tr)] = 1.0 / max(n, 1)
         plans = {}
         for c in self.Ps:
             fc = None
@@ -1280,6 +1289,14 @@ class JointTracker:
             if not (np.isfinite(w).all() and w[0] >= lo[0] and w[1] <= hi[1] and w[2] >= lo[2] and w[3] <= hi[3]):
                 return False
         return True
+
+    def in_view(self, c: str, xy: np.ndarray) -> bool:
+        """Camera c would see a person at floor point xy: the projected cylinder's columns within
+        its image, in part at least, and not hidden by the floor plan's boxes."""
+        w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
+        if not np.isfinite(w).all() or w[1] < 0 or w[0] > self.widths[c]:
+            return False
+        return self.occluders is None or self.occluders.visible(c, xy)
 
     def sees_no_one(self, c: str, xy: np.ndarray, boxes: CameraBoxes) -> bool:
         """Camera c would see a person at floor point xy whole (the projected cylinder's columns

@@ -238,6 +238,30 @@ def test_a_standing_target_keeps_its_id_while_a_look_alike_walks_past_and_away()
     assert (tr.n_cameras.to_numpy()[tr.t.to_numpy() > 3.0] == 0).all()  # no one else's window taken as its own
 
 
+def test_a_standing_target_setting_off_again_wakes_its_own_track():
+    """The target walks 2.5 m, stands 1.5 s (no windows) and walks off north, seen by all four
+    cameras. Its standing track must wake and follow it, not leave its windows to clutter and a
+    second track: the walking prior is paid once over the cameras (``wake_once``) and the mode
+    decided over all of them (``own_wake``). Paid in each camera's explanation, -log(1 - mu) made
+    a window of its own dearer than clutter, and the identity stayed standing where no one was
+    (analytic evaluation 1101, 34.3 %)."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    tgt = _piecewise(times, [(0, 1.0, 2.0), (2.5, 3.5, 2.0), (4.0, 3.5, 2.0), (8.0, 3.5, 6.0)])
+    boxes = _tagged(cams, {"target": tgt}, times, sigma=0.3, seed=4)
+    boxes = boxes[~(boxes.is_target & (boxes.t >= 2.55) & (boxes.t < 4.05))].drop(columns="is_target")
+    for opts, held in (({}, True), ({"wake_once": False, "own_wake": False}, False)):
+        res = TargetPlanes(initial_xy=[1.0, 2.0], **opts).run(Observations({"boxes": boxes}, 8.0), calib(cams))
+        tr = res.tracks
+        k = np.round(tr.t.to_numpy() * 10).astype(int)
+        err = np.hypot(tr.x.to_numpy() - tgt[k, 0], tr.y.to_numpy() - tgt[k, 1])[tr.t.to_numpy() > 5.0]
+        tracks = res.internal[res.internal.confirmed.astype(bool)].track_id.nunique()
+        if held:
+            assert err.max() < 0.1 and tracks == 1
+        else:
+            assert err.max() > 1.0 and tracks == 2  # the trap: a second track took the target
+
+
 # --- the existence test ------------------------------------------------------------------------
 def _standing_track(cams, xy, mu):
     cfg, jt = _tracker(cams)
