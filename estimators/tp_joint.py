@@ -291,6 +291,13 @@ class Occluders:
         return clear.all(1) if whole else clear.any(1)
 
 
+def partly_in_image(win: np.ndarray, width: float) -> np.ndarray:
+    """Whether projected cylinders' windows [u_l, u_r, ...] (px, (..., 4)) lie at least in part
+    inside an image ``width`` px wide (a window that is not finite - behind the camera - does not)."""
+    win = np.asarray(win, float)
+    return np.isfinite(win).all(-1) & (win[..., 1] >= 0.0) & (win[..., 0] <= width)
+
+
 def wholly_in_image(win: np.ndarray, width: float) -> bool:
     """Whether a projected cylinder's window [u_l, u_r, ...] (px) lies wholly inside an image
     ``width`` px wide."""
@@ -399,7 +406,7 @@ class JointTracker:
     def project(self, c: str, tr: JointTrack) -> Projection | None:
         P = self.Ps[c]
         win = geo.cylinder_window(P, tr.xy, self.cfg.height, self.cfg.radius)
-        if not np.isfinite(win).all() or win[1] < 0 or win[0] > self.widths[c]:
+        if not partly_in_image(win, self.widths[c]):
             return None
         X = np.array([tr.s[0], tr.s[1], self.hc])
         (u, v), _ = geo.project(P, X)
@@ -960,11 +967,11 @@ class JointTracker:
         # the walking prior of a track that may stand, paid once over the cameras that would see it
         # (``wake_once``; the mode is decided over all of them by the mode posterior, ``own_wake``)
         self.wake_share = {}
-        if cfg.wake_once:
-            for tr in active:
-                if tr.mu > 0.0:
-                    n = sum(self.in_view(c, tr.xy) for c in self.Ps)
-                    self.wake_share[id(tr)] = 1.0 / max(n, 1)
+        may_stand = [tr for tr in active if tr.mu > 0.0] if cfg.wake_once else []
+        if may_stand:
+            xys = np.array([tr.xy for tr in may_stand])
+            n = sum(self.in_view(c, xys).astype(int) for c in self.Ps)
+            self.wake_share = {id(tr): 1.0 / max(int(k), 1) for tr, k in zip(may_stand, n)}
         plans = {}
         for c in self.Ps:
             fc = None
@@ -1290,13 +1297,15 @@ class JointTracker:
                 return False
         return True
 
-    def in_view(self, c: str, xy: np.ndarray) -> bool:
-        """Camera c would see a person at floor point xy: the projected cylinder's columns within
-        its image, in part at least, and not hidden by the floor plan's boxes."""
-        w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
-        if not np.isfinite(w).all() or w[1] < 0 or w[0] > self.widths[c]:
-            return False
-        return self.occluders is None or self.occluders.visible(c, xy)
+    def in_view(self, c: str, xys: np.ndarray) -> np.ndarray:
+        """Whether camera c would see a person at each floor point xys (N, 2): (N,) bool, the
+        projected cylinder's columns within its image, in part at least (as ``project``), and not
+        hidden by the floor plan's boxes."""
+        w = geo.cylinder_window(self.Ps[c], xys, self.cfg.height, self.cfg.radius)
+        seen = partly_in_image(w, self.widths[c])
+        if self.occluders is not None and seen.any():
+            seen &= self.occluders.visible_many(c, xys)
+        return seen
 
     def sees_no_one(self, c: str, xy: np.ndarray, boxes: CameraBoxes) -> bool:
         """Camera c would see a person at floor point xy whole (the projected cylinder's columns
@@ -1305,7 +1314,7 @@ class JointTracker:
         planes that two or more further cameras see no one at is two people's planes crossing (a
         ghost), not a person (``tp_initiate.propose``, ``ghost_test``)."""
         w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
-        if not np.isfinite(w).all() or w[0] < 0 or w[1] > self.widths[c]:
+        if not wholly_in_image(w, self.widths[c]):
             return False
         if self.occluders is not None and not self.occluders.visible(c, xy):
             return False
@@ -1319,7 +1328,7 @@ class JointTracker:
         by the floor plan's boxes: it sees the track and no one where the second person would be."""
         cfg = self.cfg
         wins = [geo.cylinder_window(self.Ps[c], xy, cfg.height, cfg.radius) for xy in (xy_f, xy_n)]
-        if not all(np.isfinite(w).all() for w in wins) or wins[0][1] < 0 or wins[0][0] > self.widths[c]:
+        if not (partly_in_image(wins[0], self.widths[c]) and np.isfinite(wins[1]).all()):
             return False
         if self.occluders is not None and not self.occluders.visible(c, xy_f):
             return False

@@ -992,10 +992,16 @@ def _ghost_pair(south, west):
     return times, tgt, ghost, ghost + 1.2 * towards
 
 
-def _velocity(path, times, k):
-    """Central-difference velocity of ``path`` at frame k."""
-    lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
-    return (path[hi] - path[lo]) / (times[hi] - times[lo])
+def _south_first_banded(south, tgt, times):
+    """Per frame: k, t, the target's velocity (central difference), whether it is the first half
+    second, and south's boxes row of the target - a band of its middle rows in that first half
+    second (``_band``), whole after."""
+    for k, t in enumerate(times):
+        lo, hi = max(k - 1, 0), min(k + 1, len(times) - 1)
+        vel = (tgt[hi] - tgt[lo]) / (times[hi] - times[lo])
+        early = t < 0.5
+        row = window_row(south, tgt[k], vel)
+        yield k, t, vel, early, (t, "south", 1, *(_band(row) if early else row))
 
 
 def _band(row):
@@ -1016,11 +1022,8 @@ def test_the_clicked_target_is_located_at_its_own_crossing_not_a_ghost_sharing_i
     south, west = right_angle_pair()
     times, tgt, ghost, other = _ghost_pair(south, west)
     rows = []
-    for k, t in enumerate(times):
-        vel = _velocity(tgt, times, k)
-        early = t < 0.5
-        s_row = window_row(south, tgt[k], vel)
-        rows += [(t, "south", 1, *(_band(s_row) if early else s_row)), (t, "west", 1, *window_row(west, tgt[k], vel))]
+    for k, t, vel, early, s_row in _south_first_banded(south, tgt, times):
+        rows += [s_row, (t, "west", 1, *window_row(west, tgt[k], vel))]
         if early:
             rows.append((t, "west", 2, *_band(window_row(west, other[k], vel))))
     boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
@@ -1054,12 +1057,9 @@ def test_a_crossing_two_further_cameras_see_no_one_at_is_a_ghost_and_locates_not
     cams = [south, west, *corners]
     times, tgt, ghost, other = _ghost_pair(south, west)
     rows = []
-    for k, t in enumerate(times):
-        vel = _velocity(tgt, times, k)
-        early = t < 0.5
-        s_row = window_row(south, tgt[k], vel)
+    for k, t, vel, early, s_row in _south_first_banded(south, tgt, times):
         slow = 0.1 if early else 1.0  # the corners' windows too slow to start a crossing (mover_flow_px) at first
-        rows.append((t, "south", 1, *(_band(s_row) if early else s_row)))
+        rows.append(s_row)
         rows += [(t, c.name, n, *window_row(c, xy, slow * vel)) for c in corners for n, xy in ((1, tgt[k]), (2, other[k]))]
         rows.append((t, "west", 2, *_band(window_row(west, other[k], vel))) if early else (t, "west", 1, *window_row(west, tgt[k], vel)))
     boxes = pd.DataFrame(rows, columns=["t", "camera", "track", "u", "u_left", "u_right", "v_top", "v_bottom", "flow_u", "flow_v"])
