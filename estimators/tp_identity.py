@@ -150,6 +150,10 @@ class IdentityLag:
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
+    left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
+    stand_s: float = 3.0  # mean time a person stands before walking on, s (the tracker's standing mode)
+    stand_from: dict = field(default_factory=dict)  # internal id -> first frame of its current spell likelier standing
+    behind: dict = field(default_factory=dict)  # standing track id -> (new track id, walked_on log-odds, t_from floor) pending
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
@@ -157,8 +161,11 @@ class IdentityLag:
     def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None,
                t1: float | None = None, t_from: float | None = None) -> None:
         """Log a scored decision: ``kind`` "pair" (tracks a and b of an encounter, exchanged or
-        kept) or "handover" (a: the survivor, b: a new track, scored against the gone track's
-        pre state ``pre_b``); log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
+        kept), "handover" (a: the survivor, b: a new track, scored against the gone track's
+        pre state ``pre_b``), "left behind" (a: a track of the pair likelier standing, b: a new
+        track, scored as its person walked on, ``walked_on``) or "left behind made" (that
+        exchange, when its log-odds with the stand's duration pass ``EXCHANGE_LOG_ODDS``);
+        log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
         self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr, "t1": t1, "t_from": t_from,
                                "t_pre": min(pre_a[2], pre_b[2]), "a_pre": pre_a[0][:2].copy(), "b_pre": pre_b[0][:2].copy(),
                                "a_post": post_a.s[:2].copy(), "b_post": post_b.s[:2].copy()})
@@ -239,6 +246,12 @@ class IdentityLag:
         for tr in tracks:
             if tr.seen:
                 self.last_seen[tr.tid] = (tr.s[:2].copy(), tr.S[:2, :2].copy())
+            if tr.mu >= 0.5:
+                self.stand_from.setdefault(tr.tid, t)
+            else:
+                self.stand_from.pop(tr.tid, None)
+        if self.behind:
+            self._still_behind(t, alive)
 
     def _relink(self, t: float, tracks, alive: dict) -> None:
         """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
@@ -356,13 +369,15 @@ class IdentityLag:
         swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
         return swap - keep
 
-    def decide(self, td: float, ep: Episode, ta, tb) -> None:
+    def decide(self, td: float, ep: Episode, ta, tb, alive: dict | None = None) -> None:
         if not (ta.confirmed and tb.confirmed):
             return
         llr = self.exchange_log_odds(td, ep, ta, tb)
         t_from = self.reach(td, ep, ep.t1, (ep.a, ep.b))
         self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb, t1=ep.t1, t_from=t_from)
         if llr <= EXCHANGE_LOG_ODDS:
+            if self.left_behind and alive is not None:
+                self._left_behind(td, ep, alive)
             return
         ia, ib = self.identity(ep.a), self.identity(ep.b)
         self.ident[ep.a], self.ident[ep.b] = ib, ia
@@ -405,7 +420,7 @@ class IdentityLag:
                         self._release(k, alive)
             elif ep.t1 is not None and due(ep.t1):
                 del self.episodes[key]
-                self.decide(t, ep, alive[ep.a], alive[ep.b])
+                self.decide(t, ep, alive[ep.a], alive[ep.b], alive)
 
     def finish(self, tracks) -> None:
         """The end of the recording: what still waits for its lag is decided with the states there
@@ -467,6 +482,79 @@ class IdentityLag:
         for key in [k for k in self.episodes if sv in k or best in k]:
             del self.episodes[key]
         return True
+
+    def walked_on(self, td: float, tr, pre, tg) -> float:
+        """log L(track ``tr`` is the person of the pre state ``pre`` (s, S, t), who walked on) -
+        log L(``tr`` is someone new), as ``found_again`` scores an ended track's person, with the
+        stop at the standing track ``tg`` (where the tracker holds that person standing)."""
+        s, S, t0 = pre
+        age = td - self.born.get(tr.tid, td)
+        moving = self._walking(tr.s, tr.S)
+        new = float(-np.log(self.area)) + moving
+        dt = td - t0
+        p, C = self._predict(s, S, dt, self.walker_accel)
+        stop = 1.0 - float(np.exp(-dt / self.walk_s))
+        xg, Sg = (tg.xs, tg.Ps) if tg.xs is not None else (tg.s[:2], tg.S[:2, :2])
+        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
+        stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(tr.s[:2] - xg, Sg + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
+        return float(np.logaddexp(walked, stood)) - new
+
+    def _left_behind(self, td: float, ep: Episode, alive: dict) -> None:
+        """An encounter decided without an exchange, one of whose tracks is likelier standing at
+        the decision (mu >= 1/2): its person may have stopped where the two met, or walked on
+        with its track left behind (a window of both, explained as one of them, can draw that
+        one's velocity to nothing). Each track confirmed since the encounter began, under its own
+        identity, is scored as that person walked on (``walked_on``) against someone new; the
+        likeliest above ``EXCHANGE_LOG_ODDS`` takes the standing track's identity, and the
+        standing track the new one's, from the new track's first frame on (no earlier than the
+        output lag allows)."""
+        if not self.area:
+            return
+        t_pre = min(v[2] for v in ep.pre.values())
+        for g in (ep.a, ep.b):
+            tg = alive.get(g)
+            if tg is None or tg.mu < 0.5:
+                continue
+            best, best_llr = None, -np.inf
+            for tid, tr in alive.items():
+                if tid in (ep.a, ep.b) or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
+                    continue
+                llr = self.walked_on(td, tr, ep.pre[g], tg)
+                self.record(td, "left behind", g, tid, llr, ep.pre[g], ep.pre[g], tg, tr, gone=g, t1=ep.t1)
+                if llr > best_llr:
+                    best, best_llr = tid, llr
+            if best is not None and best_llr > 0.0:
+                self.behind[g] = (best, best_llr)
+                self._still_behind(td, alive)
+                if g not in self.behind:
+                    return
+
+    def _still_behind(self, t: float, alive: dict) -> None:
+        """Pending left-behind decisions (``_left_behind``), each frame: that the standing track's
+        person has stood on since t_s, when the track became likelier standing, has probability
+        exp(-(t - t_s) / ``stand_s``) (the tracker's standing mode; its own windows would have woken
+        it); a track left behind stands on anyway. So the log-odds grow by (t - t_s) / ``stand_s``;
+        the identities are exchanged when they exceed
+        ``EXCHANGE_LOG_ODDS``, from the new track's first frame on (no earlier than the output lag
+        allows). Dropped when the standing track is no longer likelier standing (a window of its own woke it), or
+        either track is gone or has changed identity."""
+        lag = max(self.lag_s, self.output_lag_s or 0.0)
+        for g, (n, llr) in list(self.behind.items()):
+            tg, tn = alive.get(g), alive.get(n)
+            if tg is None or tn is None or tg.mu < 0.5 or self.ident.get(n, n) != n:
+                del self.behind[g]
+                continue
+            odds = llr + (t - self.stand_from.get(g, t)) / self.stand_s
+            if odds <= EXCHANGE_LOG_ODDS:
+                continue
+            del self.behind[g]
+            self.record(t, "left behind made", g, n, odds, (tg.s, tg.S, t), (tn.s, tn.S, t), tg, tn, gone=g)
+            t_from = max(self.born.get(n, t), t - lag, *[t0 for t0, ch in self.events if g in ch or n in ch])
+            i_g, i_n = self.identity(g), self.identity(n)
+            self.ident[g], self.ident[n] = i_n, i_g
+            self.events.append((t_from, {g: i_n, n: i_g}))
+            for key in [k for k in self.episodes if g in k or n in k]:
+                del self.episodes[key]
 
     def reach(self, td: float, ep: Episode, t_last: float, tids) -> float:
         """When a decision at ``td`` takes effect: the frame of the pair's nearest approach in the

@@ -7,6 +7,7 @@ each other's person (a greedy assignment's swap), or stay on their own.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import pandas as pd
 
 from trackroom.estimators.target_planes import TargetPlanes
@@ -441,3 +442,55 @@ def test_an_encounter_still_waiting_for_its_decision_when_the_recording_ends_is_
     ident = idl.relabel(t, tid.astype(int))
     assert set(tid[(ident == 0) & (t >= 2.0 - 1e-9)].astype(int)) == {1}
     assert set(tid[(ident == 0) & (t < 2.0 - 1e-9)].astype(int)) == {0}
+
+
+def left_behind_run(new_path, left_behind=True, stop_at=2.05):
+    """Single-target ``IdentityLag`` (floor 48 m^2, the walkers' ``identity_accel`` 0.35): head-on
+    look-alikes (``head_on``). Track 0, the target's, follows A until ``stop_at``, then stays where
+    the two met, likelier standing (mu 0.99: what a window of both explained as it alone leaves,
+    head-on evaluation 1151); track 1 follows B; a new track 2 follows ``new_path`` (t -> state)
+    from 2.3 s, confirmed at 2.75 s."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, handover=True,
+                      decide_accel=0.35, left_behind=left_behind, stand_s=3.0)
+    stop = np.array(paths["A"](stop_at), float)
+    for t in TIMES:
+        if t < stop_at:
+            t0 = JointTrack(0, np.array(paths["A"](t), float), S0.copy(), confirmed=True, seen=True)
+        else:
+            t0 = JointTrack(0, np.r_[stop[:2], 0.0, 0.0], S0.copy(), confirmed=True, seen=False, mu=0.99)
+            t0.xs, t0.Ps = stop[:2].copy(), S0[:2, :2].copy()
+        trs = [t0, JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if t >= 2.3 - 1e-9:
+            trs.append(JointTrack(2, np.array(new_path(t), float), S0.copy(), confirmed=t >= 2.75 - 1e-9, seen=True))
+        idl.update(float(t), trs)
+    return idl
+
+
+def test_a_target_track_left_standing_where_the_pair_met_gives_the_identity_to_the_new_track_on_the_target():
+    """The target walks on after the head-on pass; its track stopped where they met and is held
+    standing, and a new track follows the target. The pair decision keeps identities (neither
+    track of the pair is on the other's person); the new track continuing the target's state from
+    before the encounter is far likelier than someone new, so it takes the target's identity
+    (``left_behind``); without the rule the identity stays on the standing track."""
+    idl = left_behind_run(head_on()["A"])
+    (d,) = [d for d in idl.decisions if d["kind"] == "left behind"]
+    (made,) = [d for d in idl.decisions if d["kind"] == "left behind made"]
+    assert d["a"] == 0 and d["b"] == 2 and d["log_odds"] > EXCHANGE_LOG_ODDS and made["t"] == d["t"]
+    assert idl.holder(0) == 2 and idl.identity(0) == 2
+    # the new track is the target from its first frame, but no earlier than the output lag (here
+    # lag_s, 1 s) before the decision
+    assert d["t"] == pytest.approx(3.5)
+    t = np.array([2.3, 2.4, 2.5, 5.0])
+    assert (idl.relabel(t, np.full(4, 2)) == [2, 2, 0, 0]).all()
+    off = left_behind_run(head_on()["A"], left_behind=False)
+    assert off.holder(0) == 0 and not [d for d in off.decisions if d["kind"] == "left behind"]
+
+
+def test_a_new_track_on_someone_else_does_not_take_the_standing_targets_identity():
+    """The same standing track, but the new track is someone walking elsewhere (from (1, 6) east at
+    1 m/s): it is likelier someone new than the target walked on, and the identity stays."""
+    idl = left_behind_run(lambda t: (1.0 + (t - 2.3), 6.0, 1.0, 0.0))
+    scored = [d for d in idl.decisions if d["kind"] == "left behind"]
+    assert scored and all(d["log_odds"] < 0.0 for d in scored)
+    assert idl.holder(0) == 0 and not idl.behind  # not even pending: someone new is likelier
