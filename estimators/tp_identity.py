@@ -52,6 +52,18 @@ of the pair's states before and after it, with both assignments kept until then:
   (kept: the new track is the gone person found again, or someone new). The new track of the
   largest log L(X) - log L(K) above ``EXCHANGE_LOG_ODDS`` takes the survivor's identity, and the
   survivor the gone one's, from the end on.
+- **A track left behind (``left_behind``)**: a pair decided without an exchange, one of whose
+  tracks g is likelier standing at the decision (mu >= 1/2), may have left g where the two met
+  while its person walked on (a window of both, explained as g alone, can draw g's velocity to
+  nothing). Each track n confirmed since the encounter began, under its own identity, is scored
+  as g's person walked on (``walked_on``: ``found_again``'s walked-on and stood-then-walked-off
+  terms, from g's pre state, the stop at g's standing position) against someone new. The
+  likeliest with positive log-odds waits (``behind``): that g's person has stood on since g became
+  likelier standing, at t_s, has probability exp(-(t - t_s) / ``stand_s``), and a track left
+  behind stands on anyway, so the log-odds grow by (t - t_s) / ``stand_s``; above
+  ``EXCHANGE_LOG_ODDS`` n takes g's identity and g n's, from n's first frame on (no earlier than
+  the output lag allows). The wait ends when g walks again or either track ends or changes
+  identity.
 - **A person found again (multi-person mode, ``relink``)**: a confirmed track that ends (the
   tracker's existence test rejected it, or ``hold_s`` passed unseen) leaves its identity, last
   state s_e, S_e, standing probability mu_e and time. When a track is confirmed for the first
