@@ -494,3 +494,28 @@ def test_a_new_track_on_someone_else_does_not_take_the_standing_targets_identity
     scored = [d for d in idl.decisions if d["kind"] == "left behind"]
     assert scored and all(d["log_odds"] < 0.0 for d in scored)
     assert idl.holder(0) == 0 and not idl.behind  # not even pending: someone new is likelier
+
+
+def test_a_waiting_left_behind_decision_counts_the_stand_and_ends_when_the_track_walks():
+    """A pending left-behind decision (scored 3.0 log-odds, below log(99)): its log-odds grow by
+    the stand's duration over ``stand_s`` (3 s) - 3.0 + 4/3 at 4 s after the stand began is still
+    below, 3.0 + 5/3 at 5 s is above, and the new track takes the identity then, from no earlier
+    than the lag before. A standing track that walks again (mu < 1/2) ends the wait."""
+    def tracks(mu):
+        g = JointTrack(0, np.array([3.0, 3.0, 0.0, 0.0]), S0.copy(), confirmed=True, mu=mu)
+        n = JointTrack(2, np.array([6.0, 3.0, 1.0, 0.0]), S0.copy(), confirmed=True, seen=True)
+        return {0: g, 2: n}
+
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, left_behind=True, stand_s=3.0)
+    idl.born, idl.stand_from, idl.behind, idl.ident = {0: 0.0, 2: 1.0}, {0: 0.0}, {0: (2, 3.0)}, {0: 0, 2: 2}
+    idl._still_behind(4.0, tracks(0.99))
+    assert idl.behind and idl.holder(0) == 0
+    idl._still_behind(5.0, tracks(0.99))
+    assert not idl.behind and idl.holder(0) == 2 and idl.identity(0) == 2
+    assert idl.events[-1] == (4.0, {0: 2, 2: 0})  # from the decision less the lag (1 s): after the new track's birth
+    (made,) = [d for d in idl.decisions if d["kind"] == "left behind made"]
+    assert made["log_odds"] == pytest.approx(3.0 + 5.0 / 3.0)
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, left_behind=True, stand_s=3.0)
+    idl.born, idl.stand_from, idl.behind, idl.ident = {0: 0.0, 2: 1.0}, {0: 0.0}, {0: (2, 3.0)}, {0: 0, 2: 2}
+    idl._still_behind(4.0, tracks(0.2))
+    assert not idl.behind and idl.holder(0) == 0
