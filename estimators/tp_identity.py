@@ -165,7 +165,7 @@ class IdentityLag:
     left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
     stand_s: float = 3.0  # mean time a person stands before walking on, s (the tracker's standing mode)
     stand_from: dict = field(default_factory=dict)  # internal id -> first frame of its current spell likelier standing
-    behind: dict = field(default_factory=dict)  # standing track id -> (new track id, walked_on log-odds, t_from floor) pending
+    behind: dict = field(default_factory=dict)  # standing track id -> (new track id, walked_on log-odds) waiting (``_still_behind``)
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
@@ -308,11 +308,21 @@ class IdentityLag:
         """log L(walked on) - log L(someone new) of track ``tr`` as the ended track ``tid``'s
         person found again (module docstring, "A person found again")."""
         s, S, t_last, mu, (xw, Sw) = self.ended[tid]
+        return self._continues(t, tr, (s, S, t_last), mu, (xw, Sw), self.relink_area)
+
+    def _continues(self, t: float, tr, pre, mu: float, stop_at, area: float, accel: float | None = None) -> float:
+        """log L(track ``tr`` at t is the person of state ``pre`` (s, S, t0), standing probability
+        ``mu`` then) - log L(``tr`` is someone new, anywhere on ``area`` m^2 at a walker's
+        velocity): the person walked on at constant velocity (white acceleration ``accel``,
+        default ``accel_sigma``), or stopped within t - t0 (a walker stops after ``walk_s`` on
+        average) at ``stop_at`` (x, S[x]) and walked off from there at most the track's age ago."""
+        s, S, t0 = pre
+        xw, Sw = stop_at
         age = t - self.born.get(tr.tid, t)
         moving = self._walking(tr.s, tr.S)
-        new = float(-np.log(self.relink_area)) + moving
-        dt = t - t_last
-        p, C = self._predict(s, S, dt)
+        new = float(-np.log(area)) + moving
+        dt = t - t0
+        p, C = self._predict(s, S, dt, accel)
         stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
         walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
         stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
@@ -381,21 +391,26 @@ class IdentityLag:
         swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
         return swap - keep
 
-    def decide(self, td: float, ep: Episode, ta, tb, alive: dict | None = None) -> None:
+    def decide(self, td: float, ep: Episode, ta, tb, alive: dict) -> None:
         if not (ta.confirmed and tb.confirmed):
             return
         llr = self.exchange_log_odds(td, ep, ta, tb)
         t_from = self.reach(td, ep, ep.t1, (ep.a, ep.b))
         self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb, t1=ep.t1, t_from=t_from)
         if llr <= EXCHANGE_LOG_ODDS:
-            if self.left_behind and alive is not None:
+            if self.left_behind:
                 self._left_behind(td, ep, alive)
             return
-        ia, ib = self.identity(ep.a), self.identity(ep.b)
-        self.ident[ep.a], self.ident[ep.b] = ib, ia
-        self.events.append((t_from, {ep.a: ib, ep.b: ia}))
-        for key in [k for k in self.episodes if ep.a in k or ep.b in k]:
-            del self.episodes[key]  # their other encounters were scored with the old identities
+        self._exchange(t_from, ep.a, ep.b)
+
+    def _exchange(self, t_from: float, a: int, b: int) -> None:
+        """Tracks a and b exchange identities from ``t_from`` on; their open encounters are closed
+        (they were scored with the old identities)."""
+        ia, ib = self.identity(a), self.identity(b)
+        self.ident[a], self.ident[b] = ib, ia
+        self.events.append((t_from, {a: ib, b: ia}))
+        for key in [k for k in self.episodes if a in k or b in k]:
+            del self.episodes[key]
 
     def _release(self, gone: int, alive: dict) -> None:
         """The link deferred for ``gone`` (``_link_or_defer``), now that its encounter is decided
@@ -497,19 +512,11 @@ class IdentityLag:
 
     def walked_on(self, td: float, tr, pre, tg) -> float:
         """log L(track ``tr`` is the person of the pre state ``pre`` (s, S, t), who walked on) -
-        log L(``tr`` is someone new), as ``found_again`` scores an ended track's person, with the
-        stop at the standing track ``tg`` (where the tracker holds that person standing)."""
-        s, S, t0 = pre
-        age = td - self.born.get(tr.tid, td)
-        moving = self._walking(tr.s, tr.S)
-        new = float(-np.log(self.area)) + moving
-        dt = td - t0
-        p, C = self._predict(s, S, dt, self.walker_accel)
-        stop = 1.0 - float(np.exp(-dt / self.walk_s))
-        xg, Sg = (tg.xs, tg.Ps) if tg.xs is not None else (tg.s[:2], tg.S[:2, :2])
-        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
-        stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(tr.s[:2] - xg, Sg + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
-        return float(np.logaddexp(walked, stood)) - new
+        log L(``tr`` is someone new), as ``found_again`` scores an ended track's person (walking
+        at the pre state), with the decisions' walker model and the stop at the standing track
+        ``tg`` (where the tracker holds that person standing)."""
+        stop_at = (tg.xs, tg.Ps) if tg.xs is not None else (tg.s[:2], tg.S[:2, :2])
+        return self._continues(td, tr, pre, 0.0, stop_at, self.area, self.walker_accel)
 
     def _left_behind(self, td: float, ep: Episode, alive: dict) -> None:
         """An encounter decided without an exchange, one of whose tracks is likelier standing at
@@ -517,9 +524,8 @@ class IdentityLag:
         with its track left behind (a window of both, explained as one of them, can draw that
         one's velocity to nothing). Each track confirmed since the encounter began, under its own
         identity, is scored as that person walked on (``walked_on``) against someone new; the
-        likeliest above ``EXCHANGE_LOG_ODDS`` takes the standing track's identity, and the
-        standing track the new one's, from the new track's first frame on (no earlier than the
-        output lag allows)."""
+        likeliest with positive log-odds waits for the stand's duration to decide
+        (``_still_behind``, called at once: above ``EXCHANGE_LOG_ODDS`` already, it exchanges)."""
         if not self.area:
             return
         t_pre = min(v[2] for v in ep.pre.values())
@@ -546,11 +552,10 @@ class IdentityLag:
         person has stood on since t_s, when the track became likelier standing, has probability
         exp(-(t - t_s) / ``stand_s``) (the tracker's standing mode; its own windows would have woken
         it); a track left behind stands on anyway. So the log-odds grow by (t - t_s) / ``stand_s``;
-        the identities are exchanged when they exceed
-        ``EXCHANGE_LOG_ODDS``, from the new track's first frame on (no earlier than the output lag
-        allows). Dropped when the standing track is no longer likelier standing (a window of its own woke it), or
-        either track is gone or has changed identity."""
-        lag = max(self.lag_s, self.output_lag_s or 0.0)
+        the identities are exchanged when they exceed ``EXCHANGE_LOG_ODDS``, from the new track's
+        first frame on (no earlier than ``_not_before`` allows). Dropped when the standing track
+        is no longer likelier standing (a window of its own woke it), or either track is gone or
+        has changed identity."""
         for g, (n, llr) in list(self.behind.items()):
             tg, tn = alive.get(g), alive.get(n)
             if tg is None or tn is None or tg.mu < 0.5 or self.ident.get(n, n) != n:
@@ -561,21 +566,21 @@ class IdentityLag:
                 continue
             del self.behind[g]
             self.record(t, "left behind made", g, n, odds, (tg.s, tg.S, t), (tn.s, tn.S, t), tg, tn, gone=g)
-            t_from = max(self.born.get(n, t), t - lag, *[t0 for t0, ch in self.events if g in ch or n in ch])
-            i_g, i_n = self.identity(g), self.identity(n)
-            self.ident[g], self.ident[n] = i_n, i_g
-            self.events.append((t_from, {g: i_n, n: i_g}))
-            for key in [k for k in self.episodes if g in k or n in k]:
-                del self.episodes[key]
+            self._exchange(max(self.born.get(n, t), self._not_before(t, (g, n))), g, n)
 
     def reach(self, td: float, ep: Episode, t_last: float, tids) -> float:
         """When a decision at ``td`` takes effect: the frame of the pair's nearest approach in the
         encounter, no earlier than ``output_lag_s`` before td (what the output has not yet
         reported) nor than an earlier decision on these tracks, no later than ``t_last``."""
-        lag = max(self.lag_s, self.output_lag_s or 0.0)
-        lo = max([td - lag] + [t0 for t0, ch in self.events if any(k in ch for k in tids)])
+        lo = self._not_before(td, tids)
         cand = [(d, t) for t, d in ep.dist if lo - 1e-9 <= t <= t_last + 1e-9]
         return min(cand)[1] if cand else t_last
+
+    def _not_before(self, td: float, tids) -> float:
+        """The earliest time a decision at ``td`` on tracks ``tids`` may relabel: ``output_lag_s``
+        (at least ``lag_s``) before td, and not before an earlier decision on these tracks."""
+        lag = max(self.lag_s, self.output_lag_s or 0.0)
+        return max([td - lag] + [t0 for t0, ch in self.events if any(k in ch for k in tids)])
 
     def relabel(self, t: np.ndarray, tid: np.ndarray) -> np.ndarray:
         """Identity of each output row (time ``t``, internal track ``tid``): its own id, changed
