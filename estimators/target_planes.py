@@ -269,6 +269,17 @@ class TargetPlanes(Estimator):
                                   "stand_s (tp_identity.IdentityLag._left_behind; found_again's scores). No "
                                   "parameter value (thirty-first session: no development output changed; seen "
                                   "head-on 1151 38.6 -> 81.1 %)")
+        handover_reach: bool = param(True, "a hand-over's exchange holds from the encounter's nearest approach, as a "
+                                     "pair's does (within the output lag): the survivor and the gone track exchange "
+                                     "identities there, and the new track takes the survivor's from the gone "
+                                     "track's end (tp_identity.IdentityLag._hand_over); off: all from the end. No "
+                                     "parameter value (thirty-second session: head-on development 189 97.1 -> "
+                                     "98.6 %, 172 98.0 -> 98.3 %, nothing else changed)")
+        free_births: bool = param(True, "a crossing of target planes inside a wall or an obstacle of the floor plan "
+                                  "(its clearance 0 or below: no one's axis can be there) neither starts a track nor "
+                                  "locates the target (tp_initiate.propose's room test; the floor plan's outline "
+                                  "alone without it). No parameter value (thirty-second session: analytic "
+                                  "1181's look-alike got a track 0.6 m off, in the east wall)")
         ghost_test: bool = param(True, "a crossing of two target planes that two or more further cameras would see "
                                  "whole (in the image, not behind the floor plan's boxes) and show no window at is "
                                  "two people's planes crossing, not a person: it neither locates the target nor "
@@ -407,6 +418,8 @@ class TargetPlanes(Estimator):
         detections, det_cams = person_detections(observations, cams) if (cfg.person_detections or cfg.detection_planes) else (None, [])
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
+        # where a person's axis can be: off the walls and obstacles too (``free_births``)
+        free_floor = functools.partial(clear_of_walls, calibration.floorplan) if cfg.free_births else inside_room
         tracks: list[JointTrack] = []
         keep = None
         if not cfg.multi_person:
@@ -426,6 +439,7 @@ class TargetPlanes(Estimator):
             idl.decide_accel = cfg.identity_accel
             idl.output_lag_s = cfg.output_lag_s
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
+            idl.handover_reach = cfg.handover_reach
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         st = _RunState(tracks, keep, next_id, idl, float(times[0]) if len(times) else 0.0)
@@ -445,7 +459,7 @@ class TargetPlanes(Estimator):
             locating = target is not None and not target.located
             prefer = functools.partial(jt.locate_distance, target, accept) if locating else None
             ghost = (lambda c, xy: jt.sees_no_one(c, xy, frame[c])) if cfg.ghost_test else None
-            proposals = propose(cfg, jt.margin_px, Ps, frame, free, inside_room, prefer, ghost)
+            proposals = propose(cfg, jt.margin_px, Ps, frame, free, free_floor, prefer, ghost)
             taken = jt.locate(target, proposals, frame, accept) if locating else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in st.tracks if tr.located):
@@ -606,3 +620,10 @@ class TargetPlanes(Estimator):
         area = geo.target_area(Ps[cam], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin)
         xy = area.origin + 0.5 * (area.s_min + area.s_max) * area.direction
         return xy, lambda p: area.contains(p, cfg.radius)
+
+
+def clear_of_walls(floorplan, xy) -> np.ndarray:
+    """Whether floor points xy (n, 2) lie in the room and outside every wall and obstacle of the
+    floor plan (clearance above 0: a person's axis can be there)."""
+    return np.asarray(floorplan.clearance(np.asarray(xy, float)), float) > 0.0
+

@@ -50,8 +50,11 @@ of the pair's states before and after it, with both assignments kept until then:
                                                     log(1 / floor area) + log N(v_new; 0, sigma_v^2 I + S_new[v]))
 
   (kept: the new track is the gone person found again, or someone new). The new track of the
-  largest log L(X) - log L(K) above ``EXCHANGE_LOG_ODDS`` takes the survivor's identity, and the
-  survivor the gone one's, from the end on.
+  largest log L(X) - log L(K) above ``EXCHANGE_LOG_ODDS`` takes the survivor's identity from the
+  end on, and the survivor the gone one's. With ``handover_reach`` the survivor's exchange holds
+  from the frame where the pair was nearest, as a pair's does (``reach``): the tracks swapped
+  people where they met, so the gone track carries the survivor's identity from there to its
+  end; without it, from the end.
 - **A track left behind (``left_behind``)**: a pair decided without an exchange, one of whose
   tracks g is likelier standing at the decision (mu >= 1/2), may have left g where the two met
   while its person walked on (a window of both, explained as g alone, can draw g's velocity to
@@ -163,6 +166,7 @@ class IdentityLag:
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
+    handover_reach: bool = True  # a hand-over holds from the encounter's nearest approach (``_hand_over``)
     stand_s: float = 3.0  # mean time a person stands before walking on, s (the tracker's standing mode)
     stand_from: dict = field(default_factory=dict)  # internal id -> first frame of its current spell likelier standing
     behind: dict = field(default_factory=dict)  # standing track id -> (new track id, walked_on log-odds) waiting (``_still_behind``)
@@ -475,8 +479,10 @@ class IdentityLag:
         are scored as the pair's continuation, kept (the survivor continues its own pre state,
         the new track the gone one's or is someone new) against exchanged, as
         ``exchange_log_odds``; the new track
-        of the largest log-odds exchanges when they exceed ``EXCHANGE_LOG_ODDS``: the survivor
-        takes the gone track's identity and the new track the survivor's, from the end on."""
+        of the largest log-odds exchanges when they exceed ``EXCHANGE_LOG_ODDS``: the new track
+        takes the survivor's identity from the end on, and the survivor the gone track's - from
+        the pair's nearest approach (``reach``, the gone track carrying the survivor's identity
+        until its end) with ``handover_reach``, else from the end."""
         sv = ep.b if ep.gone == ep.a else ep.a
         if sv not in alive or not alive[sv].confirmed:
             return False
@@ -504,7 +510,13 @@ class IdentityLag:
             return False  # (without ``handover`` the pairs are scored, for diagnosis, and never exchanged)
         i_sv, i_gone = self.identity(sv), self.identity(ep.gone)
         self.ident[sv], self.ident[best] = i_gone, i_sv
-        self.events.append((ep.t_end, {sv: i_gone, best: i_sv}))
+        if self.handover_reach:
+            # the pair swapped where they met: from there, as a pair's exchange (the gone
+            # track's rows until its end), and the new track from the end
+            self.events.append((self.reach(td, ep, ep.t_end, (sv, ep.gone)), {sv: i_gone, ep.gone: i_sv}))
+            self.events.append((ep.t_end, {best: i_sv}))
+        else:
+            self.events.append((ep.t_end, {sv: i_gone, best: i_sv}))
         self.ended.pop(ep.gone, None)  # its identity is carried on: not to be found again
         for key in [k for k in self.episodes if sv in k or best in k]:
             del self.episodes[key]

@@ -307,6 +307,51 @@ def test_a_target_track_left_on_the_look_alike_when_its_track_ends_hands_the_ide
     assert set(tid[target_rows & (t < 2.1 - 1e-9)]) == {0}  # never further back than the lag
 
 
+def crossed_then_rejected(handover_reach=True):
+    """Head-on: the tracks swap people where they cross (2.05 s); the look-alike's track 1, now
+    on the target A, is rejected 0.45 s later (2.5 s); a new track 2 follows A from 2.7 s. The
+    output is 2 s behind. Returns the decision, each row's time, track, identity and person."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, handover=True, output_lag_s=2.0,
+                      handover_reach=handover_reach)
+    rows, on = [], []
+    for t in TIMES:
+        late = t >= 2.05 - 1e-9
+        trs = [JointTrack(0, np.array(paths["B" if late else "A"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if t < 2.5 - 1e-9:
+            trs.append(JointTrack(1, np.array(paths["A" if late else "B"](t), float), S0.copy(), confirmed=True, seen=True))
+        if t >= 2.7 - 1e-9:
+            trs.append(JointTrack(2, np.array(paths["A"](t), float), S0.copy(), confirmed=True, seen=True))
+        idl.update(float(t), trs)
+        for tr in trs:
+            rows.append((t, tr.tid))
+            on.append("A" if np.allclose(tr.s, paths["A"](t)) else "B")
+    t, tid = np.array(rows).T
+    tid = tid.astype(int)
+    return idl, t, tid, idl.relabel(t, tid), np.array(on)
+
+
+def test_a_hand_over_holds_from_the_crossing_where_the_gone_track_carried_the_target():
+    """The hand-over (a lag after the end, 3.5 s) holds from the pair's nearest approach (2.0 s),
+    as a pair's exchange does: the survivor takes the gone identity there, the gone track the
+    target's until its end, the new track the target's from then on. Every target row after the
+    crossing is on A; before it, the target's rows stay on its own track. Without
+    ``handover_reach`` the exchange holds from the end: the target's rows 2.05-2.4 s are on B."""
+    idl, t, tid, ident, on = crossed_then_rejected()
+    (h,) = idl.handovers
+    assert h["b"] == 2 and h["log_odds"] > EXCHANGE_LOG_ODDS and idl.holder(0) == 2 and idl.holder(1) == 0
+    target = ident == 0
+    assert (on[target & (t >= 2.05 - 1e-9)] == "A").all()
+    assert set(tid[target & (t >= 2.0 - 1e-9) & (t < 2.5 - 1e-9)]) == {1}
+    assert set(tid[target & (t < 2.0 - 1e-9)]) == {0} and (on[target & (t < 2.0 - 1e-9)] == "A").all()
+    assert not (target & (t >= 2.5 - 1e-9) & (t < 2.7 - 1e-9)).any()  # no track was on A then
+    assert ((ident == 1) == (((tid == 0) & (t >= 2.0 - 1e-9)) | ((tid == 1) & (t < 2.0 - 1e-9)))).all()
+    idl, t, tid, ident, on = crossed_then_rejected(handover_reach=False)
+    target = ident == 0
+    assert (on[target & (t >= 2.05 - 1e-9) & (t < 2.5 - 1e-9)] == "B").all()
+    assert set(tid[target & (t < 2.5 - 1e-9)]) == {0}
+
+
 def test_a_survivor_on_its_own_person_keeps_its_identity_when_the_other_track_ends():
     idl, t, tid, ident = run_gone(head_on(), swap_at=np.inf, end_at=2.1, new_from=2.3, new_on="B")
     assert idl.holder(0) == 0

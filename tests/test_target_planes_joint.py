@@ -140,6 +140,24 @@ def test_a_window_nobody_predicts_starts_a_track_only_when_a_second_camera_confi
     assert (TargetPlanes(initial_xy=[2.0, 2.0]).run(Observations({"boxes": boxes}, 2.0), calib([south, west])).tracks.track_id == 0).all()
 
 
+def test_a_mover_inside_an_obstacle_starts_no_track():
+    """A screen on a cabinet shows someone walking: both cameras report a moving window whose
+    target planes cross inside the cabinet (a box of the floor plan), where no one's axis can be.
+    It starts no track; the floor plan's outline alone (``free_births`` off) takes it for a
+    person. A walker beside the cabinet is tracked either way."""
+    from trackroom.scenes.spec import Floorplan, Obstacle
+    from trackroom.recording import Calibration
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 2.0, 0.1), 6)
+    paths = {"screen": line_path([2.7, 2.3], [3.3, 2.7], times), "walker": line_path([1.0, 4.5], [2.5, 5.5], times)}
+    boxes = boxes_table([south, west], paths, times)
+    cabinet = Obstacle((3.0, 2.5), (1.0, 0.8, 1.6), name="cabinet")
+    cal = Calibration({c.name: c for c in (south, west)}, Floorplan(np.array([[0, 0], [8, 0], [8, 7], [0, 7]], float), (), (cabinet,)))
+    for free_births, expected in ((True, {"walker"}), (False, {"walker", "screen"})):
+        tr = TargetPlanes(multi_person=True, free_births=free_births).run(Observations({"boxes": boxes}, 2.0), cal).tracks
+        assert {n for n, _ in owners(tr, paths, times).values()} == expected
+
+
 # --- scenes of synthetic windows (tests.test_target_planes.synth_boxes) ----------------------
 def _tagged(cams, paths, times, **kw):
     """synth_boxes per person with distinct window ids, and a column telling the target's rows."""
