@@ -626,4 +626,3 @@ def clear_of_walls(floorplan, xy) -> np.ndarray:
     """Whether floor points xy (n, 2) lie in the room and outside every wall and obstacle of the
     floor plan (clearance above 0: a person's axis can be there)."""
     return np.asarray(floorplan.clearance(np.asarray(xy, float)), float) > 0.0
-
