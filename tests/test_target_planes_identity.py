@@ -276,16 +276,18 @@ def test_an_identity_still_carried_is_not_given_to_a_new_track():
     assert idl.links == [] and idl.identity(2) == 2
 
 
-def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0):
+def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False, **options):
     """As ``run``, but track 1 (on "B", the target's track 0 on "A") ends at ``end_at`` (dropped
     by the tracker, e.g. as a duplicate of track 0) and a new confirmed track 2 follows
-    ``new_on`` from ``new_from``; track 0 is on "B" from ``swap_at``. Returns as ``run``."""
-    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=area, sigma_v=1.5, handover=handover)
+    ``new_on`` from ``new_from``; track 0 is on "B" from ``swap_at``, and so is track 1 on "A"
+    with ``gone_swaps``. ``options``: further ``IdentityLag`` fields. Returns as ``run``."""
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=area, sigma_v=1.5, handover=handover, **options)
     rows = []
     for t in TIMES:
         trs = [JointTrack(0, np.array(paths["A" if t < swap_at else "B"](t), float), S0.copy(), confirmed=True, seen=True)]
         if t < end_at - 1e-9:
-            trs.append(JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=gone_confirmed, seen=True))
+            on = "A" if gone_swaps and t >= swap_at else "B"
+            trs.append(JointTrack(1, np.array(paths[on](t), float), S0.copy(), confirmed=gone_confirmed, seen=True))
         if t >= new_from - 1e-9:
             trs.append(JointTrack(2, np.array(paths[new_on](t), float), S0.copy(), confirmed=True, seen=True))
         idl.update(float(t), trs)
@@ -310,25 +312,12 @@ def test_a_target_track_left_on_the_look_alike_when_its_track_ends_hands_the_ide
 def crossed_then_rejected(handover_reach=True):
     """Head-on: the tracks swap people where they cross (2.05 s); the look-alike's track 1, now
     on the target A, is rejected 0.45 s later (2.5 s); a new track 2 follows A from 2.7 s. The
-    output is 2 s behind. Returns the decision, each row's time, track, identity and person."""
-    paths = head_on()
-    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, handover=True, output_lag_s=2.0,
-                      handover_reach=handover_reach)
-    rows, on = [], []
-    for t in TIMES:
-        late = t >= 2.05 - 1e-9
-        trs = [JointTrack(0, np.array(paths["B" if late else "A"](t), float), S0.copy(), confirmed=True, seen=True)]
-        if t < 2.5 - 1e-9:
-            trs.append(JointTrack(1, np.array(paths["A" if late else "B"](t), float), S0.copy(), confirmed=True, seen=True))
-        if t >= 2.7 - 1e-9:
-            trs.append(JointTrack(2, np.array(paths["A"](t), float), S0.copy(), confirmed=True, seen=True))
-        idl.update(float(t), trs)
-        for tr in trs:
-            rows.append((t, tr.tid))
-            on.append("A" if np.allclose(tr.s, paths["A"](t)) else "B")
-    t, tid = np.array(rows).T
-    tid = tid.astype(int)
-    return idl, t, tid, idl.relabel(t, tid), np.array(on)
+    output is 2 s behind. Returns ``run_gone``'s, and each row's person."""
+    idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.5, new_from=2.7, new_on="A", gone_swaps=True,
+                                  output_lag_s=2.0, handover_reach=handover_reach)
+    late = t >= 2.05
+    on = np.where(tid == 2, "A", np.where((tid == 0) == late, "B", "A"))
+    return idl, t, tid, ident, on
 
 
 def test_a_hand_over_holds_from_the_crossing_where_the_gone_track_carried_the_target():
