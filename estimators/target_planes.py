@@ -275,6 +275,11 @@ class TargetPlanes(Estimator):
                                      "track's end (tp_identity.IdentityLag._hand_over); off: all from the end. No "
                                      "parameter value (thirty-second session: head-on development 189 97.1 -> "
                                      "98.6 %, 172 98.0 -> 98.3 %, nothing else changed)")
+        bridge_gaps: bool = param(True, "an identity's gap - frames between two of its reported rows, from different "
+                                  "tracks that an identity decision joined (a hand-over, a person found again), where "
+                                  "no track carried it - no longer than output_lag_s is reported, as the fixed-lag "
+                                  "output's smoother would: the cubic through the rows' positions and velocities on "
+                                  "either side, n_cameras 0, mode bridged (``_bridge_gaps``). No parameter value")
         free_births: bool = param(True, "a crossing of target planes inside a wall or an obstacle of the floor plan "
                                   "(its clearance 0 or below: no one's axis can be there) neither starts a track nor "
                                   "locates the target (tp_initiate.propose's room test; the floor plan's outline "
@@ -549,6 +554,8 @@ class TargetPlanes(Estimator):
         if idl is not None:
             tracks_df["track_id"] = idl.relabel(tracks_df["t"].to_numpy(), tracks_df["track_id"].to_numpy())
             status_df["track_id"] = idl.relabel(status_df["t"].to_numpy(), status_df["track_id"].to_numpy())
+        if idl is not None and cfg.bridge_gaps:
+            tracks_df = bridge_gaps(tracks_df, np.asarray(times, float), max(cfg.output_lag_s, cfg.identity_lag_s), inside_room)
         if not cfg.multi_person:
             tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
             status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
@@ -626,3 +633,38 @@ def clear_of_walls(floorplan, xy) -> np.ndarray:
     """Whether floor points xy (n, 2) lie in the room and outside every wall and obstacle of the
     floor plan (clearance above 0: a person's axis can be there)."""
     return np.asarray(floorplan.clearance(np.asarray(xy, float)), float) > 0.0
+
+
+def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, inside_room) -> pd.DataFrame:
+    """Each identity's frames without a row between two of its rows (the end of one track and the
+    start of the next that an identity decision gave that identity: a hand-over, a person found
+    again), when the gap between the rows is at most ``max_gap_s`` (the output lag: a fixed-lag
+    smoother has both ends before those frames are final): the person was there, so the output
+    reports the cubic Hermite curve through the two rows' positions and velocities; ``n_cameras``
+    0, ``mode`` ``bridged``. A bridge that leaves the floor plan is not added."""
+    if not len(tracks_df):
+        return tracks_df
+    extra = []
+    for ident, g in tracks_df.sort_values("t", kind="stable").groupby("track_id"):
+        t = g["t"].to_numpy(float)
+        k = np.searchsorted(times, t - 1e-6)  # each row's frame
+        for i in np.flatnonzero((np.diff(k) > 1) & (np.diff(t) <= max_gap_s + 1e-9)):
+            t0, t1 = t[i], t[i + 1]
+            ts = times[k[i] + 1:k[i + 1]]
+            a, b = g.iloc[i], g.iloc[i + 1]
+            p0, p1 = np.array([a.x, a.y], float), np.array([b.x, b.y], float)
+            v0, v1 = np.array([a.vx, a.vy], float), np.array([b.vx, b.vy], float)
+            h = t1 - t0
+            u = ((ts - t0) / h)[:, None]
+            xy = ((2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * v0
+                  + (-2 * u**3 + 3 * u**2) * p1 + (u**3 - u**2) * h * v1)
+            v = ((6 * u**2 - 6 * u) * p0 + (3 * u**2 - 4 * u + 1) * h * v0
+                 + (-6 * u**2 + 6 * u) * p1 + (3 * u**2 - 2 * u) * h * v1) / h
+            if not np.all(np.asarray(inside_room(xy), bool)):
+                continue
+            extra += [(float(tk), ident, float(x), float(y), float(vx), float(vy), 0, "bridged")
+                      for tk, (x, y), (vx, vy) in zip(ts, xy, v)]
+    if not extra:
+        return tracks_df
+    out = pd.concat([tracks_df, pd.DataFrame(extra, columns=tracks_df.columns)], ignore_index=True)
+    return out.sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)

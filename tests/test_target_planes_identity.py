@@ -553,3 +553,45 @@ def test_a_waiting_left_behind_decision_counts_the_stand_and_ends_when_the_track
     idl.born, idl.stand_from, idl.behind, idl.ident = {0: 0.0, 2: 1.0}, {0: 0.0}, {0: (2, 3.0)}, {0: 0, 2: 2}
     idl._still_behind(4.0, tracks(0.2))
     assert not idl.behind and idl.holder(0) == 0
+
+
+def chain_rows(gap_from, gap_to, times=TIMES):
+    """The output of one identity (0) carried by track A until ``gap_from`` and, after a decision
+    joined them, by track B from ``gap_to`` (no row between), for a walker at (1 + 1.2 t, 3 + 0.5 t);
+    identity 1 (someone else) reported in every frame."""
+    rows = []
+    for t in times:
+        if t < gap_from - 1e-9 or t >= gap_to - 1e-9:
+            rows.append((t, 0, 1.0 + 1.2 * t, 3.0 + 0.5 * t, 1.2, 0.5, 2, "planes"))
+        rows.append((t, 1, 5.0, 5.0, 0.0, 0.0, 2, "planes"))
+    return pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode"])
+
+
+def test_a_gap_between_two_tracks_of_one_identity_is_bridged_within_the_output_lag():
+    """The target's rows stop at 1.95 s (its track ended) and resume at 2.6 s (the new track that
+    a hand-over gave its identity): the six frames between are reported on the curve through
+    both ends' positions and velocities - here the walker's own straight line - as ``bridged``
+    with no camera; everyone else's rows are untouched."""
+    from trackroom.estimators.target_planes import bridge_gaps
+
+    out = bridge_gaps(chain_rows(2.0, 2.6), TIMES, 3.5, lambda xy: np.ones(len(xy), bool))
+    tgt = out[out.track_id == 0]
+    assert np.allclose(tgt.t.to_numpy(), TIMES)  # every frame, once
+    br = tgt[tgt["mode"] == "bridged"]
+    assert np.allclose(br.t.to_numpy(), [2.0, 2.1, 2.2, 2.3, 2.4, 2.5])
+    assert (br.n_cameras == 0).all()
+    assert np.allclose(br.x.to_numpy(), 1.0 + 1.2 * br.t.to_numpy()) and np.allclose(br.y.to_numpy(), 3.0 + 0.5 * br.t.to_numpy())
+    assert np.allclose(br.vx.to_numpy(), 1.2) and np.allclose(br.vy.to_numpy(), 0.5)
+    assert len(out[out.track_id == 1]) == len(TIMES)
+
+
+def test_a_gap_longer_than_the_output_lag_or_off_the_floor_is_not_bridged():
+    """A gap of 1.5 s with a lag of 1 s stays a gap (the rows on either side would be final before
+    the smoother had both); so does one whose curve leaves the floor plan."""
+    from trackroom.estimators.target_planes import bridge_gaps
+
+    rows = chain_rows(1.0, 2.6)
+    assert len(bridge_gaps(rows, TIMES, 1.0, lambda xy: np.ones(len(xy), bool))) == len(rows)
+    short = chain_rows(2.0, 2.6)
+    assert len(bridge_gaps(short, TIMES, 3.5, lambda xy: xy[:, 0] < 3.0)) == len(short)
+    assert len(bridge_gaps(short, TIMES, 3.5, lambda xy: xy[:, 0] < 4.5)) == len(short) + 6
