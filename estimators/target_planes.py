@@ -29,10 +29,13 @@ decided a second after they part, by the joint likelihood of their states before
 (``tp_identity``), and the output follows the decision from the pair's nearest approach, up to
 ``output_lag_s`` (3.5 s) back; a track confirmed
 within the lag is reported from its birth, and in multi-person mode from a lag before its
-confirmation (before its birth: moved back along its velocity, ``mode`` extrapolated).
+confirmation (before its birth: moved back along its velocity, ``mode`` extrapolated). An identity's
+frames between two tracks an identity decision joined, where no track carried it, are reported
+on the curve through both ends when the gap is no longer than the output lag (``bridge_gaps``,
+``mode`` bridged).
 
 ``run`` returns the tracks (with ``n_cameras``: cameras whose window was the track alone, and
-``mode``: planes / area / merged / predicted / extrapolated) and a per-frame, per-camera status table (tracking /
+``mode``: planes / area / merged / predicted / extrapolated / bridged) and a per-frame, per-camera status table (tracking /
 merged / unreliable / lost and why, Figs. 11-12); ``estimate`` returns the tracks only.
 """
 from __future__ import annotations
