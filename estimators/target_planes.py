@@ -282,7 +282,7 @@ class TargetPlanes(Estimator):
                                   "tracks that an identity decision joined (a hand-over, a person found again), where "
                                   "no track carried it - no longer than output_lag_s is reported, as the fixed-lag "
                                   "output's smoother would: the cubic through the rows' positions and velocities on "
-                                  "either side, n_cameras 0, mode bridged (``_bridge_gaps``). No parameter value")
+                                  "either side, n_cameras 0, mode bridged (``bridge_gaps``). No parameter value")
         free_births: bool = param(True, "a crossing of target planes inside a wall or an obstacle of the floor plan "
                                   "(its clearance 0 or below: no one's axis can be there) neither starts a track nor "
                                   "locates the target (tp_initiate.propose's room test; the floor plan's outline "
@@ -644,14 +644,19 @@ def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, in
     again), when the gap between the rows is at most ``max_gap_s`` (the output lag: a fixed-lag
     smoother has both ends before those frames are final): the person was there, so the output
     reports the cubic Hermite curve through the two rows' positions and velocities; ``n_cameras``
-    0, ``mode`` ``bridged``. A bridge that leaves the floor plan is not added."""
+    0, ``mode`` ``bridged``. A bridge that leaves the floor plan is not added, nor one after an
+    ``extrapolated`` row (inside a track's extension back from its birth, whose frames near
+    another reported track ``_extend_back`` leaves out)."""
     if not len(tracks_df):
         return tracks_df
     extra = []
     for ident, g in tracks_df.sort_values("t", kind="stable").groupby("track_id"):
         t = g["t"].to_numpy(float)
         k = np.searchsorted(times, t - 1e-6)  # each row's frame
-        for i in np.flatnonzero((np.diff(k) > 1) & (np.diff(t) <= max_gap_s + 1e-9)):
+        # a gap after an extrapolated row lies inside one track's extension back from its birth,
+        # whose frames ``_extend_back`` left out on purpose (near another reported track)
+        inside = (g["mode"].to_numpy() == "extrapolated")[:-1]
+        for i in np.flatnonzero((np.diff(k) > 1) & (np.diff(t) <= max_gap_s + 1e-9) & ~inside):
             t0, t1 = t[i], t[i + 1]
             ts = times[k[i] + 1:k[i + 1]]
             a, b = g.iloc[i], g.iloc[i + 1]

@@ -587,7 +587,8 @@ def test_a_gap_between_two_tracks_of_one_identity_is_bridged_within_the_output_l
 
 def test_a_gap_longer_than_the_output_lag_or_off_the_floor_is_not_bridged():
     """A gap of 1.5 s with a lag of 1 s stays a gap (the rows on either side would be final before
-    the smoother had both); so does one whose curve leaves the floor plan."""
+    the smoother had both); so does one whose curve leaves the floor plan, and one after an
+    extrapolated row (frames a track's extension back from its birth left out on purpose)."""
     from trackroom.estimators.target_planes import bridge_gaps
 
     rows = chain_rows(1.0, 2.6)
@@ -595,3 +596,6 @@ def test_a_gap_longer_than_the_output_lag_or_off_the_floor_is_not_bridged():
     short = chain_rows(2.0, 2.6)
     assert len(bridge_gaps(short, TIMES, 3.5, lambda xy: xy[:, 0] < 3.0)) == len(short)
     assert len(bridge_gaps(short, TIMES, 3.5, lambda xy: xy[:, 0] < 4.5)) == len(short) + 6
+    extended = short.copy()
+    extended.loc[(extended.track_id == 0) & (extended.t < 2.0 - 1e-9) & (extended.t > 1.5 - 1e-9), "mode"] = "extrapolated"
+    assert len(bridge_gaps(extended, TIMES, 3.5, lambda xy: np.ones(len(xy), bool))) == len(short)
