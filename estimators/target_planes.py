@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from scipy.interpolate import CubicHermiteSpline
 
 from trackroom.recording import Calibration, Observations
 
@@ -557,11 +558,11 @@ class TargetPlanes(Estimator):
         if idl is not None:
             tracks_df["track_id"] = idl.relabel(tracks_df["t"].to_numpy(), tracks_df["track_id"].to_numpy())
             status_df["track_id"] = idl.relabel(status_df["t"].to_numpy(), status_df["track_id"].to_numpy())
-        if idl is not None and cfg.bridge_gaps:
-            tracks_df = bridge_gaps(tracks_df, np.asarray(times, float), max(cfg.output_lag_s, cfg.identity_lag_s), inside_room)
         if not cfg.multi_person:
             tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
             status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
+        if idl is not None and cfg.bridge_gaps:
+            tracks_df = bridge_gaps(tracks_df, np.asarray(times, float), max(cfg.output_lag_s, cfg.identity_lag_s), inside_room)
         decisions = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
                            for h in (idl.decisions if idl is not None else [])])
@@ -595,10 +596,7 @@ class TargetPlanes(Estimator):
                 if len(other) and float(np.hypot(other["x"] - x, other["y"] - y).min()) < 4.0 * cfg.radius:
                     continue
                 extra.append((t, r.track_id, x, y, v[0], v[1], 0, "extrapolated"))
-        if not extra:
-            return tracks_df
-        out = pd.concat([tracks_df, pd.DataFrame(extra, columns=tracks_df.columns)], ignore_index=True)
-        return out.sort_values(["t", "track_id"], kind="stable").reset_index(drop=True)
+        return with_rows(tracks_df, extra)
 
     # ------------------------------------------------------------------------------------------
     def _initial_target(self, cams, Ps, frame0, inside_room):
@@ -659,19 +657,19 @@ def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, in
         for i in np.flatnonzero((np.diff(k) > 1) & (np.diff(t) <= max_gap_s + 1e-9) & ~inside):
             t0, t1 = t[i], t[i + 1]
             ts = times[k[i] + 1:k[i + 1]]
-            a, b = g.iloc[i], g.iloc[i + 1]
-            p0, p1 = np.array([a.x, a.y], float), np.array([b.x, b.y], float)
-            v0, v1 = np.array([a.vx, a.vy], float), np.array([b.vx, b.vy], float)
-            h = t1 - t0
-            u = ((ts - t0) / h)[:, None]
-            xy = ((2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * v0
-                  + (-2 * u**3 + 3 * u**2) * p1 + (u**3 - u**2) * h * v1)
-            v = ((6 * u**2 - 6 * u) * p0 + (3 * u**2 - 4 * u + 1) * h * v0
-                 + (-6 * u**2 + 6 * u) * p1 + (3 * u**2 - 2 * u) * h * v1) / h
+            ends = g.iloc[[i, i + 1]]
+            curve = CubicHermiteSpline([t0, t1], ends[["x", "y"]].to_numpy(float), ends[["vx", "vy"]].to_numpy(float))
+            xy, v = curve(ts), curve(ts, 1)
             if not np.all(np.asarray(inside_room(xy), bool)):
                 continue
             extra += [(float(tk), ident, float(x), float(y), float(vx), float(vy), 0, "bridged")
                       for tk, (x, y), (vx, vy) in zip(ts, xy, v)]
+    return with_rows(tracks_df, extra)
+
+
+def with_rows(tracks_df: pd.DataFrame, extra: list) -> pd.DataFrame:
+    """The output rows with ``extra`` rows (tuples in its columns' order) added, in time and
+    track order."""
     if not extra:
         return tracks_df
     out = pd.concat([tracks_df, pd.DataFrame(extra, columns=tracks_df.columns)], ignore_index=True)
