@@ -562,7 +562,7 @@ class TargetPlanes(Estimator):
             tracks_df = tracks_df[tracks_df["track_id"] == 0].reset_index(drop=True)
             status_df = status_df[status_df["track_id"] == 0].reset_index(drop=True)
         if idl is not None and cfg.bridge_gaps:
-            tracks_df = bridge_gaps(tracks_df, np.asarray(times, float), max(cfg.output_lag_s, cfg.identity_lag_s), inside_room)
+            tracks_df = bridge_gaps(tracks_df, np.asarray(times, float), idl.final_s, inside_room)
         decisions = pd.DataFrame([{**{k: v for k, v in h.items() if not isinstance(v, np.ndarray)},
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
                            for h in (idl.decisions if idl is not None else [])])

@@ -174,6 +174,12 @@ class IdentityLag:
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
 
+    @property
+    def final_s(self) -> float:
+        """How long after a frame the output may still change, s: ``output_lag_s``, at least
+        ``lag_s``."""
+        return max(self.lag_s, self.output_lag_s or 0.0)
+
     def record(self, td: float, kind: str, a: int, b: int, llr: float, pre_a, pre_b, post_a, post_b, gone: int | None = None,
                t1: float | None = None, t_from: float | None = None) -> None:
         """Log a scored decision: ``kind`` "pair" (tracks a and b of an encounter, exchanged or
@@ -591,8 +597,7 @@ class IdentityLag:
     def _not_before(self, td: float, tids) -> float:
         """The earliest time a decision at ``td`` on tracks ``tids`` may relabel: ``output_lag_s``
         (at least ``lag_s``) before td, and not before an earlier decision on these tracks."""
-        lag = max(self.lag_s, self.output_lag_s or 0.0)
-        return max([td - lag] + [t0 for t0, ch in self.events if any(k in ch for k in tids)])
+        return max([td - self.final_s] + [t0 for t0, ch in self.events if any(k in ch for k in tids)])
 
     def relabel(self, t: np.ndarray, tid: np.ndarray) -> np.ndarray:
         """Identity of each output row (time ``t``, internal track ``tid``): its own id, changed
