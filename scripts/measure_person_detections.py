@@ -13,7 +13,11 @@ recording (the truth read by the experimenter):
   frame with one and after a frame without (a miss run's mean, ``person_miss_run``, is one
   over the latter); and the column error of those detections about the projected axis (its
   core spread is the noise a detection's target plane would have: docs/target_planes.md,
-  "person detections as target planes");
+  "person detections as target planes"); the same rates for the people standing (truth speed
+  below ``STILL``, where the tracker uses the detections) and walking, with the longest run of
+  misses and the number of runs of ``LONG_RUN`` frames or more (a two-state chain with a mean
+  run of 3-4 frames makes these next to impossible: a detector that misses someone standing
+  for seconds on end is outside the tracker's model);
 - ghosts: ``GHOSTS`` random floor points per recording, standing (seed 0), at frames when
   they are 1 m or more from everyone, tested the same way with the gate of a track of position
   sd 0.1 m: how often a detection falls within it, against the chance the tracker computes
@@ -35,6 +39,8 @@ from trackroom.estimators.tp_joint import Occluders, coincidence_chance, detecti
 HEIGHT, RADIUS, CENTRE = 1.8, 0.2, 0.9  # the tracker's person model (m) and the axis point it projects
 GHOSTS = 60
 GHOST_SD = 0.1  # m
+STILL = 0.05  # m/s: a person standing (the truth's speed below this), where ``person_detections`` is used
+LONG_RUN = 30  # frames (3 s at 10 fps): a miss run this long is outside the two-state chain's reach
 
 
 def _in_image(P: np.ndarray, xy, width: float) -> np.ndarray | None:
@@ -50,6 +56,30 @@ def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
     dt = float(np.median(step.dropna())) if step.notna().any() else np.nan
     ok = step == round(dt, 3)
     return float(df[ok & (prev == True)].hit.mean()), float(df[ok & (prev == False)].hit.mean())  # noqa: E712
+
+
+def miss_runs(df: pd.DataFrame, keys: list[str]) -> np.ndarray:
+    """The lengths (frames) of every run of misses over consecutive frames, per ``keys`` group
+    (a gap in a group's frames ends a run)."""
+    runs = []
+    for _, g in df.sort_values([*keys, "t"]).groupby(keys):
+        t, hit = g["t"].to_numpy(float), g["hit"].to_numpy(bool)
+        step = np.diff(t)
+        dt = float(np.median(step)) if len(step) else 0.0
+        n = 0
+        for k in range(len(t)):
+            if k and abs(step[k - 1] - dt) > 1e-3 and n:
+                runs.append(n)
+                n = 0
+            if hit[k]:
+                if n:
+                    runs.append(n)
+                n = 0
+            else:
+                n += 1
+        if n:
+            runs.append(n)
+    return np.asarray(runs, int)
 
 
 def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -80,7 +110,8 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
             (u, _), _ = geo.project(P, np.array([r.x, r.y, r.z]))
             us = dets.get((r.tk, c), np.zeros(0))
             res = float((us - u)[np.argmin(np.abs(us - u))]) if len(us) else np.nan
-            rows.append((r.tk, c, r.person_id, bool(len(us)) and abs(res) <= detection_gate(win), res))
+            rows.append((r.tk, c, r.person_id, bool(len(us)) and abs(res) <= detection_gate(win), res,
+                         bool(np.hypot(r.vx, r.vy) < STILL)))
         for k, (q, wh) in enumerate(zip(ghosts, occ.visible_many(c, ghosts, whole=True))):
             win = _in_image(P, q, W) if wh else None
             if win is None:
@@ -94,7 +125,7 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
                 us = dets.get((t, c), np.zeros(0))
                 chance = coincidence_chance(gate, W, len(us))
                 grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance))
-    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit", "resid"]),
+    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit", "resid", "still"]),
             pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance"]))
 
 
@@ -112,6 +143,14 @@ def main(argv: list[str]) -> int:
     after_hit, after_miss = _chain(p, ["rec", "camera", "who"])
     print(f"people wholly seen: {len(p)} camera frames, detected {p.hit.mean():.3f}; after a detection {after_hit:.3f}, "
           f"after a miss {after_miss:.3f} (mean miss run {1.0 / after_miss:.1f} frames)")
+    for name, q in (("standing (slower than 0.05 m/s)", p[p.still]), ("walking", p[~p.still])):
+        if len(q):
+            h, m = _chain(q, ["rec", "camera", "who"])
+            runs = miss_runs(q, ["rec", "camera", "who"])
+            print(f"  {name}: {len(q)} camera frames, detected {q.hit.mean():.3f}; after a detection {h:.3f}, "
+                  f"after a miss {m:.3f} (mean miss run {1.0 / m:.1f} frames); longest miss run "
+                  f"{int(runs.max()) if len(runs) else 0} frames, {int((runs >= LONG_RUN).sum())} runs of "
+                  f"{LONG_RUN} or more")
     r = p.resid[p.hit]
     mad = 1.4826 * float((r - r.median()).abs().median())
     print(f"their detections' columns against the projected axis: mean {r.mean():+.2f} px, sd {r.std():.2f} px "
