@@ -48,38 +48,32 @@ def _in_image(P: np.ndarray, xy, width: float) -> np.ndarray | None:
     return win if wholly_in_image(win, width) else None
 
 
-def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
-    """P(hit | hit the frame before), P(hit | miss the frame before) over consecutive frames."""
+def _consecutive(df: pd.DataFrame, keys: list[str]) -> tuple[pd.DataFrame, pd.Series]:
+    """``df`` sorted by ``keys`` and time, and whether each row is the frame right after its
+    group's previous row (the median frame step; a group's first row and a row after a gap are
+    not)."""
     df = df.sort_values([*keys, "t"])
-    prev = df.groupby(keys).hit.shift(1)
     step = df.groupby(keys).t.diff().round(3)
     dt = float(np.median(step.dropna())) if step.notna().any() else np.nan
-    ok = step == round(dt, 3)
+    return df, step == round(dt, 3)
+
+
+def _chain(df: pd.DataFrame, keys: list[str]) -> tuple[float, float]:
+    """P(hit | hit the frame before), P(hit | miss the frame before) over consecutive frames."""
+    df, ok = _consecutive(df, keys)
+    prev = df.groupby(keys).hit.shift(1)
     return float(df[ok & (prev == True)].hit.mean()), float(df[ok & (prev == False)].hit.mean())  # noqa: E712
 
 
 def miss_runs(df: pd.DataFrame, keys: list[str]) -> np.ndarray:
     """The lengths (frames) of every run of misses over consecutive frames, per ``keys`` group
     (a gap in a group's frames ends a run)."""
-    runs = []
-    for _, g in df.sort_values([*keys, "t"]).groupby(keys):
-        t, hit = g["t"].to_numpy(float), g["hit"].to_numpy(bool)
-        step = np.diff(t)
-        dt = float(np.median(step)) if len(step) else 0.0
-        n = 0
-        for k in range(len(t)):
-            if k and abs(step[k - 1] - dt) > 1e-3 and n:
-                runs.append(n)
-                n = 0
-            if hit[k]:
-                if n:
-                    runs.append(n)
-                n = 0
-            else:
-                n += 1
-        if n:
-            runs.append(n)
-    return np.asarray(runs, int)
+    df, ok = _consecutive(df, keys)
+    miss = ~df["hit"].to_numpy(bool)
+    follows = ok.to_numpy(bool)
+    start = miss & ~(follows & np.r_[False, miss[:-1]])  # a miss not continuing one the frame before
+    run = np.cumsum(start)[miss]
+    return np.bincount(run)[1:].astype(int) if len(run) else np.zeros(0, int)
 
 
 def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -143,7 +137,7 @@ def main(argv: list[str]) -> int:
     after_hit, after_miss = _chain(p, ["rec", "camera", "who"])
     print(f"people wholly seen: {len(p)} camera frames, detected {p.hit.mean():.3f}; after a detection {after_hit:.3f}, "
           f"after a miss {after_miss:.3f} (mean miss run {1.0 / after_miss:.1f} frames)")
-    for name, q in (("standing (slower than 0.05 m/s)", p[p.still]), ("walking", p[~p.still])):
+    for name, q in ((f"standing (slower than {STILL} m/s)", p[p.still]), ("walking", p[~p.still])):
         if len(q):
             h, m = _chain(q, ["rec", "camera", "who"])
             runs = miss_runs(q, ["rec", "camera", "who"])
