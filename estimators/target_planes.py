@@ -311,6 +311,12 @@ class TargetPlanes(Estimator):
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "
                                    "1 px of the projected cylinder's): compared with the projected cylinder clipped "
                                    "to the image, and its inner edge, not its centroid, is the measured column")
+        edge_share: bool = param(True, "a merged window's outer edge that lies inside the extent its outermost predicted "
+                                       "member would reach (that member's region falls short, or it made none: slowing, "
+                                       "standing) is shared among the members by how well each one's predicted edge "
+                                       "explains it (Gaussian in the edge noise and the member's projected spread), "
+                                       "each updated by its share (probabilistic data association); an edge at or "
+                                       "beyond that member's prediction stays its own")
         adopt: bool = param(False, "single-target mode: while the hand-chosen target is not yet located, a confirmed "
                                    "track whose first state, taken back to the first frame by the walker model, is "
                                    "likelier at the click than someone anywhere on the floor becomes the target "

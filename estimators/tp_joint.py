@@ -126,6 +126,7 @@ MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per compon
 C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
 FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
 PLANE_OUTLIER = float(chi2.ppf(0.999, 1))  # nor a plane's or depth bound's
+EDGE_SHARE_MIN = 0.01  # a member's share of a merged window's edge below 1 % updates it not at all (``edge_owners``)
 BIRTH_GATE = float(chi2.ppf(0.99, 2))  # no birth inside a track's 99 % position gate
 DUPLICATE = float(chi2.ppf(0.99, 4))  # two tracks' states this alike (and nearer than 2 radius) are one person
 FLOW_CAP = float(chi2.ppf(0.99, 2))  # the flow's share of an explanation's cost is at most its 99 % gate (heavy tails)
@@ -209,7 +210,7 @@ class Projection:
 
 
 def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
-              cap: float | None = None) -> bool:
+              cap: float | None = None, weight: float = 1.0) -> bool:
     """Kalman update of ``tr`` with z = H s + noise(R). When the innovation's squared
     Mahalanobis distance d^2 exceeds ``gate`` the update is skipped (False), or with ``soft``
     made after scaling the position's covariance by d^2 / gate, its standard deviation at most
@@ -232,6 +233,13 @@ def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate:
             tr.S = tr.S * np.outer(k, k)
             Sy = H @ tr.S @ H.T + R
     K = np.linalg.solve(Sy, H @ tr.S).T
+    if weight < 1.0:
+        # the measurement is this track's with probability ``weight`` (else someone else's):
+        # the probabilistic data association's update, without the innovations' spread term
+        tr.s = tr.s + K @ (weight * r)
+        tr.S = tr.S - weight * (K @ Sy @ K.T)
+        tr.S = 0.5 * (tr.S + tr.S.T)
+        return True
     tr.s = tr.s + K @ r
     IKH = np.eye(4) - K @ H
     tr.S = IKH @ tr.S @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
@@ -843,7 +851,7 @@ class JointTracker:
         return a[0], float(b[0])
 
     def update_plane(self, tr: JointTrack, c: str, p: Projection, u: float, sigma_px: float, offset_sign: float = 0.0,
-                     own: bool = True) -> None:
+                     own: bool = True, weight: float = 1.0) -> None:
         """The target plane of column u (eq. 4 at the predicted centroid row); with
         ``offset_sign`` = +1 / -1 the column is a window's left / right edge and the axis lies
         ``radius`` inwards (towards larger / smaller u). Beyond the outlier gate a column that is
@@ -854,7 +862,8 @@ class JointTracker:
         if row is None:
             return
         a, b, g = row
-        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max)
+        kf_update(tr, np.r_[a, 0.0, 0.0], np.array([b]), np.array([[(sigma_px / g) ** 2]]), gate=PLANE_OUTLIER, soft=own, cap=self.cfg.sigma_max,
+                  weight=weight)
 
     def update_own_edge(self, tr: JointTrack, c: str, p: Projection, boxes: CameraBoxes, j: int, left: bool) -> None:
         """A too-wide window's edge on the track's side (``left``: its left edge) as the track's
@@ -942,6 +951,28 @@ class JointTracker:
         H = np.zeros((2, 4))
         H[:, 2:] = self.flow_map(p.J)
         kf_update(tr, H, np.asarray(flow, float), self.flow_noise(c, p, extra_var), gate=gate)
+
+    def edge_owners(self, ps: list[Projection], u: float, side: int, outer: int | None) -> np.ndarray | None:
+        """Each member's share of a merged window's outer edge at column u on ``side`` (0 left, 1
+        right); ``outer``: the member outermost on that side by the predictions (None: the edge is
+        no one's, the image border cutting them). The edge is the outermost member's when it lies
+        at or beyond that member's predicted edge, or without ``edge_share``. Inside it, that
+        member's flow region falls short of where it is predicted to reach, or it made none (a
+        walker slowing to a stop makes no flow region, so a passer's window is all there is): the
+        edge is shared by how well each member's predicted edge explains it, N(u; its edge, (2 edge
+        sigma)^2 + its projected variance), with equal priors - a probabilistic data
+        association of the edge, each member updated by its share (``kf_update``'s weight)."""
+        if outer is None:
+            return None
+        own = np.eye(len(ps))[outer]
+        if not self.cfg.edge_share or (u - float(ps[outer].win[side])) * (1.0 if side else -1.0) >= 0.0:
+            return own
+        ll = np.empty(len(ps))
+        for k, p in enumerate(ps):
+            var = (2.0 * self.edge_sigma(p)) ** 2 + p.var_u
+            ll[k] = -0.5 * (u - float(p.win[side])) ** 2 / var - 0.5 * float(np.log(var))
+        w = np.exp(ll - ll.max())
+        return w / w.sum()
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
@@ -1077,13 +1108,14 @@ class JointTracker:
                     # an outer edge the image border cuts is no one's edge: it updates no member
                     cut_l, cut_r = self.cut_edges(c, boxes, j, ps)
                     lo, hi = (None if cut_l else lo), (None if cut_r else hi)
+                shares = [self.edge_owners(ps, float(boxes.win[j, side]), side, out) for side, out in ((0, lo), (1, hi))]
                 for k, i in enumerate(mem):
                     tr, p = tracks[i], ps[k]
                     seen[i] = True
-                    if k == lo:
-                        self.update_plane(tr, c, p, float(boxes.win[j, 0]), 2.0 * self.edge_sigma(p), +1.0, own=False)
-                    if k == hi:
-                        self.update_plane(tr, c, p, float(boxes.win[j, 1]), 2.0 * self.edge_sigma(p), -1.0, own=False)
+                    for side, sign, sh in ((0, +1.0, shares[0]), (1, -1.0, shares[1])):
+                        if sh is not None and sh[k] >= EDGE_SHARE_MIN:
+                            self.update_plane(tr, c, p, float(boxes.win[j, side]), 2.0 * self.edge_sigma(p), sign, own=False,
+                                              weight=float(sh[k]))
                     if spread <= self.flow_sigma[c] ** 2:
                         # members moving alike: the region's flow is theirs; moving differently
                         # (crossing), it is a mixture and would draw both velocities together,

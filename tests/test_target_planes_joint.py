@@ -1170,3 +1170,35 @@ def test_a_fragments_flow_hardly_tells_whose_it_is():
     assert fit(1 / 3, 0.0) - fit(1 / 3, 28.0) > 1.5  # 6.7 -> 4.8: the flow term no longer at its cap
     assert fit(1.0, 28.0) == fit(1.0, 0.0)
     np.testing.assert_allclose(fit(1 / 3, 28.0, step=True), fit(1 / 3, 0.0, step=True))
+
+
+def _stopped_beside_walker(**options):
+    """South sees A, who has just stopped (no flow region), and B walking past 0.35 m beside
+    A across the line of sight (both located to 0.15 m); the tracker still predicts A walking, at B's velocity. South
+    reports B's window alone - B's true cylinder, B's flow - which overlaps A's projection, so it
+    is explained as both merged. Returns the tracks after the step and A's true position."""
+    south, _ = right_angle_pair()
+    cfg, jt = _tracker([south], **options)
+    a_xy, b_xy, vel = np.array([2.75, 3.0]), np.array([3.1, 3.0]), np.array([0.8, 0.0])
+    S = np.diag([0.15**2, 0.15**2, 0.2**2, 0.2**2])
+    tracks = [JointTrack(0, np.r_[a_xy, vel], S.copy(), confirmed=True, seen=True),
+              JointTrack(1, np.r_[b_xy, vel], S.copy(), confirmed=True, seen=True)]
+    a, b = (window_row(south, xy, vel) for xy in (a_xy, b_xy))
+    assert a[1] < b[1] - 10.0 < a[2]  # A's predicted left edge 10+ px left of B's, the two overlapping
+    win = np.array([b[1:5]])
+    frame = {"south": CameraBoxes(np.array([7], object), np.array([b[0]]), win, np.array([b[5:7]]))}
+    jt.step(tracks, frame, 0.0)
+    assert [tr.status["south"][0] for tr in tracks] == [MERGED, MERGED]
+    return tracks, a_xy, b_xy
+
+
+def test_a_merged_windows_edge_inside_the_outermost_members_prediction_goes_to_the_member_it_fits():
+    """A merged window's outer edge falls inside the extent its outermost predicted member would
+    reach: that member's region falls short or it made none (A, stopped). The edge is given to
+    the members by how well each one's predicted edge explains it (``edge_share``), so it moves
+    B, whose edge it is, and not A towards B; by the outermost member alone it pulls A 0.1 m+."""
+    tracks, a_xy, b_xy = _stopped_beside_walker()
+    assert np.linalg.norm(tracks[0].xy - a_xy) < 0.05
+    assert np.linalg.norm(tracks[1].xy - b_xy) < 0.03
+    old, a_xy, _ = _stopped_beside_walker(edge_share=False)
+    assert old[0].xy[0] - a_xy[0] > 0.15
