@@ -215,7 +215,11 @@ def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate:
     Mahalanobis distance d^2 exceeds ``gate`` the update is skipped (False), or with ``soft``
     made after scaling the position's covariance by d^2 / gate, its standard deviation at most
     to ``cap`` (m) (the state, not the measurement, is taken to be off: an overconfident state
-    that went astray is pulled back instead of rejecting every later window)."""
+    that went astray is pulled back instead of rejecting every later window). ``weight`` < 1: the
+    measurement is this track's with that probability (else someone else's), and the update is
+    the probabilistic data association's for one candidate - the state moves by ``weight`` times
+    the full step, the covariance shrinks by ``weight`` times the full reduction (the spread of
+    the two hypotheses' means is not added)."""
     H = np.atleast_2d(H)
     R = np.atleast_2d(R)
     r = np.atleast_1d(z) - H @ tr.s
@@ -857,7 +861,8 @@ class JointTracker:
         ``radius`` inwards (towards larger / smaller u). Beyond the outlier gate a column that is
         surely the track's (``own``: a window explained as it alone) is taken to show the state
         astray (``kf_update``'s soft gate); one that may be someone else's (a merged window's
-        outer edge: the member it is given to may be hidden inside another's) is refused."""
+        outer edge: the member it is given to may be hidden inside another's) is refused.
+        ``weight``: the probability that the column is this track's (``edge_owners``)."""
         row = self.plane_row(c, p, u, offset_sign)
         if row is None:
             return

@@ -1202,3 +1202,18 @@ def test_a_merged_windows_edge_inside_the_outermost_members_prediction_goes_to_t
     assert np.linalg.norm(tracks[1].xy - b_xy) < 0.03
     old, a_xy, _ = _stopped_beside_walker(edge_share=False)
     assert old[0].xy[0] - a_xy[0] > 0.15
+
+
+def test_a_weighted_update_moves_the_state_by_its_share_of_the_full_step():
+    """``kf_update`` with weight w (the measurement this track's with probability w): the state
+    moves w times as far as the full update moves it and the covariance loses w times the full
+    update's reduction; weight 1 is the plain update."""
+    from trackroom.estimators.tp_joint import kf_update
+    S0 = np.diag([0.2**2, 0.3**2, 0.5**2, 0.5**2])
+    H, z, R = np.array([[1.0, 0.5, 0.0, 0.0]]), np.array([0.4]), np.array([[0.1**2]])
+    full = JointTrack(0, np.zeros(4), S0.copy())
+    part = JointTrack(1, np.zeros(4), S0.copy())
+    assert kf_update(full, H, z, R) and kf_update(part, H, z, R, weight=0.25)
+    assert np.allclose(part.s, 0.25 * full.s)
+    assert np.allclose(S0 - part.S, 0.25 * (S0 - full.S))
+    assert np.all(np.linalg.eigvalsh(part.S) > 0.0)
