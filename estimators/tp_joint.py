@@ -876,7 +876,7 @@ class JointTracker:
         track (``cut_edges``)."""
         cut = self.cut_edges(c, boxes, j, [p])[0 if left else 1] if self.cfg.border_edges else False
         if not cut:
-            self.update_plane(tr, c, p, float(boxes.win[j, 0] if left else boxes.win[j, 1]), 2.0 * self.edge_sigma(p), +1.0 if left else -1.0)
+            self.update_plane(tr, c, p, float(boxes.win[j, 0] if left else boxes.win[j, 1]), self.outer_edge_sigma(p), +1.0 if left else -1.0)
 
     def plane_row(self, c: str, p: Projection, u: float, offset_sign: float = 0.0) -> tuple[np.ndarray, float, float] | None:
         """(a, b, g) of ``update_plane``'s measurement a [x, y]^T = b (m) for column u, and the
@@ -964,8 +964,8 @@ class JointTracker:
         at or beyond that member's predicted edge, or without ``edge_share``. Inside it, that
         member's flow region falls short of where it is predicted to reach, or it made none (a
         walker slowing to a stop makes no flow region, so a passer's window is all there is): the
-        edge is shared by how well each member's predicted edge explains it, N(u; its edge, (2 edge
-        sigma)^2 + its projected variance), with equal priors - a probabilistic data
+        edge is shared by how well each member's predicted edge explains it, N(u; its edge,
+        ``outer_edge_sigma``^2 + its projected variance), with equal priors - a probabilistic data
         association of the edge, each member updated by its share (``kf_update``'s weight)."""
         if outer is None:
             return None
@@ -974,13 +974,19 @@ class JointTracker:
             return own
         ll = np.empty(len(ps))
         for k, p in enumerate(ps):
-            var = (2.0 * self.edge_sigma(p)) ** 2 + p.var_u
+            var = self.outer_edge_sigma(p) ** 2 + p.var_u
             ll[k] = -0.5 * (u - float(p.win[side])) ** 2 / var - 0.5 * float(np.log(var))
         w = np.exp(ll - ll.max())
         return w / w.sum()
 
     def edge_sigma(self, p: Projection) -> float:
         return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
+
+    def outer_edge_sigma(self, p: Projection) -> float:
+        """The noise of a window's edge used as a track's edge when the window is not the track
+        alone (a merged window's outer edge, a too-wide window's edge on its track's side): twice
+        ``edge_sigma``. The update and ``edge_owners``' share of the edge both use it."""
+        return 2.0 * self.edge_sigma(p)
 
     # --- one frame ------------------------------------------------------------------------------
     def step(self, tracks: list[JointTrack], frame: dict[str, CameraBoxes], dt: float, probe: JointTrack | None = None,
@@ -1119,7 +1125,7 @@ class JointTracker:
                     seen[i] = True
                     for side, sign, sh in ((0, +1.0, shares[0]), (1, -1.0, shares[1])):
                         if sh is not None and sh[k] >= EDGE_SHARE_MIN:
-                            self.update_plane(tr, c, p, float(boxes.win[j, side]), 2.0 * self.edge_sigma(p), sign, own=False,
+                            self.update_plane(tr, c, p, float(boxes.win[j, side]), self.outer_edge_sigma(p), sign, own=False,
                                               weight=float(sh[k]))
                     if spread <= self.flow_sigma[c] ** 2:
                         # members moving alike: the region's flow is theirs; moving differently

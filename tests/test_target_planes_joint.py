@@ -1174,9 +1174,9 @@ def test_a_fragments_flow_hardly_tells_whose_it_is():
 
 def _stopped_beside_walker(**options):
     """South sees A, who has just stopped (no flow region), and B walking past 0.35 m beside
-    A across the line of sight (both located to 0.15 m); the tracker still predicts A walking, at B's velocity. South
-    reports B's window alone - B's true cylinder, B's flow - which overlaps A's projection, so it
-    is explained as both merged. Returns the tracks after the step and A's true position."""
+    A across the line of sight (both located to 0.15 m); the tracker still predicts A walking,
+    at B's velocity. South reports B's window alone - B's true cylinder, B's flow - which
+    overlaps A's projection, so it is explained as both merged. Returns the tracks after the step and A's true position."""
     south, _ = right_angle_pair()
     cfg, jt = _tracker([south], **options)
     a_xy, b_xy, vel = np.array([2.75, 3.0]), np.array([3.1, 3.0]), np.array([0.8, 0.0])
@@ -1196,7 +1196,7 @@ def test_a_merged_windows_edge_inside_the_outermost_members_prediction_goes_to_t
     """A merged window's outer edge falls inside the extent its outermost predicted member would
     reach: that member's region falls short or it made none (A, stopped). The edge is given to
     the members by how well each one's predicted edge explains it (``edge_share``), so it moves
-    B, whose edge it is, and not A towards B; by the outermost member alone it pulls A 0.1 m+."""
+    B, whose edge it is, and not A towards B; by the outermost member alone it pulls A over 0.15 m."""
     tracks, a_xy, b_xy = _stopped_beside_walker()
     assert np.linalg.norm(tracks[0].xy - a_xy) < 0.05
     assert np.linalg.norm(tracks[1].xy - b_xy) < 0.03
