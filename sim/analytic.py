@@ -403,8 +403,8 @@ def modelled_observation_tables(scene: Scene, traj: Trajectories, geometry: dict
         t = traj.t[g.steps]
         if cam.kind in ("horizontal", "oblique"):
             out["bearings"].append(det.blobs(cam, g, frac, t, model[cam.kind], rng, colours, palette))
-        if cam.kind == "oblique":
-            out["boxes"].append(det.windows(cam, g, frac, t, model["windows"], rng, None if head is None else head.get(cam.name)))
+        if cam.kind == "oblique":  # the windows from a stream of their own: a refit of the blob detector leaves them as they are
+            out["boxes"].append(det.windows(cam, g, frac, t, model["windows"], rng.spawn(1)[0], None if head is None else head.get(cam.name)))
         if cam.kind == "overhead":
             m = model["privacy" if cam.privacy else "overhead"]
             out["floor_detections"].append(det.floor(cam, g, frac, traj, t, m, rng, bounds))
