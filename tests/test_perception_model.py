@@ -1022,3 +1022,23 @@ def test_the_bundled_oblique_detector_misses_people_seen_whole_in_short_runs():
     assert run == pytest.approx(1 / ((1 - m.miss_stay_whole) * 0.98), rel=0.15) and long == 0
     old_share, old_run, old_long = misses(DetectorModel(detect=constant(0.98), rho=0.995))  # the copula before
     assert old_run > 3 * run and old_long > 100
+
+
+def test_a_merged_blob_is_labelled_by_the_person_who_fills_most_of_it(tmp_path):
+    """The rendered blob detector labels a merged blob by its pixels' majority colour, so the
+    person in front, nearer the camera and wider in the image, names it. In ROOM, "behind" (blue,
+    the scene's second person) follows "front" (red, the first) 0.6 m nearer the camera, on its
+    line of sight: with every overlapping detected pair merged and no label confusion, each frame
+    with one blob for the two reports it as blue (before, a merged blob took the lowest index's
+    label: red)."""
+    def merge_all(m):
+        o = m["oblique"]
+        o.detect, o.miss_stay, o.miss_stay_whole, o.rho = constant(1.0), None, None, 0.0
+        o.merge, o.merge_stay, o.merge_rho = constant(1.0), None, 0.0
+        o.label, o.clutter, o.fragment = 1.0, 0.0, 0.0
+
+    scene = parse_scene({**ROOM, "sensors": {"perception": _model_file(tmp_path, merge_all)}})
+    b = simulate(scene, seed=0, duration=6.0).observations["bearings"]
+    one = b.groupby("t").filter(lambda g: len(g) == 1)  # both in view and merged into one blob
+    assert len(one) > 20
+    assert (one.label == "blue").mean() > 0.95
