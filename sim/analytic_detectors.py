@@ -218,19 +218,26 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     root = merge_roots(rng, det, o, ok, m)
     F, P = det.shape
     lo, hi = a.copy(), b.copy()
+    # whose colour names each group's blob: the rendered detector labels a merged blob by its
+    # pixels' majority colour (``perception.split_by_colour``), so the member who fills most of
+    # it (projected width times the share of its rays that reach it: the one in front) names it,
+    # whatever the people's order in the scene; a person alone names its own
+    named = np.broadcast_to(np.arange(P), (F, P)).copy()
+    seen_px = frac * (b - a)
     for r in range(P):  # a merged detection spans its members
         member = det & (root == r)
         grp = member.any(axis=1)
         if grp.any():
             lo[grp, r] = np.where(member[grp], a[grp], np.inf).min(axis=1)
             hi[grp, r] = np.where(member[grp], b[grp], -np.inf).max(axis=1)
+            named[grp, r] = np.argmax(np.where(member[grp], seen_px[grp], -np.inf), axis=1)
     f, p = _groups(root, det)
     clipped = clip[f, p] < 0.999
     (uu,) = error_uniforms(rng, det.shape, m, 1)
     err = np.where(clipped, m.error("u_clip").at(uu[f, p]), m.error("u").at(uu[f, p]))
     u = 0.5 * (lo[f, p] + hi[f, p]) + err
     colour_idx = np.array([palette.index(c) for c in colours], int)
-    lab_idx = _confuse(rng, colour_idx[majority_member(root, det, frac * (b - a))[f, p]], m.label, len(palette))
+    lab_idx = _confuse(rng, colour_idx[named[f, p]], m.label, len(palette))
     # fragments: extra blobs on detected people
     fd, pd_ = np.nonzero(det)
     kf = rng.poisson(m.fragment, len(fd)) if m.fragment > 0 else np.zeros(len(fd), int)
@@ -250,22 +257,6 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     from .analytic import str_column
 
     return pd.DataFrame({"t": t[f[keep]], "camera": cam.name, "u": u[keep], "label": str_column([*palette, ""], lab_idx[keep])})
-
-
-def majority_member(root: np.ndarray, det: np.ndarray, seen_px: np.ndarray) -> np.ndarray:
-    """(F, P): for each group's root, the detected member with the most of the group's image
-    (``seen_px``: each person's projected width times the share of its rays that reach it); a
-    person alone is its own. The rendered blob detector labels a merged blob by its pixels'
-    majority colour (``perception.split_by_colour``), so the person who fills most of it - the
-    nearer one, in front of the other - names it, whatever the people's order in the scene."""
-    F, P = det.shape
-    best = np.broadcast_to(np.arange(P), (F, P)).copy()
-    for r in range(P):
-        member = det & (root == r)
-        grp = member.sum(axis=1) > 1
-        if grp.any():
-            best[grp, r] = np.argmax(np.where(member[grp], seen_px[grp], -np.inf), axis=1)
-    return best
 
 
 def _confuse(rng, idx: np.ndarray, accuracy: float, n_classes: int) -> np.ndarray:

@@ -18,8 +18,9 @@
 
 Randomness: one ``numpy.random.default_rng(seed)`` spawns independent streams, in this fixed
 order: motion, imu, cameras (one child per camera, scene order; an oblique camera's windows
-draw from a child of its camera's stream, so a refit of its blob detector leaves them as they are), rendering. The same scene and
-seed therefore give bit-identical tables, and e.g. adding a camera does not change the walkers.
+draw from a child of its camera's stream, so a refit of its blob detector leaves them as they
+are), rendering. The same scene and seed therefore give bit-identical tables, and e.g. adding a
+camera does not change the walkers.
 """
 from __future__ import annotations
 

@@ -1176,7 +1176,8 @@ def _stopped_beside_walker(**options):
     """South sees A, who has just stopped (no flow region), and B walking past 0.35 m beside
     A across the line of sight (both located to 0.15 m); the tracker still predicts A walking,
     at B's velocity. South reports B's window alone - B's true cylinder, B's flow - which
-    overlaps A's projection, so it is explained as both merged. Returns the tracks after the step and A's true position."""
+    overlaps A's projection, so it is explained as both merged. Returns the tracks after the
+    step and A's true position."""
     south, _ = right_angle_pair()
     cfg, jt = _tracker([south], **options)
     a_xy, b_xy, vel = np.array([2.75, 3.0]), np.array([3.1, 3.0]), np.array([0.8, 0.0])
