@@ -213,7 +213,8 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
           colours: list[str], palette: list[str]) -> pd.DataFrame | None:
     """``bearings`` rows (t, camera, u, label) of a horizontal or oblique camera."""
     a, b, clip, cand = blob_candidates(g, cam.width)
-    det = detected(rng, cand, m.detect(frac, clip), m, whole=(frac >= WHOLE) & (clip >= WHOLE))
+    whole = (frac >= WHOLE) & (clip >= WHOLE)
+    det = detected(rng, cand, m.detect(frac, clip), m, whole=whole)
     o, ok = span_pairs(a, b)
     root = merge_roots(rng, det, o, ok, m)
     F, P = det.shape
@@ -224,8 +225,10 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     # whatever the people's order in the scene; a person alone names its own
     named = np.broadcast_to(np.arange(P), (F, P)).copy()
     seen_px = frac * (b - a)
+    size = np.zeros((F, P), int)  # how many people each root's blob holds
     for r in range(P):  # a merged detection spans its members
         member = det & (root == r)
+        size[:, r] = member.sum(axis=1)
         grp = member.any(axis=1)
         if grp.any():
             lo[grp, r] = np.where(member[grp], a[grp], np.inf).min(axis=1)
@@ -236,6 +239,9 @@ def blobs(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, rng
     (uu,) = error_uniforms(rng, det.shape, m, 1)
     err = np.where(clipped, m.error("u_clip").at(uu[f, p]), m.error("u").at(uu[f, p]))
     u = 0.5 * (lo[f, p] + hi[f, p]) + err
+    if "u_whole" in m.errors:  # someone seen whole, alone in the blob: about the projected body centre
+        sole = whole[f, p] & (size[f, p] == 1)
+        u = np.where(sole, g.uv[f, p, 0] + m.error("u_whole").at(uu[f, p]), u)
     colour_idx = np.array([palette.index(c) for c in colours], int)
     lab_idx = _confuse(rng, colour_idx[named[f, p]], m.label, len(palette))
     # fragments: extra blobs on detected people
