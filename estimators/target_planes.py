@@ -218,10 +218,11 @@ class TargetPlanes(Estimator):
                                         "session: RMSE lower on every development set)")
         merged_evidence: bool = param(True, "a merged window is evidence for or against each member's existence: its "
                                             "likelihood with the member against without it (else it counts nothing)")
-        detection_planes: bool = param(True, "each camera's person detections (the bearings table's columns; colour labels "
-                                             "unused) as target planes for the tracks without a window of their own there, "
-                                             "where unambiguous (JointTracker.update_by_detections); on since the "
-                                             "thirty-eighth session (docs/target_planes.md)")
+        detection_planes: bool = param(False, "each camera's person detections (the bearings table's columns; colour labels "
+                                              "unused) as target planes for the tracks without a window of their own there, "
+                                              "where unambiguous (JointTracker.update_by_detections); off: it gains analytic "
+                                              "and head-on identities but not rendered ones, and on rendered recordings it "
+                                              "leaves more tracks standing on no one (docs/target_planes.md, thirty-eighth session)")
         detection_sigma_px: float = param(0.54, "detection_planes: the noise (px) of a person detection's column about the "
                                                 "person's projected axis, people seen whole (scripts/measure_person_detections.py, "
                                                 "robust sd on rendered development 100-105: 0.54; the analytic detector, "
@@ -432,8 +433,8 @@ class TargetPlanes(Estimator):
         jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px),
                           {c: float(calibration.cameras[c].fps) for c in cams})
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
-        # the person detections: required by person_detections; detection_planes (on by default)
-        # uses them where the recording has them (a recording of flow windows alone: none)
+        # the person detections: required by person_detections; detection_planes uses them where
+        # the recording has them (a recording of flow windows alone: none)
         use_detections = cfg.person_detections or (cfg.detection_planes and observations.has("bearings"))
         detections, det_cams = person_detections(observations, cams) if use_detections else (None, [])
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
