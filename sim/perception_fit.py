@@ -225,12 +225,13 @@ def _measure_blobs(s: DetectorStats, cam, g, frac, bearings, colours):
         for p, rr in match.items():
             if own[f, p]:
                 err = u[rr] - centre[f, p]
-                s.errors["u" if clip[f, p] >= 0.999 else "u_clip"].append(err)
                 if clip[f, p] >= WHOLE and frac[f, p] >= WHOLE:
                     # someone seen whole is detected about the projected body centre (the blob's
                     # centroid), which the visible span's centre misses by up to a pixel in an
                     # oblique view (the span is the union of the body's projection over its height)
                     s.errors["u_whole"].append(u[rr] - g.uv[f, p, 0])
+                else:
+                    s.errors["u" if clip[f, p] >= 0.999 else "u_clip"].append(err)
                 s.err_seq.append((cam.name, p, f, err))
                 s.label_ok.append(lab[rr] == colours[p])
         matched = set(match.values())

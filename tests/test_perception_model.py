@@ -172,7 +172,9 @@ def test_fit_recovers_known_parameters(tmp_path):
     assert o.detect.n.sum() > 500
     assert abs(float(np.average(o.detect.p, weights=np.maximum(o.detect.n, 1e-9))) - 0.75) < 0.04
     assert o.label == 1.0  # one person, one colour: nothing to confuse (label confusion: the test above)
-    assert o.error("u").sigma == pytest.approx(load_model("fitted")["oblique"].error("u").sigma, rel=0.5)
+    bundled = load_model("fitted")["oblique"]
+    assert o.error("u").sigma == pytest.approx(bundled.error("u").sigma, rel=0.5)  # partly hidden: about the span's centre
+    assert o.error("u_whole").sigma == pytest.approx(bundled.error("u_whole").sigma, rel=0.5)  # seen whole: about the body centre
 
 
 @pytest.mark.parametrize("content, problem", [
