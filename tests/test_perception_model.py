@@ -1046,7 +1046,6 @@ def test_a_merged_blob_is_labelled_by_the_person_who_fills_most_of_it(tmp_path):
     assert (one.label == "blue").mean() > 0.95
 
 
-
 def test_a_person_seen_whole_is_detected_about_the_projected_body_centre():
     """The rendered blob detector reports someone seen whole at the projected body centre within
     about half a pixel (robust sd 0.54 px over rendered development 100-105,

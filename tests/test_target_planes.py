@@ -236,6 +236,7 @@ def test_detection_planes_without_person_detections_track_from_the_windows_alone
     with pytest.raises(RecordingError, match="bearings"):
         TargetPlanes(initial_xy=[1.5, 3.0], person_detections=True).run(obs, calib(cams))
 
+
 def polyline_path(points, times, speed):
     """Positions along a polyline walked at constant speed (m/s), standing at its end."""
     pts = np.asarray(points, float)
