@@ -114,7 +114,9 @@ class TargetPlanesResult:
     each look-ahead run (``Config.lookahead``): t, the camera and window (index, None: no window)
     of the second explanation, its extra cost at t (gap), the summed cost of both hypotheses from
     t over the look-ahead (cost: the best's, cost_alt: the second's), whether both held the same
-    tracks throughout (same) and whether the second was taken."""
+    tracks throughout (same) and whether the second was taken; ``detections_used``, whether the
+    oblique cameras' person detections (the recording's ``bearings`` table) were read
+    (``person_detections`` or ``detection_planes`` on and the recording has them)."""
 
     tracks: pd.DataFrame
     status: pd.DataFrame
@@ -123,6 +125,7 @@ class TargetPlanesResult:
     decisions: pd.DataFrame = field(default_factory=pd.DataFrame)
     times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     lookaheads: pd.DataFrame = field(default_factory=pd.DataFrame)
+    detections_used: bool = False
 
 
 @register
@@ -227,6 +230,12 @@ class TargetPlanes(Estimator):
                                                 "person's projected axis, people seen whole (scripts/measure_person_detections.py, "
                                                 "robust sd on rendered development 100-105: 0.54; the analytic detector, "
                                                 "fitted to it, 0.62)")
+        share_fit_walks: bool = param(True, "a share of a merged window makes a track a walker only when the window fits "
+                                            "better with it than without it (merged_evidence's likelihood ratio at least 0); "
+                                            "a share that the others alone explain better counts for neither mode, so a "
+                                            "person who stops beside a passer can become standing instead of being "
+                                            "rejected as a walker no window shows (docs/target_planes.md, thirty-ninth "
+                                            "session; on with person_detections)")
         wake_by_own: bool = param(True, "a track more likely standing than walking (standing probability at least 1/2, the "
                                         "likelier mode) is made a walker only by a window of its own: a share of a "
                                         "merged window counts for neither mode (the others in it may have made it; "
@@ -236,11 +245,12 @@ class TargetPlanes(Estimator):
                                      "not outright by any window of its own; on with wake_once since the thirtieth "
                                      "session (alone, with person_detections, it held standing look-alikes and left "
                                      "ghosts standing as often; docs/target_planes.md)")
-        person_detections: bool = param(False, "a track likelier standing is also tested by the cameras' person detections (the "
-                                               "bearings table's u, its colour labels unused; JointTracker."
-                                               "detection_evidence); off: development recordings gained and lost alike, "
-                                               "and the analytic oblique detector's misses run far longer than rendered "
-                                               "ones (docs/target_planes.md)")
+        person_detections: bool = param(True, "a track likelier standing is also tested by the cameras' person detections (the "
+                                              "bearings table's u, its colour labels unused; JointTracker."
+                                              "detection_evidence), where the recording has them; on since the thirty-ninth "
+                                              "session with share_fit_walks, whose tracks left standing on no one it rejects "
+                                              "(off before: alone, development recordings gained and lost alike; "
+                                              "docs/target_planes.md)")
         p_person_detect: float = param(0.976, "person_detections: P(a detection within half the image width + 3 px of the "
                                               "axis) for a person wholly in the image, all three rays clear of the floor "
                                               "plan's boxes (development recordings 100-105, "
@@ -433,9 +443,9 @@ class TargetPlanes(Estimator):
         jt = JointTracker(cfg, Ps, {c: float(calibration.cameras[c].width) for c in cams}, flow_sigma, float(cfg.box_sigma_px), float(cfg.box_u_sigma_px),
                           {c: float(calibration.cameras[c].fps) for c in cams})
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
-        # the person detections: required by person_detections; detection_planes uses them where
-        # the recording has them (a recording of flow windows alone: none)
-        use_detections = cfg.person_detections or (cfg.detection_planes and observations.has("bearings"))
+        # the person detections: person_detections and detection_planes use them where the
+        # recording has them (a recording of flow windows alone: none; the result says which)
+        use_detections = (cfg.person_detections or cfg.detection_planes) and observations.has("bearings")
         detections, det_cams = person_detections(observations, cams) if use_detections else (None, [])
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
@@ -579,7 +589,8 @@ class TargetPlanes(Estimator):
                             **{f"{k}_{a}": float(v[i]) for k, v in h.items() if isinstance(v, np.ndarray) for i, a in enumerate("xy")}}
                            for h in (idl.decisions if idl is not None else [])])
         return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions, np.asarray(times, float),
-                                  pd.DataFrame(lookaheads, columns=["t", "camera", "window", "gap", "cost", "cost_alt", "same", "taken"]))
+                                  pd.DataFrame(lookaheads, columns=["t", "camera", "window", "gap", "cost", "cost_alt", "same", "taken"]),
+                                  use_detections)
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to

@@ -78,9 +78,10 @@ Per frame:
    came near enough.
 5. **Walking and standing** (IMM-style, ``mix_modes``): each track is a walking state s, S and
    a standing position xs, Ps with the standing probability mu; Markov switches of mean
-   durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one, unless
-   standing is the likelier mode: ``wake_by_own``) says it walks (mu = 0); none anywhere makes
-   standing likelier by ``p_miss`` per camera in view.
+   durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one that
+   fits better with it than without it, ``share_fit_walks``, unless standing is the likelier
+   mode: ``wake_by_own``) says it walks (mu = 0); none anywhere makes standing likelier by
+   ``p_miss`` per camera in view.
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -1031,6 +1032,7 @@ class JointTracker:
         seen = [False] * len(tracks)
         walk = [0.0] * len(tracks)
         hit = [False] * len(tracks)
+        fits = [False] * len(tracks)  # a share of a merged window that fits it (``share_fit_walks``)
         det = [0.0] * len(tracks)  # the person detections' evidence (detection_evidence)
         own = [0.0] * len(tracks)  # log P(its own windows | walking) against clutter (own_wake)
         for tr in tracks:
@@ -1076,6 +1078,9 @@ class JointTracker:
                     tracks[i].log_miss -= self.miss_walk(p)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis, merged_lr)
                 hit[i] |= n == 1
+                # a share that fits better with it than without it (or one whose fit is not
+                # weighed), or its near edge of a too-wide region: it is walking in there
+                fits[i] |= (n > 1 and (merged_lr is None or merged_lr >= 0.0)) or i in in_wide
                 if n == 1:
                     own[i] += float(np.log(cfg.p_detect)) + lr
             extra = []
@@ -1178,15 +1183,18 @@ class JointTracker:
             if tr.located:
                 # mode posterior: a window of its own says it walks, and so does a share of a merged
                 # one unless the track is likelier standing (``wake_by_own``: the window's others may
-                # have made it; it then counts for neither mode); none anywhere is likelier
-                # standing, by P(no window | walking) over the cameras
+                # have made it; it then counts for neither mode) or the window fits the others
+                # alone better (``share_fit_walks``: a standing person adds nothing to it; it
+                # counts for neither mode); none anywhere is likelier standing, by P(no window |
+                # walking) over the cameras
                 standing = tr.mu >= 0.5
                 if cfg.own_wake and standing and hit[i]:
                     # likelier standing: its own windows wake it by their likelihood ratio against
                     # clutter (a speck does not outweigh a long stand), with its misses elsewhere
                     tr.mu = tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(min(own[i] + tr.log_miss, 700.0))))
                 else:
-                    walks = hit[i] or (seen[i] and not (cfg.wake_by_own and standing))
+                    share = seen[i] and (fits[i] or not cfg.share_fit_walks)
+                    walks = hit[i] or (share and not (cfg.wake_by_own and standing))
                     tr.mu = 0.0 if walks else tr.mu / (tr.mu + (1.0 - tr.mu) * float(np.exp(tr.log_miss)))
             tr.mode = "planes" if used[i] >= 2 else "area" if used[i] == 1 else "merged" if seen[i] else "predicted"
             tr.unseen_s = 0.0 if seen[i] else tr.unseen_s + dt

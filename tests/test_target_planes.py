@@ -10,7 +10,7 @@ from trackroom.estimators.base import EstimatorError
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.scenes.camera import Camera, yaw_pitch_towards
 from trackroom.scenes.spec import Floorplan
-from trackroom.recording import Calibration, Observations, RecordingError
+from trackroom.recording import Calibration, Observations
 
 H, R = 1.75, 0.2
 
@@ -222,19 +222,21 @@ def test_tracks_a_walker_past_an_obstacle_and_a_standing_person():
     assert (res.status.status == "lost").any()  # the occluder made some camera lose it
 
 
-def test_detection_planes_without_person_detections_track_from_the_windows_alone():
-    """``detection_planes`` reads the ``bearings`` table's person detections where the recording
-    has one; a recording of flow windows alone is tracked from them, as with the option off (the
-    same tracks), while ``person_detections``, which needs the detections, names what is missing."""
+def test_a_recording_without_person_detections_is_tracked_from_the_windows_alone():
+    """``person_detections`` and ``detection_planes`` read the ``bearings`` table's person
+    detections where the recording has one; a recording of flow windows alone is tracked from
+    them, as with both options off (the same tracks), and the result says the detections were
+    not read."""
     cams = four_cameras()
     times = np.round(np.arange(0, 4.0, 0.1), 6)
     paths = {"target": line_path([1.5, 3.0], [5.5, 3.5], times)}
     obs = Observations({"boxes": synth_boxes(cams, paths, times)}, duration=4.0)
-    on = TargetPlanes(initial_xy=[1.5, 3.0], detection_planes=True).run(obs, calib(cams)).tracks
-    off = TargetPlanes(initial_xy=[1.5, 3.0], detection_planes=False).run(obs, calib(cams)).tracks
-    pd.testing.assert_frame_equal(on, off)
-    with pytest.raises(RecordingError, match="bearings"):
-        TargetPlanes(initial_xy=[1.5, 3.0], person_detections=True).run(obs, calib(cams))
+    off = TargetPlanes(initial_xy=[1.5, 3.0], detection_planes=False, person_detections=False).run(obs, calib(cams))
+    assert not off.detections_used
+    for option in ("detection_planes", "person_detections"):
+        on = TargetPlanes(initial_xy=[1.5, 3.0], **{option: True}).run(obs, calib(cams))
+        pd.testing.assert_frame_equal(on.tracks, off.tracks)
+        assert not on.detections_used
 
 
 def polyline_path(points, times, speed):

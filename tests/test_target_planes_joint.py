@@ -641,10 +641,12 @@ def test_a_standing_track_is_not_made_a_walker_by_a_share_of_someone_elses_merge
     others in a merged window may have made it, so with ``wake_by_own`` the share counts for
     neither mode: the track stays standing where it stands (and the cameras that would see it
     walk and have no window of it make standing likelier still). Without it the share makes the
-    track a walker (standing probability 0), which the other views then miss."""
+    track a walker (standing probability 0), which the other views then miss. (``share_fit_walks``
+    is off here: this window fits the walker alone better, so with it the share would count for
+    neither mode whatever ``wake_by_own`` says.)"""
     cams = four_cameras()
     for wake_by_own in (True, False):
-        cfg, jt = _tracker(cams, wake_by_own=wake_by_own)
+        cfg, jt = _tracker(cams, wake_by_own=wake_by_own, share_fit_walks=False)
         standing = JointTrack(1, np.r_[3.0, 2.5, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True,
                               seen=False, hits=20, exist=EXIST_ACCEPT, mu=0.95)
         standing.xs, standing.Ps = standing.s[:2].copy(), standing.S[:2, :2].copy()
@@ -845,6 +847,34 @@ def test_person_detections_forgive_a_miss_run_and_reject_a_ghost_on_others_lines
     assert tr.exist < EXIST_REJECT, tr.exist
 
 
+def test_a_person_who_stops_beside_a_passer_keeps_a_standing_track():
+    """B walks east and stops at (4.0, 2.0) at 3 s; A walks east 0.6 m north of B's line and
+    passes it. Every camera reports the two as one window while their cylinders overlap in its
+    image, and a person standing makes none. After the stop B's track, still a walker, is given
+    shares of A's merged windows, which A alone explains better. With ``share_fit_walks`` those
+    shares do not make it a walker: the cameras' misses make it standing, it stays on B to the
+    end and no track is dropped. Without it every share keeps the track walking, the misses
+    count against a walker, and the existence test drops it within half a second of the stop."""
+    cams = four_cameras()
+    times = np.round(np.arange(0, 8.0, 0.1), 6)
+    stop = 30
+    pB = np.vstack([line_path([1.5, 2.0], [4.0, 2.0], times[:stop + 1])[:-1], np.repeat([[4.0, 2.0]], len(times) - stop, 0)])
+    paths = {"A": line_path([1.0, 2.6], [6.6, 2.6], times), "B": pB}
+    boxes = boxes_table(cams, paths, times, merged_in=tuple(c.name for c in cams), movers_only=True)
+    obs = Observations({"boxes": boxes}, duration=8.0)
+    for on in (True, False):
+        res = TargetPlanes(multi_person=True, share_fit_walks=on).run(obs, calib(cams))
+        late = res.tracks[res.tracks.t > 6.0]
+        on_b = late[np.hypot(late.x - 4.0, late.y - 2.0) < 0.3]
+        if on:
+            assert res.ends.empty, res.ends
+            assert on_b.t.nunique() == late.t.nunique() > 15
+        else:
+            assert on_b.empty
+            dropped = res.ends[res.ends.reason == "existence"]
+            assert len(dropped) == 1 and 3.0 < float(dropped.t.iloc[0]) <= 3.5, res.ends
+
+
 def test_a_standing_track_is_woken_by_windows_that_fit_it_not_by_a_speck():
     """A track standing (standing probability 0.999) gets a window of its own: with ``own_wake``
     the window wakes it by how much better it fits the track than clutter. A 3 px speck inside
@@ -888,22 +918,23 @@ def test_a_standing_track_is_woken_by_windows_that_fit_it_not_by_a_speck():
     assert tr.mu < 0.1 and tr.exist > EXIST_ACCEPT - 1.0
 
 
-def test_person_detections_name_a_missing_or_broken_bearings_table():
-    """``person_detections`` reads the recording's bearings table: without one, or with a
-    non-finite column, the run stops with an error that names it, before any frame."""
+def test_person_detections_name_a_broken_bearings_table_and_run_without_one():
+    """``person_detections`` reads the recording's bearings table where it has one: a
+    non-finite column stops the run with an error that names it, before any frame; a recording
+    without the table is tracked from its windows alone (``detections_used`` False)."""
     from trackroom.recording import RecordingError
 
     south, west = right_angle_pair()
     times = np.round(np.arange(0, 1.0, 0.1), 6)
     boxes = boxes_table([south, west], {"C": line_path([2.0, 2.0], [3.0, 3.0], times)}, times)
     est = TargetPlanes(multi_person=True, person_detections=True)
-    with pytest.raises(RecordingError, match="bearings table"):
-        est.run(Observations({"boxes": boxes}, 1.0), calib([south, west]))
+    assert not est.run(Observations({"boxes": boxes}, 1.0), calib([south, west])).detections_used
     bad = pd.DataFrame({"t": [0.0], "camera": ["south"], "u": [np.nan], "label": ["red"]})
     with pytest.raises(RecordingError, match="non-finite u"):
         est.run(Observations({"boxes": boxes, "bearings": bad}, 1.0), calib([south, west]))
     ok = pd.DataFrame({"t": [0.0], "camera": ["south"], "u": [100.0], "label": ["red"]})
-    assert len(est.run(Observations({"boxes": boxes, "bearings": ok}, 1.0), calib([south, west])).tracks)
+    res = est.run(Observations({"boxes": boxes, "bearings": ok}, 1.0), calib([south, west]))
+    assert len(res.tracks) and res.detections_used
 
 
 def test_a_camera_without_person_detections_says_nothing():
