@@ -445,8 +445,8 @@ class TargetPlanes(Estimator):
         jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
         # the person detections: person_detections and detection_planes use them where the
         # recording has them (a recording of flow windows alone: none; the result says which)
-        use_detections = (cfg.person_detections or cfg.detection_planes) and observations.has("bearings")
-        detections, det_cams = person_detections(observations, cams) if use_detections else (None, [])
+        detections, det_cams = person_detections(observations, cams) if (cfg.person_detections or cfg.detection_planes) else (None, [])
+        use_detections = detections is not None
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
         # where a person's axis can be: off the walls and obstacles too (``free_births``)

@@ -115,13 +115,14 @@ def split_boxes(boxes: pd.DataFrame, cameras: list[str], flow_window: int = 1) -
     return out
 
 
-def person_detections(observations, cameras: list[str]) -> tuple[dict[float, dict[str, np.ndarray]], list[str]]:
+def person_detections(observations, cameras: list[str]) -> tuple[dict[float, dict[str, np.ndarray]] | None, list[str]]:
     """``({t: {camera: u (n,)}}, the cameras with any)``: the oblique cameras' person
     detections, the ``bearings`` table's columns t, camera and u (time rounded to 1 us; its
     colour labels are not read). A camera with detections in the table has none at a frame
-    time that is not in the first."""
+    time that is not in the first. ``(None, [])`` for a recording without the table (flow
+    windows alone)."""
     if not observations.has("bearings"):
-        raise RecordingError("person_detections needs the recording's bearings table (person detections); it has none")
+        return None, []
     b = observations["bearings"]
     missing = [c for c in ("t", "camera", "u") if c not in b.columns]
     if missing:
