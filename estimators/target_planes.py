@@ -446,7 +446,6 @@ class TargetPlanes(Estimator):
         # the person detections: person_detections and detection_planes use them where the
         # recording has them (a recording of flow windows alone: none; the result says which)
         detections, det_cams = person_detections(observations, cams) if (cfg.person_detections or cfg.detection_planes) else (None, [])
-        use_detections = detections is not None
         jt.outline = np.asarray(getattr(calibration.floorplan, "outline", np.zeros((0, 2))), float).reshape(-1, 2)
         inside_room = calibration.floorplan.inside
         # where a person's axis can be: off the walls and obstacles too (``free_births``)
@@ -590,7 +589,7 @@ class TargetPlanes(Estimator):
                            for h in (idl.decisions if idl is not None else [])])
         return TargetPlanesResult(tracks_df, status_df, internal, ends, decisions, np.asarray(times, float),
                                   pd.DataFrame(lookaheads, columns=["t", "camera", "window", "gap", "cost", "cost_alt", "same", "taken"]),
-                                  use_detections)
+                                  detections is not None)
 
     def _extend_back(self, tracks_df: pd.DataFrame, t_conf: pd.Series, times: np.ndarray, inside_room) -> pd.DataFrame:
         """Multi-person mode: each reported track's frames before its birth, back to
