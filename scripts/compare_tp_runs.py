@@ -26,9 +26,12 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
+
 # (key, threshold, higher is better): issue 12's targets
 TARGETS = (("identity_held", 0.99, True), ("rmse_2plus", 0.15, False), ("rmse_1", 0.5, False), ("multi_mota", 0.9, True))
 SHORT = {"identity_held": "identity", "rmse_2plus": "RMSE>=2", "rmse_1": "RMSE1", "multi_mota": "MOTA"}
+NEED = [k for k, _, _ in TARGETS] + ["seed", "multi_fp", "multi_fn"]  # the fields a run must have
 
 
 def read_runs(path: str) -> dict[tuple, dict]:
@@ -45,8 +48,7 @@ def read_runs(path: str) -> dict[tuple, dict]:
             r = json.loads(line)
         except json.JSONDecodeError as e:
             raise SystemExit(f"compare_tp_runs: {path}, line {n}: not JSON ({e.msg})") from None
-        need = [k for k, _, _ in TARGETS] + ["seed", "multi_fp", "multi_fn"]
-        missing = [k for k in need if k not in r] if isinstance(r, dict) else need
+        missing = [k for k in NEED if k not in r] if isinstance(r, dict) else NEED
         if missing:
             raise SystemExit(f"compare_tp_runs: {path}, line {n}: not an experiment_tsutsui --json run (missing {', '.join(missing)})")
         key = (r.get("sensing", "?"), r["seed"], r.get("perception_draw", 0))
@@ -66,12 +68,11 @@ def meets(run: dict, key: str, threshold: float, higher: bool) -> bool:
     return v >= threshold if higher else v <= threshold
 
 
-def _median(xs: list[float]) -> float:
-    xs = sorted(x for x in xs if x is not None and not math.isnan(x))
-    if not xs:
-        return math.nan
-    m = len(xs) // 2
-    return xs[m] if len(xs) % 2 else 0.5 * (xs[m - 1] + xs[m])
+def _median(xs: list) -> float:
+    """The median of the figures that have frames (None and NaN left out); NaN if none has."""
+    x = np.asarray(xs, float)
+    x = x[~np.isnan(x)]
+    return float(np.median(x)) if x.size else math.nan
 
 
 def set_figures(runs: list[dict]) -> dict:
@@ -90,7 +91,7 @@ def set_figures(runs: list[dict]) -> dict:
 def changes(before: dict[tuple, dict], after: dict[tuple, dict]) -> list[tuple[tuple, str, str, float, float]]:
     """(recording, target, 'gained' / 'lost', before, after) for each target a recording changed."""
     out = []
-    for key in sorted(before, key=lambda k: (str(k[0]), k[1], k[2])):
+    for key in sorted(before):
         for k, t, h in TARGETS:
             a, b = meets(before[key], k, t, h), meets(after[key], k, t, h)
             if a != b:
