@@ -5,8 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, corr_time, errors, gain, persistent_fit, share_table, short_runs,
-                                         width_tail)
+from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, over_speed_share, corr_time, errors, gain, persistent_fit, share_table,
+                                         short_runs, width_tail)
 
 
 def _table(values: np.ndarray, speed: float = 50.0) -> pd.DataFrame:
@@ -136,3 +136,12 @@ def test_with_fragments_narrow_windows_are_counted_and_the_rest_unchanged(occlus
     assert len(both) >= 0.9 * len(plain)
     np.testing.assert_allclose(both["e_u"], both["e_u_f"])
     np.testing.assert_allclose(both["share"], both["share_f"])
+
+
+def test_the_share_of_flow_errors_larger_than_the_image_speed_counts_the_size_of_the_error():
+    """``--border``'s measure: a window whose flow error (both axes) is larger than the true image
+    speed counts, whatever its direction; an empty table has none to count."""
+    df = pd.DataFrame({"speed": [50.0, 50.0, 50.0, 20.0, 20.0], "e_u": [60.0, 0.0, 30.0, 0.0, -15.0],
+                       "e_v": [0.0, -55.0, 30.0, 10.0, -15.0]})
+    assert over_speed_share(df) == pytest.approx(3 / 5)  # 60, 55 > 50 and hypot(15, 15) > 20; hypot(30, 30) < 50, 10 < 20
+    assert np.isnan(over_speed_share(df.iloc[:0]))
