@@ -25,3 +25,41 @@ def test_a_draw_is_refused_where_nothing_is_simulated(capsys):
         with pytest.raises(SystemExit):
             ts.main(argv)
         assert "--draw K" in capsys.readouterr().err
+
+
+def _runs(out: str) -> list[dict]:
+    """The JSON runs of ``--json`` output, without the timings (which differ run to run)."""
+    import json
+
+    runs = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+    for r in runs:
+        r.pop("sim_s"), r.pop("estimate_s")
+    return runs
+
+
+def test_worker_processes_give_the_same_runs_in_the_same_order(capsys):
+    """``--jobs 2`` runs the list in two worker processes: the same figures as one process, in
+    the order the seeds were given (not the order they finish)."""
+    argv = ["--sensing", "analytic", "--duration", "3", "--seeds", "7,5,6", "--json"]
+    assert ts.main(argv) == 0
+    one = _runs(capsys.readouterr().out)
+    assert ts.main(argv + ["--jobs", "2"]) == 0
+    two = _runs(capsys.readouterr().out)
+    assert [r["seed"] for r in one] == [7, 5, 6]
+    assert one == two
+
+
+def test_a_missing_recording_is_named_before_anything_runs(tmp_path, capsys):
+    """Every recording folder is checked before the first run: a missing one is named and
+    nothing is printed for the others."""
+    from trackroom.dataset import write_recording
+    from trackroom.sim.simulate import simulate
+
+    good = tmp_path / "good"
+    write_recording(simulate(ts.load_scene("occlusion_lab"), 3, 2.0, "analytic"), good)
+    with pytest.raises(SystemExit, match="no such recording folder"):
+        ts.main(["--recording", f"{good},{tmp_path / 'missing'}", "--json"])
+    assert capsys.readouterr().out == ""
+    with pytest.raises(SystemExit):
+        ts.main(["--sensing", "analytic", "--jobs", "0"])
+    assert "--jobs N" in capsys.readouterr().err
