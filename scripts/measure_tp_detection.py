@@ -14,8 +14,19 @@ person's span (run it on rendered recordings and on their analytic twins to comp
 is read here, by the experimenter; the estimator only gets the two numbers as Config defaults.
 Measured on the rendered development recordings 100-105 (the standing people who hide movers are
 not known to the tracker, so their occlusions are part of the rate).
+
+    python scripts/measure_tp_detection.py DIR [DIR ...] --slowing
+
+also prints the rate of a window on the axis by the mover's ground speed, for frames where it is
+slowing, speeding up or steady (its ground speed changed by more than 0.02 m/s over the last
+tenth of a second), every frame of a mover counted whether walking or not, movers not hidden and
+apart from the other mover: how a flow tracker's windows fade as a person comes to a stop (issue
+12's forty-second session, ``target_planes``' scratch trial ``stop_mode``). Rendered development
+100-105: slowing, 0.46 under 0.1 m/s, 0.81 at 0.1-0.2, 0.88 at 0.2-0.4, 0.93 above 0.8 m/s;
+speeding up, 0.21 and 0.57 in the two slowest bands (a region needs motion to build up); standing
+(steady under 0.1 m/s) 0.035.
 """
-import sys
+import argparse
 
 import numpy as np
 import pandas as pd
@@ -24,8 +35,26 @@ from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_joint import Occluders
 
-rows = []
-for d in sys.argv[1:]:
+COLUMNS = ["rec", "t", "cam", "pid", "speed", "hid", "near", "det", "overlap", "cover", "walking", "gs", "dgs"]
+BACK_STEPS = 10  # simulation steps (0.01 s) back for the ground speed's change
+SPEED_BANDS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8, 2.0)  # m/s
+
+
+def slowing_table(df: pd.DataFrame, change: float = 0.02) -> pd.DataFrame:
+    """P(a window on the axis) by ground speed band, for frames where the mover is slowing
+    (ground speed down by more than ``change`` m/s over the last tenth of a second), speeding
+    up, or steady; movers not hidden and apart from the other mover (``--slowing``: the
+    flow windows of a person coming to a stop)."""
+    m = df[~df.hid & ~df.near]
+    m = m.assign(band=pd.cut(m.gs, SPEED_BANDS), motion=np.where(m.dgs < -change, "slowing", np.where(m.dgs > change, "speeding up", "steady")))
+    return m.groupby(["motion", "band"], observed=True).agg(n=("det", "size"), p_window=("det", "mean"), image_speed=("speed", "median"))
+
+
+def recording_rows(d, slowing: bool = False) -> list[tuple]:
+    """One row per mover, oblique camera and frame as above (walking movers only, or with
+    ``slowing`` every frame of a mover, walking or not, with its ground speed and its change over
+    the last tenth of a second)."""
+    rows = []
     rec = read_recording(d)
     ppl = rec.truth.people; vis = rec.truth.tables["visibility"]
     boxes = rec.observations["boxes"]
@@ -39,7 +68,8 @@ for d in sys.argv[1:]:
     for r in vis[vis.in_fov & vis.person_id.isin(movers)].itertuples():
         if r.camera not in Ps: continue
         p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
-        if not bool(p.walking.iloc[k]): continue
+        walking = bool(p.walking.iloc[k])
+        if not (walking or slowing): continue
         P = Ps[r.camera]; cam = cams[r.camera]
         x, y, z, vx, vy = p[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
         uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
@@ -66,27 +96,47 @@ for d in sys.argv[1:]:
         if g is not None:
             det = bool(((g.u_left.to_numpy() - 3 <= u) & (u <= g.u_right.to_numpy() + 3)).any())
             overlap = bool(((g.u_left.to_numpy() <= win[1]) & (g.u_right.to_numpy() >= win[0])).any())
-        rows.append((d, r.t, r.camera, r.person_id, sp, hid, near_other, det, overlap, cover))
-df = pd.DataFrame(rows, columns=["rec", "t", "cam", "pid", "speed", "hid", "near", "det", "overlap", "cover"])
-m = df[~df.hid & (df.speed >= 8)]
-print(f"in view, not hidden by boxes or the other mover, speed >= 8: n={len(m)} P(window on axis)={m.det.mean():.3f}; apart from the other mover: {m[~m.near].det.mean():.3f}")
-for lo, hi in ((8, 12), (12, 25), (25, 1e9)):
-    g = m[(m.speed >= lo) & (m.speed < hi)]; print(f"  speed {lo}-{hi}: n={len(g)} {g.det.mean():.3f}")
-print(f"hidden by the other mover: n={df.hid.sum()} {df[df.hid].det.mean():.3f}")
-m = m.sort_values(["rec", "cam", "pid", "t"])
-runs = []
-for _, g in m.groupby(["rec", "cam", "pid"]):
-    t = g.t.to_numpy(); det = g.det.to_numpy(); cur = 0
-    for i in range(len(t)):
-        if i and t[i] - t[i - 1] > 0.15:
-            if cur: runs.append(cur)
-            cur = 0
-        if not det[i]: cur += 1
-        elif cur: runs.append(cur); cur = 0
-    if cur: runs.append(cur)
-runs = np.array(runs)
-print("miss runs:", len(runs), "mean", runs.mean().round(2), "median", np.median(runs), "p90", np.percentile(runs, 90), "max", runs.max())
-c = df[~df.hid & (df.speed >= 8)]
-c = c.assign(cover=pd.cut(c.cover, [-0.01, 0.0, 0.5, 0.9, 1.01], labels=["none", "< 0.5", "0.5-0.9", ">= 0.9"]))
-print("by the share covered by a nearer standing person: window on the axis, any window overlapping the person")
-print(c.groupby("cover", observed=True).agg(n=("det", "size"), on_axis=("det", "mean"), overlapping=("overlap", "mean")).round(3).to_string())
+        kb = max(k - BACK_STEPS, 0)  # the ground speed a tenth of a second before: slowing or speeding up
+        gs, gs0 = float(np.hypot(vx, vy)), float(np.hypot(p.vx.iloc[kb], p.vy.iloc[kb]))
+        rows.append((d, r.t, r.camera, r.person_id, sp, hid, near_other, det, overlap, cover, walking, gs, gs - gs0))
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR")
+    ap.add_argument("--slowing", action="store_true", help="also the rate of a window by ground speed, slowing, speeding up or steady")
+    a = ap.parse_args(argv)
+    rows = [r for d in a.recordings for r in recording_rows(d, a.slowing)]
+    every = pd.DataFrame(rows, columns=COLUMNS)
+    df = every[every.walking]
+    m = df[~df.hid & (df.speed >= 8)]
+    print(f"in view, not hidden by boxes or the other mover, speed >= 8: n={len(m)} P(window on axis)={m.det.mean():.3f}; apart from the other mover: {m[~m.near].det.mean():.3f}")
+    for lo, hi in ((8, 12), (12, 25), (25, 1e9)):
+        g = m[(m.speed >= lo) & (m.speed < hi)]; print(f"  speed {lo}-{hi}: n={len(g)} {g.det.mean():.3f}")
+    print(f"hidden by the other mover: n={df.hid.sum()} {df[df.hid].det.mean():.3f}")
+    m = m.sort_values(["rec", "cam", "pid", "t"])
+    runs = []
+    for _, g in m.groupby(["rec", "cam", "pid"]):
+        t = g.t.to_numpy(); det = g.det.to_numpy(); cur = 0
+        for i in range(len(t)):
+            if i and t[i] - t[i - 1] > 0.15:
+                if cur: runs.append(cur)
+                cur = 0
+            if not det[i]: cur += 1
+            elif cur: runs.append(cur); cur = 0
+        if cur: runs.append(cur)
+    runs = np.array(runs)
+    print("miss runs:", len(runs), "mean", runs.mean().round(2), "median", np.median(runs), "p90", np.percentile(runs, 90), "max", runs.max())
+    c = df[~df.hid & (df.speed >= 8)]
+    c = c.assign(cover=pd.cut(c.cover, [-0.01, 0.0, 0.5, 0.9, 1.01], labels=["none", "< 0.5", "0.5-0.9", ">= 0.9"]))
+    print("by the share covered by a nearer standing person: window on the axis, any window overlapping the person")
+    print(c.groupby("cover", observed=True).agg(n=("det", "size"), on_axis=("det", "mean"), overlapping=("overlap", "mean")).round(3).to_string())
+    if a.slowing:
+        print("by ground speed (m/s), movers in view, not hidden and apart from the other mover: window on the axis")
+        print(slowing_table(every).round(3).to_string())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
