@@ -36,7 +36,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import glob
+import itertools
 import json
 import os
 import sys
@@ -313,11 +315,11 @@ def run(sensing: str, duration: float, seed: int, progress: bool = False, record
     return rec, res, m
 
 
-def run_task(task: tuple) -> dict:
-    """One run of the command line's list (``main``) -> its figures: ``task`` is (sensing, seed,
-    recording folder or None, duration, params, overrides, draw, progress). At module level so
-    that worker processes (``--jobs``) can run it; a recording is read in the process that runs it."""
-    mode, seed, folder, duration, params, overrides, draw, progress = task
+def run_task(mode: str | None, seed: int | None, folder: str | None, duration: float, params: dict, overrides: list[str],
+             draw: int, progress: bool) -> dict:
+    """One run of the command line's list (``main``) -> its figures: a simulated (``mode``,
+    ``seed``) or a recording ``folder``. At module level so that worker processes (``--jobs``)
+    can run it; a recording is read in the process that runs it."""
     rec = None
     if folder is not None:
         from trackroom.dataset import read_recording
@@ -326,16 +328,18 @@ def run_task(task: tuple) -> dict:
     return run(mode, duration, seed, progress=progress, recording=rec, params=params, overrides=overrides, draw=draw)[2]
 
 
-def run_all(tasks: list[tuple], jobs: int = 1):
-    """``run_task`` over ``tasks``, in this process (``jobs`` 1) or in ``jobs`` worker processes;
-    yields the figures in the order of ``tasks`` either way."""
+def run_all(tasks: list[tuple], jobs: int = 1, **common):
+    """``run_task`` over ``tasks`` ((mode, seed, folder) each, the other arguments ``common`` to
+    all), in this process (``jobs`` 1) or in ``jobs`` worker processes; yields the figures in the
+    order of ``tasks`` either way."""
+    one = functools.partial(run_task, **common)
     if jobs == 1:
-        yield from map(run_task, tasks)
+        yield from itertools.starmap(one, tasks)
         return
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(max(1, min(jobs, len(tasks)))) as pool:
-        yield from pool.map(run_task, tasks)
+        yield from pool.map(one, *zip(*tasks))
 
 
 def main(argv=None) -> int:
@@ -358,8 +362,6 @@ def main(argv=None) -> int:
         ap.error("--draw K needs K >= 0, and K > 0 only with --sensing analytic (it redraws simulated camera tables)")
     if a.jobs < 1:
         ap.error(f"--jobs N needs N >= 1, got {a.jobs}")
-    params = parse_params(a.param)
-    progress = not (a.json or a.table) and a.jobs == 1
     if a.recording:
         from trackroom.dataset import read_manifest, read_recording
         from trackroom.recording import RecordingError
@@ -376,12 +378,14 @@ def main(argv=None) -> int:
                 print(f"{rec.scene} seed {rec.seed} ({rec.sensing})")
                 print(window_error_summary(window_errors(rec)).round(2).to_string())
             return 0
-        tasks = [(None, None, d, a.duration, params, a.overrides, a.draw, progress) for d in folders]
+        tasks = [(None, None, d) for d in folders]
     else:
         modes = ["analytic", "rendered"] if a.sensing == "both" else [a.sensing]
-        tasks = [(mode, int(s), None, a.duration, params, a.overrides, a.draw, progress) for mode in modes for s in a.seeds.split(",")]
+        tasks = [(mode, int(s), None) for mode in modes for s in a.seeds.split(",")]
     rows = []
-    for m in run_all(tasks, a.jobs):
+    common = dict(duration=a.duration, params=parse_params(a.param), overrides=a.overrides, draw=a.draw,
+                  progress=not (a.json or a.table) and a.jobs == 1)
+    for m in run_all(tasks, a.jobs, **common):
         rows.append(m)
         if a.json:
             print(json.dumps(m), flush=True)

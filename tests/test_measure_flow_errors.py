@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, over_speed_share, corr_time, errors, gain, persistent_fit, share_table,
+from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, corr_time, errors, gain, over_speed_share, persistent_fit, share_table,
                                          short_runs, width_tail)
 
 
