@@ -2,6 +2,8 @@
 
     python scripts/measure_person_detections.py DIR [DIR ...]     # occlusion_lab recordings, either mode
 
+    python scripts/measure_person_detections.py DIR [DIR ...] --views  # also the rates by how much is seen
+
 The tracker reads the ``bearings`` table's u (a person detector's column of each body centre;
 the colour labels unused) as evidence that someone stands where a still track is
 (``tp_joint.JointTracker.detection_evidence``). Measured here, over the camera frames of each
@@ -18,6 +20,10 @@ recording (the truth read by the experimenter):
   misses and the number of runs of ``LONG_RUN`` frames or more (a two-state chain with a mean
   run of 3-4 frames makes these next to impossible: a detector that misses someone standing
   for seconds on end is outside the tracker's model);
+- ``--views``: the same rates for people and ghost points seen partly (``VIEWS``: cut by the
+  image border with a quarter or more of the width inside, or two of the three rays clear - what
+  ``partial_detections`` adds to the test, ``tp_joint.detector_sees`` - and, for reference, seen
+  less than that: cut by the border with under a quarter inside, or less still);
 - ghosts: ``GHOSTS`` random floor points per recording, standing (seed 0), at frames when
   they are 1 m or more from everyone, tested the same way with the gate of a track of position
   sd 0.1 m: how often a detection falls within it, against the chance the tracker computes
@@ -34,7 +40,8 @@ import pandas as pd
 
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
-from trackroom.estimators.tp_joint import Occluders, coincidence_chance, detection_gate, wholly_in_image
+from trackroom.estimators.tp_joint import (VIS_FRACTIONS, Occluders, coincidence_chance, detection_gate, detector_sees,
+                                          partly_in_image, wholly_in_image)
 
 HEIGHT, RADIUS, CENTRE = 1.8, 0.2, 0.9  # the tracker's person model (m) and the axis point it projects
 GHOSTS = 60
@@ -43,9 +50,23 @@ STILL = 0.05  # m/s: a person standing (the truth's speed below this), where ``p
 LONG_RUN = 30  # frames (3 s at 10 fps): a miss run this long is outside the two-state chain's reach
 
 
-def _in_image(P: np.ndarray, xy, width: float) -> np.ndarray | None:
-    win = geo.cylinder_window(P, xy, HEIGHT, RADIUS)
-    return win if wholly_in_image(win, width) else None
+VIEWS = {"whole": "seen whole", "border": "cut by the image border, a quarter or more inside, every ray clear",
+         "hidden": "inside the image, two of three rays clear", "sliver": "cut by the border, under a quarter inside",
+         "little": "seen less (one ray clear, or cut and partly hidden)"}
+
+
+def view(win: np.ndarray, width: float, n_clear: int) -> str | None:
+    """How a camera sees a person whose projected cylinder is ``win`` with ``n_clear`` rays
+    clear of the floor plan's boxes (``VIEWS``; the tracker's rule, ``tp_joint.detector_sees``),
+    or None: not at all (outside the image, or every ray hidden)."""
+    n = len(VIS_FRACTIONS)
+    if detector_sees(win, width, n_clear, n):
+        return "whole"
+    if detector_sees(win, width, n_clear, n, partial=True):
+        return "hidden" if wholly_in_image(win, width) else "border"
+    if n_clear == 0 or not bool(partly_in_image(win, width)):
+        return None
+    return "sliver" if n_clear == n and not wholly_in_image(win, width) else "little"
 
 
 def _consecutive(df: pd.DataFrame, keys: list[str]) -> tuple[pd.DataFrame, pd.Series]:
@@ -96,19 +117,21 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
     rows, grows = [], []
     for c, P in Ps.items():
         W = float(cams[c].width)
-        whole = occ.visible_many(c, people[["x", "y"]].to_numpy(float), whole=True)
-        for r, wh in zip(people.itertuples(), whole):
-            win = _in_image(P, (r.x, r.y), W) if wh else None
-            if win is None:
+        n_clear = occ.clear_rays(c, people[["x", "y"]].to_numpy(float))
+        for r, nc in zip(people.itertuples(), n_clear):
+            win = geo.cylinder_window(P, (r.x, r.y), HEIGHT, RADIUS)
+            seen = view(win, W, int(nc))
+            if seen is None:
                 continue
             (u, _), _ = geo.project(P, np.array([r.x, r.y, r.z]))
             us = dets.get((r.tk, c), np.zeros(0))
             res = float((us - u)[np.argmin(np.abs(us - u))]) if len(us) else np.nan
             rows.append((r.tk, c, r.person_id, bool(len(us)) and abs(res) <= detection_gate(win), res,
-                         bool(np.hypot(r.vx, r.vy) < STILL)))
-        for k, (q, wh) in enumerate(zip(ghosts, occ.visible_many(c, ghosts, whole=True))):
-            win = _in_image(P, q, W) if wh else None
-            if win is None:
+                         bool(np.hypot(r.vx, r.vy) < STILL), seen))
+        for k, (q, nc) in enumerate(zip(ghosts, occ.clear_rays(c, ghosts))):
+            win = geo.cylinder_window(P, q, HEIGHT, RADIUS)
+            seen = view(win, W, int(nc))
+            if seen not in ("whole", "border", "hidden"):
                 continue
             X = np.r_[q, CENTRE]
             (u, _), _ = geo.project(P, X)
@@ -117,14 +140,32 @@ def measure(d: str, rng: np.random.Generator) -> tuple[pd.DataFrame, pd.DataFram
                 if np.hypot(*(at[t] - q).T).min() < 1.0:
                     continue
                 us = dets.get((t, c), np.zeros(0))
-                chance = coincidence_chance(gate, W, len(us))
-                grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance))
-    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit", "resid", "still"]),
-            pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance"]))
+                chance = coincidence_chance(gate, W, len(us), u)  # over the gate's span inside the image, as the tracker
+                grows.append((t, c, k, bool(len(us)) and float(np.abs(us - u).min()) <= gate, chance, seen))
+    return (pd.DataFrame(rows, columns=["t", "camera", "who", "hit", "resid", "still", "view"]),
+            pd.DataFrame(grows, columns=["t", "camera", "who", "hit", "chance", "view"]))
+
+
+def views_table(p: pd.DataFrame, g: pd.DataFrame) -> pd.DataFrame:
+    """``--views``: per view (``VIEWS``) and people standing or walking: camera frames, the
+    detection rate, the rates after a detection and after a miss and the mean miss run (frames);
+    and the ghost points' rate in the gate against the computed chance, with its persistence."""
+    out = []
+    for v in VIEWS:
+        for name, q in (("standing", p[(p.view == v) & p.still]), ("walking", p[(p.view == v) & ~p.still]),
+                        ("ghosts", g[g.view == v])):
+            if not len(q):
+                continue
+            h, m = _chain(q, ["rec", "camera", "who"])
+            out.append({"view": v, "who": name, "frames": len(q), "detected": float(q.hit.mean()), "after_detection": h,
+                        "after_miss": m, "miss_run": 1.0 / m if m > 0 else np.inf,
+                        "chance": float(q.chance.mean()) if name == "ghosts" else np.nan})
+    return pd.DataFrame(out)
 
 
 def main(argv: list[str]) -> int:
-    dirs = sorted(d for p in argv for d in glob.glob(p))
+    views = "--views" in argv
+    dirs = sorted(d for p in argv if p != "--views" for d in glob.glob(p))
     if not dirs:
         sys.exit(__doc__)
     rng = np.random.default_rng(0)
@@ -133,7 +174,8 @@ def main(argv: list[str]) -> int:
         p, g = measure(d, rng)
         people.append(p.assign(rec=d))
         ghosts.append(g.assign(rec=d))
-    p, g = pd.concat(people), pd.concat(ghosts)
+    p_all, g_all = pd.concat(people), pd.concat(ghosts)
+    p, g = p_all[p_all.view == "whole"], g_all[g_all.view == "whole"]
     after_hit, after_miss = _chain(p, ["rec", "camera", "who"])
     print(f"people wholly seen: {len(p)} camera frames, detected {p.hit.mean():.3f}; after a detection {after_hit:.3f}, "
           f"after a miss {after_miss:.3f} (mean miss run {1.0 / after_miss:.1f} frames)")
@@ -154,6 +196,9 @@ def main(argv: list[str]) -> int:
     print(f"ghosts (standing points 1 m or more from everyone): {len(g)} camera frames, a detection in the gate "
           f"{g.hit.mean():.3f} against the computed chance {g.chance.mean():.3f}; after one {g_hit:.3f}, after none "
           f"{g_miss:.3f} (persistence {g_hit - g_miss:.3f})")
+    if views:
+        print("by view (" + "; ".join(f"{k}: {v}" for k, v in VIEWS.items()) + "):")
+        print(views_table(p_all, g_all).to_string(index=False, float_format=lambda x: f"{x:.3f}"))
     return 0
 
 

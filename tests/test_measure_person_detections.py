@@ -19,7 +19,9 @@ def test_people_seen_whole_are_detected_near_their_axis(rec_dir):
     detector finds nearly all of them, and its columns lie about the projected axis within a few
     pixels (the analytic model's spread, about 1.5 px robust sd on the development recordings)."""
     people, ghosts = mpd.measure(rec_dir, np.random.default_rng(0))
-    assert list(people.columns) == ["t", "camera", "who", "hit", "resid", "still"]
+    assert list(people.columns) == ["t", "camera", "who", "hit", "resid", "still", "view"]
+    assert set(people.view) <= set(mpd.VIEWS) and set(ghosts.view) <= {"whole", "border", "hidden"}
+    people = people[people.view == "whole"]
     assert len(people) > 100 and people.hit.mean() > 0.85
     r = people.resid[people.hit]
     assert abs(float(r.median())) < 1.0
@@ -47,3 +49,18 @@ def test_miss_runs_are_counted_over_consecutive_frames_per_group():
     b = pd.DataFrame({"t": np.r_[t[:3], t[6:9]], "camera": "c2", "who": "p", "hit": False})  # a gap after 0.2 s
     runs = sorted(mpd.miss_runs(pd.concat([a, b]), ["camera", "who"]).tolist())
     assert runs == [1, 3, 3, 3, 4]
+
+
+def test_views_give_the_rates_of_people_seen_partly(rec_dir, capsys):
+    """``--views``: a row per view and people standing, walking or ghost points, each rate a
+    probability, the people seen whole detected as in the first line."""
+    people, ghosts = mpd.measure(rec_dir, np.random.default_rng(0))
+    table = mpd.views_table(people.assign(rec="r"), ghosts.assign(rec="r"))
+    assert {"whole", "border"} <= set(table.view) and set(table.who) <= {"standing", "walking", "ghosts"}
+    assert ((table.detected >= 0.0) & (table.detected <= 1.0)).all() and (table.frames > 0).all()
+    whole = people[people.view == "whole"]
+    rows = table[(table.view == "whole") & (table.who != "ghosts")]
+    assert (rows.detected * rows.frames).sum() == pytest.approx(float(whole.hit.sum()))
+    assert mpd.main([rec_dir, "--views"]) == 0
+    out = capsys.readouterr().out
+    assert "by view (whole: seen whole; border:" in out and "after_miss" in out

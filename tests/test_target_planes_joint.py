@@ -954,6 +954,65 @@ def test_a_camera_without_person_detections_says_nothing():
     assert jt.detection_evidence(tr, cams[0].name, xy, tr.Ps, {}, 0, {}) < -1.0
 
 
+def test_a_detector_sees_a_person_whole_or_with_partial_enough_of_one():
+    """``detector_sees``: seen whole is inside the image with every ray clear; with ``partial``
+    also cut by the border with a quarter or more of the width inside (every ray clear), or
+    inside with one of the three rays hidden - not cut and hidden at once, not less."""
+    from trackroom.estimators.tp_joint import detector_sees
+
+    W = 320.0
+    inside, cut_30, cut_20 = np.array([100.0, 140.0, 50, 150]), np.array([308.0, 348.0, 50, 150]), np.array([312.0, 352.0, 50, 150])
+    assert detector_sees(inside, W, 3, 3) and detector_sees(inside, W, 3, 3, partial=True)
+    assert not detector_sees(cut_30, W, 3, 3) and detector_sees(cut_30, W, 3, 3, partial=True)
+    assert not detector_sees(cut_20, W, 3, 3, partial=True)
+    assert not detector_sees(inside, W, 2, 3) and detector_sees(inside, W, 2, 3, partial=True)
+    assert not detector_sees(inside, W, 1, 3, partial=True) and not detector_sees(cut_30, W, 2, 3, partial=True)
+    assert not detector_sees(np.array([np.nan, np.nan, 0, 0]), W, 3, 3, partial=True)
+
+
+def test_the_coincidence_chance_counts_the_gate_inside_the_image():
+    """A point's gate half outside the image is hit by chance half as often as one inside."""
+    from trackroom.estimators.tp_joint import coincidence_chance
+
+    assert coincidence_chance(10.0, 320.0, 1) == pytest.approx(20.0 / 320.0)
+    assert coincidence_chance(10.0, 320.0, 1, 100.0) == pytest.approx(20.0 / 320.0)
+    assert coincidence_chance(10.0, 320.0, 1, 320.0) == pytest.approx(10.0 / 320.0)
+    assert coincidence_chance(10.0, 320.0, 3, 400.0) == 0.0
+
+
+def test_partial_detections_test_a_standing_track_cut_by_the_image_border():
+    """A standing track where camera 0 sees the person cut by its image border (a third or more
+    of the width inside): by default that camera says nothing of it; with
+    ``partial_detections`` a detection on its axis counts for a person, and no detection there
+    against one."""
+    cams = four_cameras()
+    c0 = cams[0]
+    W = float(c0.width)
+    xy = None
+    for x in np.linspace(0.5, 7.5, 141):
+        for y in np.linspace(0.5, 6.5, 121):
+            w = geo.cylinder_window(c0.P, np.array([x, y]), H, R)
+            if np.isfinite(w).all() and w[1] > W and (W - w[0]) / (w[1] - w[0]) > 0.35:
+                xy = np.array([x, y])
+                break
+        if xy is not None:
+            break
+    assert xy is not None
+    u = _axis_u(c0, xy)
+    for partial in (False, True):
+        cfg, jt = _tracker(cams, person_detections=True, partial_detections=partial)
+        tr = JointTrack(1, np.r_[xy, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=False,
+                        hits=20, exist=EXIST_ACCEPT, mu=0.99)
+        jt.detections = {c0.name: np.array([min(u, W - 1.0)])}
+        hit = jt.detection_evidence(tr, c0.name, xy, tr.S[:2, :2], {}, 0, {})
+        jt.detections = {c0.name: np.array([50.0])}
+        miss = jt.detection_evidence(tr, c0.name, xy, tr.S[:2, :2], {}, 0, {})
+        if partial:
+            assert hit > 1.0 and miss < -1.0, (hit, miss)
+        else:
+            assert hit == miss == 0.0
+
+
 def _axis_u(c, xy):
     (u, _), _ = geo.project(c.P, np.r_[xy, 0.9])
     return float(u)
