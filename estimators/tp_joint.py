@@ -758,7 +758,7 @@ class JointTracker:
         u_det = self.detections.get(c)  # None: a camera whose detector reports no one in the recording
         P, W = self.Ps[c], self.widths[c]
         win = geo.cylinder_window(P, xy, cfg.height, cfg.radius)
-        if u_det is None or not self.seen_whole(c, xy, win, partial=cfg.partial_detections):
+        if u_det is None or not self.detectable(c, xy, win, partial=cfg.partial_detections):
             return 0.0
         if self.overlapped(i, win, projs):
             return 0.0
@@ -787,14 +787,13 @@ class JointTracker:
         projected window in ``projs`` (index -> Projection): hidden by it, or merged with it."""
         return any(k != i and q.win[0] <= win[1] and win[0] <= q.win[1] for k, q in projs.items())
 
-    def seen_whole(self, c: str, xy: np.ndarray, win: np.ndarray, partial: bool = False) -> bool:
-        """Whether camera c sees a person at floor point xy whole, as a person detector needs: the
-        projected cylinder ``win`` inside the image and all its rays clear of the floor plan's
-        boxes (``Occluders``); with ``partial``, also partly, as often detected
-        (``detector_sees``)."""
+    def detectable(self, c: str, xy: np.ndarray, win: np.ndarray, partial: bool = False) -> bool:
+        """Whether camera c's person detector sees a person at floor point xy (projected cylinder
+        ``win``): whole - inside the image, all its rays clear of the floor plan's boxes
+        (``Occluders``) - or, with ``partial``, partly but as often detected (``detector_sees``)."""
         n_rays = len(VIS_FRACTIONS)
         if not partial and not wholly_in_image(win, self.widths[c]):
-            return False
+            return False  # out of the image: no ray needs casting
         n_clear = n_rays if self.occluders is None else int(self.occluders.clear_rays(c, np.asarray(xy, float)[None])[0])
         return detector_sees(win, self.widths[c], n_clear, n_rays, partial)
 
@@ -846,7 +845,7 @@ class JointTracker:
             followed = [followed[k] for k in keep]
             projs = plans[c][1]
             ids = [i for i, p in projs.items() if tracks[i].located and tracks[i].status.get(c, ("",))[0] != TRACKING
-                   and self.seen_whole(c, tracks[i].xy, p.win)]
+                   and self.detectable(c, tracks[i].xy, p.win)]
             if not ids:
                 continue
             every = [i for i in projs if tracks[i].located]
@@ -1131,7 +1130,7 @@ class JointTracker:
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
                         else:
                             self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
-                            if cfg.width_depth and self.seen_whole(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs):
+                            if cfg.width_depth and self.detectable(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs):
                                 self.update_width(tr, c, float(boxes.width[j]), p)
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
