@@ -394,8 +394,8 @@ def main(argv=None) -> int:
     df = pd.DataFrame(rows)
     if not (a.json or a.table):
         print(df.set_index(["sensing", "seed"]).T.to_string())
-    if len(df) > 1:
-        print(summary(df).to_string())
+    if len(df) > 1:  # with --json, stdout holds the runs alone (a file for compare_tp_runs)
+        print(summary(df).to_string(), file=sys.stderr if a.json else sys.stdout)
     return 0
 
 

@@ -48,7 +48,11 @@ by more than the image speed (uncut 0.4 %). Their analytic twins (tenth fit, dra
 -24.4 cut, -2.0 and -13.8 uncut, and 5.2 % / 4.3 % err by more than the speed: the analytic
 flows' errors are wider at low image speeds whether cut or not (robust sd along the motion at
 5-20 px/s 4.0-4.2 px/s uncut against 2.3 rendered), and the rendered detector's larger shortfall
-on cut windows is not modelled.
+on cut windows is not modelled. Since issue 12's forty-fourth session it also prints how much more a
+cut window's flow errs than an uncut one's, as a share of the image speed (``cut_excess``: the
+spread and the shortfall, windows at 20+ px/s): rendered development 100-119 0.247 along the
+motion and 0.120 across, analytic 0.164 and 0.048 (docs/target_planes.md, "A window cut by the
+image border: its flow's noise measured").
 
 How often a window is much wider than its one person (``--widths``; issue 12's twenty-second
 session): the share of windows wider than 1.2 ... 2 times the person's projected width, and the
@@ -196,6 +200,23 @@ def over_speed_share(df: pd.DataFrame) -> float:
     return float((np.hypot(df.e_u, df.e_v) > df.speed).mean()) if len(df) else float("nan")
 
 
+def cut_excess(df: pd.DataFrame, min_speed: float = 20.0) -> tuple[float, float]:
+    """How much more a border-cut window's flow errs than an uncut one's, as a share of the true
+    image speed (a flow noise for cut windows, along and across the motion): over windows at
+    ``min_speed`` px/s or more, sqrt(rsd_cut^2 - rsd_uncut^2 + (median_cut - median_uncut)^2) of
+    the error over the speed, along the motion and across it (the spread and the shortfall both,
+    a robust sd ``rsd``); NaN without windows of both kinds."""
+    g = df[df.speed >= min_speed]
+    cut = g["border"].astype(bool)
+    if not cut.any() or cut.all():
+        return float("nan"), float("nan")
+    out = []
+    for col in ("along", "across"):
+        rc, ru = g.loc[cut, col] / g.loc[cut, "speed"], g.loc[~cut, col] / g.loc[~cut, "speed"]
+        out.append(float(np.sqrt(max(rsd(rc) ** 2 - rsd(ru) ** 2, 0.0) + (rc.median() - ru.median()) ** 2)))
+    return out[0], out[1]
+
+
 def short_runs(df: pd.DataFrame, min_speed: float = 30.0, frac: float = 0.5) -> tuple[int, float, float, int]:
     """Episodes of a flow far short of the motion: among windows of true image speed over
     ``min_speed`` px/s, those whose flow falls more than ``frac`` of the speed short; returns
@@ -284,6 +305,9 @@ def main(argv=None) -> int:
                   f" (|error| over the image speed in {100 * over_speed_share(g):.1f} % of them; gain {gain(g):.3f}):")
             if len(g):
                 print(table(g).round(2).to_string(index=False))
+        along, across = cut_excess(df)
+        print(f"a cut window's flow error in excess of an uncut one's, over the image speed (20+ px/s): "
+              f"along the motion {along:.3f}, across {across:.3f}")
     if a.by_share or a.fragments:
         print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out"
               + ("; windows covering 30 % of the narrower of window and person" if a.fragments else "") + "):")

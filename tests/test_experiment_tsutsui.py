@@ -44,7 +44,10 @@ def test_worker_processes_give_the_same_runs_in_the_same_order(capsys):
     assert ts.main(argv) == 0
     one = _runs(capsys.readouterr().out)
     assert ts.main(argv + ["--jobs", "2"]) == 0
-    two = _runs(capsys.readouterr().out)
+    out = capsys.readouterr()
+    two = _runs(out.out)
+    assert all(line.startswith("{") for line in out.out.splitlines())  # only runs: a file compare_tp_runs reads
+    assert "identity_held" in out.err  # the summary over runs goes to stderr
     assert [r["seed"] for r in one] == [7, 5, 6]
     assert one == two
 

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, corr_time, errors, gain, over_speed_share, persistent_fit, share_table,
+from scripts.measure_flow_errors import (FRAGMENT_BINS, autocorrelation, corr_time, cut_excess, errors, gain, over_speed_share, persistent_fit, share_table,
                                          short_runs, width_tail)
 
 
@@ -145,3 +145,22 @@ def test_the_share_of_flow_errors_larger_than_the_image_speed_counts_the_size_of
                        "e_v": [0.0, -55.0, 30.0, 10.0, -15.0]})
     assert over_speed_share(df) == pytest.approx(3 / 5)  # 60, 55 > 50 and hypot(15, 15) > 20; hypot(30, 30) < 50, 10 < 20
     assert np.isnan(over_speed_share(df.iloc[:0]))
+
+
+def test_a_cut_windows_excess_error_counts_its_spread_and_its_shortfall_over_the_speed():
+    """``cut_flow_along`` / ``cut_flow_across``: uncut windows err N(0, (0.1 v)^2) along and across;
+    cut ones N(-0.2 v, (0.3 v)^2) along and N(0, (0.1 v)^2) across. The excess along is
+    sqrt(0.3^2 - 0.1^2 + 0.2^2) = 0.35 of the speed, across 0; windows slower than 20 px/s are
+    left out, and a table without cut windows has no excess."""
+    rng = np.random.default_rng(3)
+    n = 20000
+    speed = rng.uniform(20.0, 100.0, n)
+    cut = np.arange(n) < n // 2
+    along = speed * np.where(cut, -0.2 + 0.3 * rng.standard_normal(n), 0.1 * rng.standard_normal(n))
+    across = speed * 0.1 * rng.standard_normal(n)
+    slow = pd.DataFrame({"speed": 5.0, "along": 1e3, "across": 1e3, "border": [True, False]})  # off any scale, too slow to count
+    df = pd.concat([pd.DataFrame({"speed": speed, "along": along, "across": across, "border": cut}), slow])
+    a, c = cut_excess(df)
+    assert a == pytest.approx(np.sqrt(0.3**2 - 0.1**2 + 0.2**2), abs=0.02)
+    assert c < 0.03
+    assert all(np.isnan(cut_excess(df[~df.border.astype(bool)])))
