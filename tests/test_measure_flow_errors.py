@@ -148,8 +148,9 @@ def test_the_share_of_flow_errors_larger_than_the_image_speed_counts_the_size_of
 
 
 def test_a_cut_windows_excess_error_counts_its_spread_and_its_shortfall_over_the_speed():
-    """``cut_flow_along`` / ``cut_flow_across``: uncut windows err N(0, (0.1 v)^2) along and across;
-    cut ones N(-0.2 v, (0.3 v)^2) along and N(0, (0.1 v)^2) across. The excess along is
+    """``cut_excess`` (the forty-fourth session's measured noise for border-cut windows): uncut
+    windows err N(0, (0.1 v)^2) along and across; cut ones N(-0.2 v, (0.3 v)^2) along and
+    N(0, (0.1 v)^2) across. The excess along is
     sqrt(0.3^2 - 0.1^2 + 0.2^2) = 0.35 of the speed, across 0; windows slower than 20 px/s are
     left out, and a table without cut windows has no excess."""
     rng = np.random.default_rng(3)
