@@ -1280,7 +1280,7 @@ class JointTracker:
         tr.s, tr.S, tr.located, tr.seen, tr.n_used, tr.mode = new.s, new.S, True, True, new.n_used, "planes"
         return {best}
 
-    def locate_track(self, target: JointTrack, tracks: list[JointTrack], accept, t: float) -> JointTrack | None:
+    def locate_track(self, target: JointTrack, tracks: list[JointTrack], accept, t: float, t0: float | None = None) -> JointTrack | None:
         """The hand-chosen target still not located, and a track started since from a crossing
         ``locate`` did not take (a crossing of partial windows - a sliver, a fragment, a window
         cut by the image border - lands up to a metre off): while that track is unconfirmed its
@@ -1288,14 +1288,21 @@ class JointTracker:
         those it passes (filtered for at least one frame), the one nearest the click: the target's
         track takes its state (staying the target's, confirmed) and the track is returned, for the
         caller to drop. Without it the track explains the target's windows from then on and no
-        crossing is left to locate the target by."""
+        crossing is left to locate the target by. With ``locate_back`` (and ``t0``, the click's
+        frame time) a track also passes where it was at ``t0``, its filtered position taken back
+        at its velocity: the target may have walked out of the disc before the first crossing on
+        it was made."""
         best, dbest = None, np.inf
         for tr in tracks:
             if tr is target or tr.confirmed or not tr.located or tr.born is None or tr.born[0] >= t - 1e-9:
                 continue
-            d = float(np.linalg.norm(tr.xy - target.xy))
-            if accept(tr.xy) and d < dbest:
-                best, dbest = tr, d
+            pts = [tr.xy]
+            if self.cfg.locate_back and t0 is not None:
+                pts.append(tr.xy - tr.s[2:] * (t - t0))  # where it was at the click's frame, at its velocity
+            for x in pts:
+                d = float(np.linalg.norm(x - target.xy))
+                if accept(x) and d < dbest:
+                    best, dbest = tr, d
         if best is not None:
             self.take_over(target, best)
         return best

@@ -36,7 +36,7 @@ from trackroom.estimators import tp_geometry as geo, tp_joint
 def _state(tr) -> str:
     sd = np.sqrt(np.diag(tr.S))
     return (f"x {tr.s[0]:.2f},{tr.s[1]:.2f} (sd {sd[0]:.2f},{sd[1]:.2f}) v {tr.s[2]:+.2f},{tr.s[3]:+.2f} "
-            f"(sd {sd[2]:.2f},{sd[3]:.2f}) mu {tr.mu:.3f}")
+            f"(sd {sd[2]:.2f},{sd[3]:.2f}) mu {tr.mu:.3f} exist {tr.exist:+.2f}")
 
 
 def _windows(boxes) -> str:

@@ -578,6 +578,40 @@ def test_locate_track_takes_a_young_track_filtered_into_the_locate_disc():
     assert tgt.tid == 0 and tgt.confirmed and tgt.located and tgt.s == pytest.approx(inside.s)
 
 
+def test_locate_back_takes_a_young_track_that_was_at_the_click_when_it_walked_off():
+    """The target walks away from the click at 0.86 m/s and the first crossing on it comes 1.1 s
+    in, outside ``locate``'s disc (0.9 m): at 1.2 s the young track it started is 1.0 m from the
+    click and walks on away from it, so ``locate``'s test never takes it and the target is not
+    located (analytic evaluation 1830: 24.6 s). Taken back to the click's frame at its velocity
+    (``locate_back``) it was 0.04 m from the click: it is the target. A young track as far off
+    walking towards the click (taken back, 2.0 m from it) is not; without ``locate_back`` neither is."""
+    cams = four_cameras()
+    click = np.array([1.98, 5.37])
+    S = np.diag([R**2] * 2 + [0.5**2] * 2)
+
+    def young(tid, s):
+        tr = JointTrack(tid, np.asarray(s, float), S.copy(), hits=1)
+        tr.born = (1.1, tr.s.copy(), S.copy())
+        return tr
+
+    def target():
+        return JointTrack(0, np.r_[click, 0.0, 0.0], np.diag([0.25, 0.25, 2.25, 2.25]), confirmed=True, located=False)
+
+    walker, towards = young(1, [2.80, 5.94, 0.70, 0.50]), young(2, [2.80, 5.94, -0.70, -0.50])
+    for back in (True, False):
+        cfg, jt = _tracker(cams, locate_back=back)
+        accept = lambda p: float(np.linalg.norm(np.asarray(p, float) - click)) <= cfg.init_radius + 2.0 * cfg.radius
+        assert not accept(walker.xy) and accept(walker.xy - 1.2 * walker.s[2:])
+        tgt = target()
+        assert jt.locate_track(tgt, [tgt, towards], accept, 1.2, 0.0) is None
+        tgt = target()
+        found = jt.locate_track(tgt, [tgt, towards, walker], accept, 1.2, 0.0)
+        if back:
+            assert found is walker and tgt.located and tgt.s == pytest.approx(walker.s)
+        else:
+            assert found is None and not tgt.located
+
+
 def test_a_walker_who_slows_to_a_stop_in_view_becomes_standing_and_stays_put():
     """A walker slows from 0.6 m/s to a stop near (3.6, 2.5) in the view of all four cameras, with
     windows of its own while it moves; then the windows stop (a flow tracker sees no one
