@@ -173,6 +173,8 @@ class IdentityLag:
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
+    successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
+    watched_hist: list = field(default_factory=list)  # [(t, internal id, s, S)] of the watched identity's track over the last hold_s
 
     @property
     def final_s(self) -> float:
@@ -255,6 +257,8 @@ class IdentityLag:
             if ep is not None and ep.gone is None:
                 ep.dist.append((t, d_ab))
         self._close(t, alive)
+        if self.successor_reject is not None and self.watch is not None:
+            self._watched_successor(t, alive)
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
         if self.relink_area is not None:
@@ -303,6 +307,43 @@ class IdentityLag:
                     best, best_llr = tid, llr
             if best is not None:
                 self._link_or_defer(t, tr.tid, best, best_llr, alive)
+
+    def _watched_successor(self, t: float, alive: dict) -> None:
+        """Single-target mode: the watched identity's track, which is never dropped, rejected by
+        the existence test (log-odds below ``successor_reject``) while likelier walking has lost
+        its person (a walker makes windows; a standing person's track, likelier standing, is left
+        alone). Its person may have a track of its own by then: one born while this one lagged
+        (a successor, as ``_successors`` scores one in multi-person mode). Each confirmed track
+        under its own identity that was born at a two-camera crossing while the watched track was
+        recorded is scored as its successor, its birth state against the watched track's state
+        then, N(s_b; s_w(t_b), S_b + S_w(t_b)), against someone new; the likeliest above
+        ``EXCHANGE_LOG_ODDS`` takes the watched identity from its birth on (no earlier than the
+        output lag allows), and the rejected track is then an ordinary one."""
+        g = self.holder(self.watch)
+        tg = alive.get(g)
+        if tg is None:
+            return
+        self.watched_hist = [h for h in self.watched_hist if h[1] == g and t - h[0] <= self.hold_s + 1e-9]
+        self.watched_hist.append((t, g, tg.s.copy(), tg.S.copy()))
+        if tg.exist >= self.successor_reject or tg.mu >= 0.5 or not self.area:
+            return
+        best, best_llr = None, EXCHANGE_LOG_ODDS
+        for tid, tr in alive.items():
+            born = getattr(tr, "born", None)
+            if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or born is None:
+                continue
+            tb, sb, Sb = born
+            at = [h for h in self.watched_hist if abs(h[0] - tb) < 1e-6]
+            if not at:
+                continue
+            _, _, sw, Sw = at[0]
+            llr = gauss_loglik(sb - sw, Sb + Sw) - (float(-np.log(self.area)) + self._walking(sb, Sb))
+            self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)
+            if llr > best_llr:
+                best, best_llr = tid, llr
+        if best is not None:
+            self._exchange(max(self.born.get(best, t), self._not_before(t, (g, best))), g, best)
+            self.watched_hist = []
 
     def _link_or_defer(self, t: float, tid: int, ended: int, llr: float, alive: dict) -> None:
         """``_link``, unless ``ended`` ended in an encounter whose other track lives: then the
