@@ -356,12 +356,12 @@ class TargetPlanes(Estimator):
                                         "between the click and the first crossing on it; no parameter value). On: "
                                         "analytic evaluation 1830 (seen) 29.4 -> 99.1 %; every output of 520 "
                                         "development recordings unchanged (docs/target_planes.md)")
-        rejected_successor: bool = param(True, "single-target mode: the target's track, never dropped, with existence "
-                                               "log-odds below twice the tracker's rejection level (99.99:1) while likelier "
-                                               "walking passes the target's identity to a track born on its person while it "
-                                               "lagged (tp_identity's successor score at 99:1; the factor two from the hand-"
-                                               "given target's prior). On: rendered evaluation 1849 (seen) 42.0 -> 100 %; "
-                                               "every output of 520 development recordings unchanged (docs/target_planes.md)")
+        rejected_successor: bool = param(True, "single-target mode: the target's track, never dropped, rejected by the "
+                                               "existence test while likelier walking passes the target's identity to a "
+                                               "track born on its person while it lagged and sharing no merged window with "
+                                               "it (tp_identity's successor score at 99:1; no parameter value). On: rendered "
+                                               "evaluation 1849 (seen) 42.0 -> 100 %; every output of 520 development "
+                                               "recordings unchanged (docs/target_planes.md)")
         init_min_cameras: int = param(2, "cameras whose windows' planes must cross before a track starts")
         handover: bool = param(True, "an encounter one of whose tracks ended is decided identity_lag_s after the "
                                      "end with the tracks confirmed since it began: the survivor may have come out "
@@ -490,7 +490,7 @@ class TargetPlanes(Estimator):
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
             idl.handover_reach = cfg.handover_reach
             if cfg.rejected_successor and not cfg.multi_person:
-                idl.successor_reject, idl.hold_s = 2.0 * EXIST_REJECT, cfg.hold_s
+                idl.successor_reject, idl.hold_s = EXIST_REJECT, cfg.hold_s
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         st = _RunState(tracks, keep, next_id, idl, float(times[0]) if len(times) else 0.0)

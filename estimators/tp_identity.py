@@ -114,6 +114,11 @@ import numpy as np
 EXCHANGE_LOG_ODDS = float(np.log(0.99 / 0.01))  # exchange identities only on 99:1 evidence
 
 
+def merged_with(a, b) -> bool:
+    """Whether track ``a`` shares a merged window with track ``b`` in some camera this frame."""
+    return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
+
+
 def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
     """log N(r; 0, C)."""
     return float(-0.5 * (r @ np.linalg.solve(C, r) + np.linalg.slogdet(2 * np.pi * C)[1]))
@@ -217,7 +222,7 @@ class IdentityLag:
     def ambiguous(self, a, b) -> bool:
         if float(np.linalg.norm(a.s[:2] - b.s[:2])) < 4.0 * self.radius:
             return True
-        return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
+        return merged_with(a, b)
 
     def _candidates(self, tracks):
         loc = [tr for tr in tracks if tr.located]
@@ -315,8 +320,11 @@ class IdentityLag:
         alone). Its person may have a track of its own by then: one born while this one lagged
         (a successor, as ``_successors`` scores one in multi-person mode). Each confirmed track
         under its own identity that was born at a two-camera crossing while the watched track was
-        recorded is scored as its successor, its birth state against the watched track's state
-        then, N(s_b; s_w(t_b), S_b + S_w(t_b)), against someone new; the likeliest above
+        recorded, and that shares no merged window with it this frame (the tracker holds both
+        people there; a rejection in a merge may be the merge's: a look-alike born beside the
+        target and walking past it as it stops), is scored as its successor, its birth state
+        against the watched track's state then, N(s_b; s_w(t_b), S_b + S_w(t_b)), against
+        someone new; the likeliest above
         ``EXCHANGE_LOG_ODDS`` takes the watched identity from its birth on (no earlier than the
         output lag allows), and the rejected track is then an ordinary one."""
         g = self.holder(self.watch)
@@ -330,8 +338,8 @@ class IdentityLag:
         best, best_llr = None, EXCHANGE_LOG_ODDS
         for tid, tr in alive.items():
             born = getattr(tr, "born", None)
-            if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or born is None:
-                continue
+            if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or born is None or merged_with(tg, tr):
+                continue  # (merged with it now: the two share windows, and the rejection may be the merge's)
             tb, sb, Sb = born
             at = [h for h in self.watched_hist if abs(h[0] - tb) < 1e-6]
             if not at:

@@ -276,14 +276,14 @@ def test_an_identity_still_carried_is_not_given_to_a_new_track():
     assert idl.links == [] and idl.identity(2) == 2
 
 
-def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=2.0 * EXIST_REJECT, rejected_exist=-10.0):
+def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJECT, merged=False):
     """Single-target mode (``watch`` 0). Person A walks east at 1 m/s along y = 3; the target's
     track 0 follows until t = 1.3 s and then stalls at x = 2.3 (its windows walked on without it);
     a new track 2 is born at a two-camera crossing at t = 1.5 s at (x_A, ``born_at_y``), moving
-    east at 1 m/s, and confirmed at 2.0 s. From t = 2.5 s track 0's existence log-odds are
-    ``rejected_exist`` (the target's track is never dropped; the level the estimator sets is twice
-    the tracker's rejection, ``successor_reject``), likelier standing with ``rejected_mu`` >= 1/2.
-    Track 1 (B) stands at (1, 1)."""
+    east at 1 m/s, and confirmed at 2.0 s. From t = 2.5 s track 0's existence log-odds are below
+    the tracker's rejection level (the target's track is never dropped), likelier standing with
+    ``rejected_mu`` >= 1/2, and with ``merged`` sharing a merged window with track 2 in one
+    camera. Track 1 (B) stands at (1, 1)."""
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=72.0, sigma_v=1.5, hold_s=6.0,
                       successor_reject=successor_reject)
     wide = np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2])  # a new track's spreads
@@ -292,7 +292,8 @@ def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=2.0 * EXI
         x = 1.0 + min(t, 1.3)
         late = t >= 2.5 - 1e-9
         trs = [JointTrack(0, np.array([x, 3.0, 1.0 if t < 1.3 else 0.0, 0.0]), S0.copy(), confirmed=True, seen=True,
-                          exist=rejected_exist if late else 4.6, mu=rejected_mu if late else 0.0),
+                          exist=EXIST_REJECT - 1.0 if late else 4.6, mu=rejected_mu if late else 0.0,
+                          status={"north": ("merged", "2", None)} if (late and merged) else {}),
                JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True)]
         if t >= 1.5 - 1e-9:
             s2 = np.array([1.0 + t, born_at_y, 1.0, 0.0])
@@ -318,15 +319,15 @@ def test_a_rejected_target_track_gives_the_identity_to_the_track_born_on_its_per
     assert not pd.DataFrame({"t": t, "i": ident}).duplicated().any()
 
 
-@pytest.mark.parametrize("case", ["born on someone else", "standing", "rejected by the tracker only", "off"])
-def test_a_rejected_target_track_keeps_the_identity_without_a_successor_when_standing_or_off(case):
+@pytest.mark.parametrize("case", ["born on someone else", "standing", "merged with it", "off"])
+def test_a_rejected_target_track_keeps_the_identity_without_a_successor_when_standing_merged_or_off(case):
     """Track 2 born 3 m away (someone else); the rejected track likelier standing (a standing
-    target makes no window: its track is rejected and is still the target's); its log-odds below
-    the tracker's rejection level but above twice it (a merged frame or two can dip them there:
-    analytic evaluation 1817, seen); the rule off: the target's identity stays on track 0."""
+    target makes no window: its track is rejected and is still the target's); the rejected track
+    sharing a merged window with track 2 (the tracker holds both people there, and a merge's
+    frames can reject a track on its person: a look-alike born beside the target walking past it
+    as it stops, seen analytic 1875 draw 1 and 1817); the rule off: the identity stays on track 0."""
     kw = {"born on someone else": dict(born_at_y=6.0), "standing": dict(born_at_y=3.0, rejected_mu=0.9),
-          "rejected by the tracker only": dict(born_at_y=3.0, rejected_exist=1.5 * EXIST_REJECT),
-          "off": dict(born_at_y=3.0, successor_reject=None)}[case]
+          "merged with it": dict(born_at_y=3.0, merged=True), "off": dict(born_at_y=3.0, successor_reject=None)}[case]
     idl, t, tid, ident = watched_successor_run(**kw)
     assert idl.holder(0) == 0
     assert set(ident[tid == 0]) == {0} and set(ident[tid == 2]) == {2}
