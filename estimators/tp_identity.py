@@ -92,6 +92,12 @@ of the pair's states before and after it, with both assignments kept until then:
   confirmed track ends, a track confirmed within ``lag_s`` before and still under its own identity
   takes the ended identity (from the end on) when its first state s_b, S_b is likelier the ended
   track's state at that time, N(s_b; s_e(t_b), S_b + S_e(t_b)), than someone new (as above).
+- **The watched track's successor (single-target mode, ``successor_reject``)**: the hand-chosen
+  target's track never ends, so when the tracker's existence test rejects it while it is likelier
+  walking (it lost its person), a track born at a two-camera crossing while it was recorded, and
+  sharing no merged window with it now, is scored as its successor in the same way (its birth
+  state against the watched track's state then) and takes the identity from its birth on above
+  ``EXCHANGE_LOG_ODDS`` (``_watched_successor``).
 
 - **An encounter's ended track waits for its hand-over**: a confirmed track that ended while
   its encounter's other track lives is not found again, nor succeeded, at once: the link is
