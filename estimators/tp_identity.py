@@ -343,15 +343,14 @@ class IdentityLag:
             return
         best, best_llr = None, EXCHANGE_LOG_ODDS
         for tid, tr in alive.items():
-            born = getattr(tr, "born", None)
-            if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or born is None or merged_with(tg, tr):
+            if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or tr.born is None or merged_with(tg, tr):
                 continue  # (merged with it now: the two share windows, and the rejection may be the merge's)
-            tb, sb, Sb = born
+            tb, sb, Sb = tr.born
             at = [h for h in self.watched_hist if abs(h[0] - tb) < 1e-6]
             if not at:
                 continue
             _, _, sw, Sw = at[0]
-            llr = gauss_loglik(sb - sw, Sb + Sw) - (float(-np.log(self.area)) + self._walking(sb, Sb))
+            llr = self._successor_log_odds(sb, Sb, sw, Sw, self.area)
             self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)
             if llr > best_llr:
                 best, best_llr = tid, llr
@@ -414,13 +413,18 @@ class IdentityLag:
                 if not at:
                     continue
                 _, se, Se = at[0]
-                new = float(-np.log(self.relink_area)) + self._walking(sb, Sb)
-                llr = gauss_loglik(sb - se, Sb + Se) - new
+                llr = self._successor_log_odds(sb, Sb, se, Se, self.relink_area)
                 self.scores.append((t, y.tid, e, llr))
                 if llr > best_llr:
                     best, best_llr = y.tid, llr
             if best is not None:
                 self._link_or_defer(t, best, e, best_llr, {o.tid: o for o in tracks})
+
+    def _successor_log_odds(self, sb: np.ndarray, Sb: np.ndarray, se: np.ndarray, Se: np.ndarray, area: float) -> float:
+        """log N(s_b; s_e, S_b + S_e) - log L(someone new): a track's birth state ``sb``, ``Sb`` as
+        the state ``se``, ``Se`` of the track it succeeds at that time, against someone new anywhere
+        on ``area`` m^2 at a walker's velocity (``_successors``, ``_watched_successor``)."""
+        return gauss_loglik(sb - se, Sb + Se) - (float(-np.log(area)) + self._walking(sb, Sb))
 
     def _walking(self, s: np.ndarray, S: np.ndarray) -> float:
         """log N(v; 0, sigma_v^2 I + S[v]): a track's velocity as a walker's whose direction and
