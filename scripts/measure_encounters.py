@@ -1,7 +1,7 @@
 """How near two movers come: the closest approach of their centres in a recording's truth.
 
-    python scripts/measure_encounters.py DIR [DIR ...]                 # recordings (either mode)
-    python scripts/measure_encounters.py --seeds 1920,1932 [--set KEY=VALUE ...]   # occlusion_lab, simulated
+    python -m scripts.measure_encounters DIR [DIR ...]                 # recordings (either mode)
+    python -m scripts.measure_encounters --seeds 1920,1932 [--set KEY=VALUE ...]   # occlusion_lab, simulated
 
 For each recording and each pair of movers (``--people``, by default the scene's target and
 look-alike): the smallest distance between their floor centres (m) and when, and the number of
@@ -17,18 +17,18 @@ bodies are never nearer than two radii is false (issue 12's forty-seventh sessio
 read here, by the experimenter. ``--seeds`` simulates the analytic recording for the truth only
 (the walkers do not depend on the sensing):
 
-    python scripts/measure_encounters.py --seeds 1920,1932 --set 'walkers.people.1.waypoints=[[1.0, 1.2], [5.0, 1.2], [7.8, 4.0], [6.5, 6.3], [3.0, 6.3], [1.0, 4.0]]'
+    python -m scripts.measure_encounters --seeds 1920,1932 --set 'walkers.people.1.waypoints=[[1.0, 1.2], [5.0, 1.2], [7.8, 4.0], [6.5, 6.3], [3.0, 6.3], [1.0, 4.0]]'
 """
 from __future__ import annotations
 
 import argparse
-import glob
 import itertools
 import tomllib
 
 import numpy as np
 import pandas as pd
 
+from scripts.experiment_tsutsui import expand_recordings
 from trackroom.scenes.loader import load_scene, parse_scene
 from trackroom.sim.walkers import PERSONAL_SPACE
 
@@ -67,14 +67,12 @@ def _recordings(args):
     """(label, people table, radii) for each recording asked for."""
     from trackroom.dataset import read_recording
 
-    for pattern in args.dirs:
-        paths = sorted(glob.glob(pattern)) or [pattern]
-        for path in paths:
-            rec = read_recording(path)
-            if rec.scene_toml is None:
-                raise SystemExit(f"measure_encounters: {path} has no scene file: the people's radii are unknown")
-            scene = parse_scene(tomllib.loads(rec.scene_toml), source=path)
-            yield path, rec.truth.people, radii_of(scene)
+    for path in expand_recordings(args.dirs):
+        rec = read_recording(path)
+        if rec.scene_toml is None:
+            raise SystemExit(f"measure_encounters: {path} has no scene file: the people's radii are unknown")
+        scene = parse_scene(tomllib.loads(rec.scene_toml), source=path)
+        yield path, rec.truth.people, radii_of(scene)
     if args.seeds:
         from trackroom.sim.simulate import simulate
 

@@ -1,6 +1,6 @@
 """What the cameras show of each mover on its own: windows that hold one mover and no other.
 
-    python scripts/measure_own_windows.py DIR [DIR ...] [--runs S] [--between T0,T1]   # rendered recordings
+    python -m scripts.measure_own_windows DIR [DIR ...] [--runs S] [--between T0,T1]   # rendered recordings
 
 A flow window tells a tracker where one person is only when it holds that person alone: a window
 over two walkers is a merge, and a walker in no window at all is seen by no camera. For each
@@ -20,10 +20,11 @@ showed (issue 12's forty-seventh session). The truth is read here, by the experi
 from __future__ import annotations
 
 import argparse
-import glob
 
 import numpy as np
 import pandas as pd
+
+from scripts.experiment_tsutsui import expand_recordings
 
 MOVERS = ("target", "distractor")
 COVER = 0.3  # share of a mover's visible columns a window must cover to hold it
@@ -113,7 +114,7 @@ def main(argv=None) -> None:
         between = (t0, t1)
     from trackroom.dataset import read_recording
 
-    paths = [p for pattern in args.dirs for p in (sorted(glob.glob(pattern)) or [pattern])]
+    paths = expand_recordings(args.dirs)
     print("recording | mover | walking frames | own windows in >= 2 cameras | in 1 | in none | longest run without, s")
     for path in paths:
         rec = read_recording(path)
