@@ -125,6 +125,11 @@ def merged_with(a, b) -> bool:
     return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
 
 
+def state_at(history: list, t: float):
+    """The state (s, S) a history of (t, s, S) recorded at frame time ``t``, or None."""
+    return next(((s, S) for th, s, S in history if abs(th - t) < 1e-6), None)
+
+
 def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
     """log N(r; 0, C)."""
     return float(-0.5 * (r @ np.linalg.solve(C, r) + np.linalg.slogdet(2 * np.pi * C)[1]))
@@ -185,7 +190,8 @@ class IdentityLag:
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
     successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
-    watched_hist: list = field(default_factory=list)  # [(t, internal id, s, S)] of the watched identity's track over the last hold_s
+    watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
+    watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
 
     @property
     def final_s(self) -> float:
@@ -337,8 +343,10 @@ class IdentityLag:
         tg = alive.get(g)
         if tg is None:
             return
-        self.watched_hist = [h for h in self.watched_hist if h[1] == g and t - h[0] <= self.hold_s + 1e-9]
-        self.watched_hist.append((t, g, tg.s.copy(), tg.S.copy()))
+        if g != self.watched_tid:
+            self.watched_hist, self.watched_tid = [], g
+        self.watched_hist = [h for h in self.watched_hist if t - h[0] <= self.hold_s + 1e-9]
+        self.watched_hist.append((t, tg.s.copy(), tg.S.copy()))
         if tg.exist >= self.successor_reject or tg.mu >= 0.5 or not self.area:
             return
         best, best_llr = None, EXCHANGE_LOG_ODDS
@@ -346,10 +354,10 @@ class IdentityLag:
             if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or tr.born is None or merged_with(tg, tr):
                 continue  # (merged with it now: the two share windows, and the rejection may be the merge's)
             tb, sb, Sb = tr.born
-            at = [h for h in self.watched_hist if abs(h[0] - tb) < 1e-6]
-            if not at:
+            at = state_at(self.watched_hist, tb)
+            if at is None:
                 continue
-            _, _, sw, Sw = at[0]
+            sw, Sw = at
             llr = self._successor_log_odds(sb, Sb, sw, Sw, self.area)
             self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)
             if llr > best_llr:
@@ -409,10 +417,10 @@ class IdentityLag:
                 if not hy or not he:
                     continue
                 tb, sb, Sb = hy[0]
-                at = [h for h in he if abs(h[0] - tb) < 1e-6]
-                if not at:
+                at = state_at(he, tb)
+                if at is None:
                     continue
-                _, se, Se = at[0]
+                se, Se = at
                 llr = self._successor_log_odds(sb, Sb, se, Se, self.relink_area)
                 self.scores.append((t, y.tid, e, llr))
                 if llr > best_llr:
