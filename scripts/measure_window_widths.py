@@ -1,7 +1,7 @@
 """How wide a rendered flow window is against a person model's image: for ``target_planes``'
 ``width_depth`` (``JointTracker.body_width``).
 
-    python scripts/measure_window_widths.py DIR [DIR ...]     # rendered occlusion_lab recordings
+    python -m scripts.measure_window_widths DIR [DIR ...]     # rendered occlusion_lab recordings (from the repository root)
 
 Each window of a walker (faster than 0.3 m/s) seen whole (``visible_fraction`` > 0.97, the
 segmentation labels of the rendered recording) and not touching an image border is matched to
