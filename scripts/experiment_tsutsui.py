@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
-import glob
 import itertools
 import json
 import os
@@ -50,6 +49,7 @@ import numpy as np
 import pandas as pd
 
 from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
+from trackroom.dataset import recording_folders
 from trackroom.metrics.score import evaluate
 from trackroom.scenes.loader import load_scene
 from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
@@ -270,12 +270,6 @@ def parse_params(items: list[str]) -> dict:
     return out
 
 
-def expand_recordings(patterns) -> list[str]:
-    """Recording folders from command-line patterns: each quoted glob expanded (sorted), a
-    pattern that matches nothing kept as given (so reading it names the missing folder)."""
-    return [d for pat in patterns for d in (sorted(glob.glob(pat)) or [pat])]
-
-
 def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
     """The command line of the measurement scripts that run target_planes on recordings:
     ``DIR [DIR ...] [--param KEY=VALUE ...]``, and ``[--csv FILE]`` with ``csv_help`` (``doc``:
@@ -287,7 +281,7 @@ def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> t
     if csv_help:
         ap.add_argument("--csv", help=csv_help)
     a = ap.parse_args(argv)
-    return expand_recordings(a.recordings), parse_params(a.param), getattr(a, "csv", None)
+    return recording_folders(a.recordings, ap.prog), parse_params(a.param), getattr(a, "csv", None)
 
 
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,
@@ -363,15 +357,9 @@ def main(argv=None) -> int:
     if a.jobs < 1:
         ap.error(f"--jobs N needs N >= 1, got {a.jobs}")
     if a.recording:
-        from trackroom.dataset import read_manifest, read_recording
-        from trackroom.recording import RecordingError
+        from trackroom.dataset import read_recording
 
-        folders = expand_recordings(a.recording.split(","))
-        try:
-            for d in folders:  # every folder checked before any run: a missing one is named, nothing half printed
-                read_manifest(d)
-        except RecordingError as e:
-            raise SystemExit(f"experiment_tsutsui: {e}") from None
+        folders = recording_folders(a.recording.split(","), "experiment_tsutsui")
         if a.window_errors:
             for d in folders:
                 rec = read_recording(d)

@@ -183,7 +183,8 @@ def explain(d: str, params: dict) -> tuple[dict, pd.DataFrame, np.ndarray]:
 
 
 def main(argv=None) -> int:
-    from scripts.experiment_tsutsui import expand_recordings, parse_params
+    from scripts.experiment_tsutsui import parse_params
+    from trackroom.dataset import recording_folders
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR", help="occlusion_lab recording folders (globs allowed)")
@@ -191,8 +192,9 @@ def main(argv=None) -> int:
     ap.add_argument("--episodes", type=int, default=0, metavar="N", help="also list false-positive and false-negative runs of N or more frames")
     a = ap.parse_args(argv)
     params = parse_params(a.param)
+    dirs = recording_folders(a.recordings, ap.prog)
     lines = []
-    for d in expand_recordings(a.recordings):
+    for d in dirs:
         line, C, times = explain(d, params)
         lines.append(line)
         print(" ".join(f"{k} {v}" for k, v in line.items() if k != "recording" and (not isinstance(v, int) or v or k in ("fp", "fn"))), flush=True)

@@ -28,7 +28,7 @@ import tomllib
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import expand_recordings
+from trackroom.dataset import recording_folders
 from trackroom.scenes.loader import load_scene, parse_scene
 from trackroom.sim.walkers import PERSONAL_SPACE
 
@@ -67,7 +67,7 @@ def _recordings(args):
     """(label, people table, radii) for each recording asked for."""
     from trackroom.dataset import read_recording
 
-    for path in expand_recordings(args.dirs):
+    for path in recording_folders(args.dirs, "measure_encounters"):
         rec = read_recording(path)
         if rec.scene_toml is None:
             raise SystemExit(f"measure_encounters: {path} has no scene file: the people's radii are unknown")

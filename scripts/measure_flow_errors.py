@@ -80,7 +80,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_frames import mean_flows
 from trackroom.sim.perception_fit import lagged_products
@@ -296,7 +296,7 @@ def main(argv=None) -> int:
     ap.add_argument("--border", action="store_true", help="also the error table split: windows of people cut by the image border, and the rest")
     ap.add_argument("--widths", action="store_true", help="also how often a window is much wider than its person, and the fit of target_planes' width_tail")
     a = ap.parse_args(argv)
-    df = pd.concat([errors(d, a.flow_window, a.fragments) for d in a.recordings], ignore_index=True)
+    df = pd.concat([errors(d, a.flow_window, a.fragments) for d in recording_folders(a.recordings, ap.prog)], ignore_index=True)
     fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
     print(f"{len(df)} windows holding one walking mover; flow error (px/s, flow averaged over {a.flow_window} frame(s)) by true image speed:")
     print(table(df).round(2).to_string(index=False))

@@ -22,7 +22,7 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import target_planes as tp_module
 
 from .experiment_tsutsui import multi_estimator
@@ -99,7 +99,7 @@ def main(argv=None) -> None:
     ap.add_argument("--csv", help="write every labelled crossing here")
     args = ap.parse_args(argv)
     parts = []
-    for d in args.dirs:
+    for d in recording_folders(args.dirs, ap.prog):
         rec = read_recording(d)
         people = rec.truth.people[["t", "person_id", "x", "y"]]
         lab = label_crossings(crossings_of(rec), people)

@@ -24,7 +24,7 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from scripts.experiment_tsutsui import expand_recordings
+from trackroom.dataset import recording_folders
 
 MOVERS = ("target", "distractor")
 COVER = 0.3  # share of a mover's visible columns a window must cover to hold it
@@ -114,7 +114,7 @@ def main(argv=None) -> None:
         between = (t0, t1)
     from trackroom.dataset import read_recording
 
-    paths = expand_recordings(args.dirs)
+    paths = recording_folders(args.dirs, "measure_own_windows")
     print("recording | mover | walking frames | own windows in >= 2 cameras | in 1 | in none | longest run without, s")
     for path in paths:
         rec = read_recording(path)

@@ -32,13 +32,12 @@ recording (the truth read by the experimenter):
 """
 from __future__ import annotations
 
-import glob
 import sys
 
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_joint import (VIS_FRACTIONS, Occluders, coincidence_chance, detection_gate, detector_sees,
                                           partly_in_image, wholly_in_image)
@@ -165,9 +164,10 @@ def views_table(p: pd.DataFrame, g: pd.DataFrame) -> pd.DataFrame:
 
 def main(argv: list[str]) -> int:
     views = "--views" in argv
-    dirs = sorted(d for p in argv if p != "--views" for d in glob.glob(p))
-    if not dirs:
+    patterns = [p for p in argv if p != "--views"]
+    if not patterns:
         sys.exit(__doc__)
+    dirs = sorted(recording_folders(patterns, "measure_person_detections"))
     rng = np.random.default_rng(0)
     people, ghosts = [], []
     for d in dirs:

@@ -18,7 +18,7 @@ import sys
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 
 MOVERS = ("target", "distractor")
 SLOW = 0.05  # m/s
@@ -58,6 +58,7 @@ def summary(stops: pd.DataFrame) -> pd.DataFrame:
 if __name__ == "__main__":
     if len(sys.argv) < 2:
         sys.exit(__doc__)
-    stops = pd.concat([stop_lengths(read_recording(d).truth.people) for d in sys.argv[1:]], ignore_index=True)
-    print(f"{len(sys.argv) - 1} recordings; movers' stops (slower than {SLOW} m/s for at least {MIN_S} s), length in s:")
+    dirs = recording_folders(sys.argv[1:], "measure_stop_lengths")
+    stops = pd.concat([stop_lengths(read_recording(d).truth.people) for d in dirs], ignore_index=True)
+    print(f"{len(dirs)} recordings; movers' stops (slower than {SLOW} m/s for at least {MIN_S} s), length in s:")
     print(summary(stops).round(2).to_string())

@@ -31,7 +31,7 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_joint import Occluders
 
@@ -107,7 +107,7 @@ def main(argv=None) -> int:
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--slowing", action="store_true", help="also the rate of a window by ground speed, slowing, speeding up or steady")
     a = ap.parse_args(argv)
-    rows = [r for d in a.recordings for r in recording_rows(d, a.slowing)]
+    rows = [r for d in recording_folders(a.recordings, ap.prog) for r in recording_rows(d, a.slowing)]
     every = pd.DataFrame(rows, columns=COLUMNS)
     df = every[every.walking]
     m = df[~df.hid & (df.speed >= 8)]

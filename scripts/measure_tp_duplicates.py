@@ -26,7 +26,7 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 
 from .experiment_tsutsui import distances_at, multi_estimator
 
@@ -86,6 +86,7 @@ def main(argv=None) -> int:
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--csv", metavar="FILE", help="write one row per drop")
     a = ap.parse_args(argv)
+    a.recordings = recording_folders(a.recordings, ap.prog)
     df = pd.concat([drops(d) for d in a.recordings], ignore_index=True)
     if a.csv:
         df.to_csv(a.csv, index=False)

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.tp_joint import Occluders
 
@@ -53,6 +53,6 @@ def stops(d) -> pd.DataFrame:
 if __name__ == "__main__":
     if len(sys.argv) < 2:
         sys.exit(__doc__)
-    df = pd.concat([stops(d) for d in sys.argv[1:]])
+    df = pd.concat([stops(d) for d in recording_folders(sys.argv[1:], "measure_window_stops")])
     print(f"{len(df)} camera-stops; share with a window on the axis, by frame from the stop:")
     print(df[[f"{r:+d}" for r in FRAMES]].mean().round(3).to_frame("window").T.to_string(index=False))

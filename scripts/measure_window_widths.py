@@ -12,13 +12,14 @@ widths at the person's true floor position: the model cylinder (rims at the floo
 model's, median and robust sigma (1.4826 MAD), over all windows and by the model's width. The
 truth is read here, by the experimenter (issue 12's twenty-eighth session).
 """
+import argparse
 import sys
 
 import numpy as np
 import pandas as pd
 
 from scripts.experiment_tsutsui import window_errors
-from trackroom.dataset import read_recording
+from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 
 HEIGHT, RADIUS = 1.8, 0.2  # target_planes' person model (Config height, radius)
@@ -67,10 +68,9 @@ def summary(D: pd.DataFrame, bins=(0, 25, 40, 60, 1000)) -> pd.DataFrame:
 
 
 def main(argv=None) -> int:
-    dirs = sys.argv[1:] if argv is None else argv
-    if not dirs:
-        print(__doc__)
-        return 2
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR", help="rendered occlusion_lab recording folders (globs allowed)")
+    dirs = recording_folders(ap.parse_args(argv).recordings, ap.prog)
     D = pd.concat([width_table(read_recording(d)) for d in dirs], ignore_index=True)
     if not len(D):
         raise SystemExit("no window of a walker seen whole: are these rendered occlusion_lab recordings?")

@@ -99,6 +99,7 @@ def test_the_command_counts_and_lists_the_people_left_untracked(monkeypatch, tmp
     res = SimpleNamespace(internal=tracks(t0=(drawn, 59), t1=(look, 30)), ends=end(1, 30, look[30]))
     monkeypatch.setattr(cmd, "read_recording", lambda d: rec)
     monkeypatch.setattr(cmd, "run_target", lambda r, params=None: res)
+    monkeypatch.setattr("trackroom.dataset.read_manifest", lambda d: {})  # the folder check: "somewhere" stands for a recording
     out = tmp_path / "ends.csv"
     assert cmd.main(["somewhere", "--csv", str(out)]) == 0
     printed = capsys.readouterr().out

@@ -50,6 +50,7 @@ its hash but cannot be parsed is reported as one ``RecordingError`` naming the f
 """
 from __future__ import annotations
 
+import glob
 import hashlib
 import json
 import math
@@ -198,6 +199,25 @@ def read_manifest(path: str | Path) -> dict:
     if not manifest_path.exists():
         raise RecordingError(f"{root}: not a trackroom recording (no manifest.json)")
     return _check_manifest(_read_json(manifest_path), manifest_path)
+
+
+def expand_recordings(patterns) -> list[str]:
+    """Recording folders from command-line patterns: each quoted glob expanded (sorted), a
+    pattern that matches nothing kept as given (so reading it names the missing folder)."""
+    return [d for pat in patterns for d in (sorted(glob.glob(str(pat))) or [str(pat)])]
+
+
+def recording_folders(patterns, prog: str) -> list[str]:
+    """A command line's recording folders: ``expand_recordings``, then every folder's manifest
+    read before anything runs, so that a missing or malformed folder ends the command ``prog``
+    with one line naming it and nothing half printed, instead of a traceback partway through."""
+    folders = expand_recordings(patterns)
+    try:
+        for d in folders:
+            read_manifest(d)
+    except RecordingError as e:
+        raise SystemExit(f"{prog}: {e}") from None
+    return folders
 
 
 def read_recording(path: str | Path, verify: bool = True) -> Recording:
