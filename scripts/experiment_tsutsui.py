@@ -48,8 +48,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
-from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
 from trackroom.dataset import recording_folders
+from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
 from trackroom.metrics.score import evaluate
 from trackroom.scenes.loader import load_scene
 from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
