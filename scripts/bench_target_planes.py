@@ -34,9 +34,9 @@ def main(argv=None) -> int:
     ap.add_argument("--param", action="append", default=[], help="estimator Config KEY=VALUE")
     a = ap.parse_args(argv)
     if a.recording:
-        from trackroom.dataset import read_recording
+        from trackroom.dataset import read_recording, recording_folders
 
-        rec = read_recording(a.recording)
+        rec = read_recording(recording_folders([a.recording], ap.prog)[0])  # a missing folder named, no traceback
     else:
         from trackroom.scenes.loader import load_scene
         from trackroom.sim.simulate import simulate

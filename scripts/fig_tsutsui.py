@@ -36,9 +36,9 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     saved = None
     if a.recording:
-        from trackroom.dataset import read_recording
+        from trackroom.dataset import read_recording, recording_folders
 
-        saved = read_recording(a.recording)
+        saved = read_recording(recording_folders([a.recording], ap.prog)[0])  # a missing folder named, no traceback
     rec, res, m = run(a.sensing, a.duration, a.seed, recording=saved)
     fp = rec.calibration.floorplan
     tr = res.tracks

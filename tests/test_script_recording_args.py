@@ -50,3 +50,12 @@ def test_a_missing_recording_stops_the_script_before_anything_runs(name, good, t
             importlib.import_module(f"scripts.{name}").main([str(good), missing])
     assert f"{missing}: no such recording folder" in str(e.value.code)
     assert capsys.readouterr().out == ""
+
+
+@pytest.mark.parametrize("name", ["bench_target_planes", "fig_tsutsui"])
+def test_a_missing_recording_given_by_option_is_named(name, tmp_path, capsys):
+    missing = str(tmp_path / "missing")
+    with pytest.raises(SystemExit) as e:
+        importlib.import_module(f"scripts.{name}").main(["--recording", missing])
+    assert f"{missing}: no such recording folder" in str(e.value.code)
+    assert capsys.readouterr().out == ""

@@ -607,5 +607,5 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-__all__ = ["OBSERVATION_COLUMNS", "clean_leftovers", "read_manifest", "read_recording", "write_recording", "read_camera_xml",
-           "write_camera_xml"]
+__all__ = ["OBSERVATION_COLUMNS", "clean_leftovers", "expand_recordings", "read_manifest", "read_recording", "recording_folders",
+           "write_recording", "read_camera_xml", "write_camera_xml"]
