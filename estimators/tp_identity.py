@@ -60,7 +60,11 @@ of the pair's states before and after it, with both assignments kept until then:
   while its person walked on (a window of both, explained as g alone, can draw g's velocity to
   nothing). Each track n confirmed since the encounter began, under its own identity, is scored
   as g's person walked on (``walked_on``: ``found_again``'s walked-on and stood-then-walked-off
-  terms, from g's pre state, the stop at g's standing position) against someone new. The
+  terms, from g's pre state, the stop at g's standing position) against someone new, by n's
+  first state, at its birth at a two-camera crossing (``behind_at_birth``; its state now when it
+  was born otherwise): where n began says whose person it is, where its own tracking has taken it
+  since says little more (a look-alike setting off behind g's stop would fit the stop-then-walk-off
+  term by now). The
   likeliest with positive log-odds waits (``behind``): that g's person has stood on since g became
   likelier standing, at t_s, has probability exp(-(t - t_s) / ``stand_s``), and a track left
   behind stands on anyway, so the log-odds grow by (t - t_s) / ``stand_s``; above
@@ -114,6 +118,7 @@ of the pair's states before and after it, with both assignments kept until then:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -183,6 +188,7 @@ class IdentityLag:
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
     handover_reach: bool = True  # a hand-over holds from the encounter's nearest approach (``_hand_over``)
+    behind_at_birth: bool = True  # a left-behind candidate is scored by its birth state (``walked_on``)
     stand_s: float = 3.0  # mean time a person stands before walking on, s (the tracker's standing mode)
     stand_from: dict = field(default_factory=dict)  # internal id -> first frame of its current spell likelier standing
     behind: dict = field(default_factory=dict)  # standing track id -> (new track id, walked_on log-odds) waiting (``_still_behind``)
@@ -599,8 +605,15 @@ class IdentityLag:
         """log L(track ``tr`` is the person of the pre state ``pre`` (s, S, t), who walked on) -
         log L(``tr`` is someone new), as ``found_again`` scores an ended track's person (walking
         at the pre state), with the decisions' walker model and the stop at the standing track
-        ``tg`` (where the tracker holds that person standing)."""
+        ``tg`` (where the tracker holds that person standing). With ``behind_at_birth`` a track
+        born at a two-camera crossing (``tr.born``: t_b, s_b, S_b) is scored at its birth: the
+        pre state predicted to t_b against s_b, or the stop at most its age then (none) before,
+        as ``_successors`` scores a successor; a track without a birth state (split off a
+        too-wide window) by its state now."""
         stop_at = (tg.xs, tg.Ps) if tg.xs is not None else (tg.s[:2], tg.S[:2, :2])
+        if self.behind_at_birth and getattr(tr, "born", None) is not None:
+            tb, sb, Sb = tr.born
+            return self._continues(tb, SimpleNamespace(tid=tr.tid, s=sb, S=Sb), pre, 0.0, stop_at, self.area, self.walker_accel)
         return self._continues(td, tr, pre, 0.0, stop_at, self.area, self.walker_accel)
 
     def _left_behind(self, td: float, ep: Episode, alive: dict) -> None:

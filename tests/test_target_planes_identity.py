@@ -535,15 +535,16 @@ def test_an_encounter_still_waiting_for_its_decision_when_the_recording_ends_is_
     assert set(tid[(ident == 0) & (t < 2.0 - 1e-9)].astype(int)) == {0}
 
 
-def left_behind_run(new_path, left_behind=True, stop_at=2.05):
+def left_behind_run(new_path, left_behind=True, stop_at=2.05, born_at=None, behind_at_birth=True):
     """Single-target ``IdentityLag`` (floor 48 m^2, the walkers' ``identity_accel`` 0.35): head-on
     look-alikes (``head_on``). Track 0, the target's, follows A until ``stop_at``, then stays where
     the two met, likelier standing (mu 0.99: what a window of both explained as it alone leaves,
     head-on evaluation 1151); track 1 follows B; a new track 2 follows ``new_path`` (t -> state)
-    from 2.3 s, confirmed at 2.75 s."""
+    from 2.3 s, confirmed at 2.75 s; with ``born_at`` its state then is kept as its birth at a
+    two-camera crossing (``JointTrack.born``), which ``behind_at_birth`` scores."""
     paths = head_on()
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, handover=True,
-                      decide_accel=0.35, left_behind=left_behind, stand_s=3.0)
+                      decide_accel=0.35, left_behind=left_behind, stand_s=3.0, behind_at_birth=behind_at_birth)
     stop = np.array(paths["A"](stop_at), float)
     for t in TIMES:
         if t < stop_at:
@@ -554,6 +555,8 @@ def left_behind_run(new_path, left_behind=True, stop_at=2.05):
         trs = [t0, JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=True, seen=True)]
         if t >= 2.3 - 1e-9:
             trs.append(JointTrack(2, np.array(new_path(t), float), S0.copy(), confirmed=t >= 2.75 - 1e-9, seen=True))
+            if born_at is not None:  # born at a two-camera crossing: its first state kept (``JointTrack.born``)
+                trs[-1].born = (born_at, np.array(new_path(born_at), float), S0.copy())
         idl.update(float(t), trs)
     return idl
 
@@ -585,6 +588,47 @@ def test_a_new_track_on_someone_else_does_not_take_the_standing_targets_identity
     scored = [d for d in idl.decisions if d["kind"] == "left behind"]
     assert scored and all(d["log_odds"] < 0.0 for d in scored)
     assert idl.holder(0) == 0 and not idl.behind  # not even pending: someone new is likelier
+
+
+def test_a_left_behind_candidate_is_scored_where_it_was_born():
+    """``walked_on`` with ``behind_at_birth``: the standing track g stopped at (3.3, 3.0); its
+    person walked east at 0.6 m/s before (pre state at 2 s). A candidate born on that walker's
+    path is g's person walked on, now and at its birth. One born at 2.5 s 0.9 m behind the stop
+    (rendered evaluation 2030: the look-alike setting off from where it stood) and now, at 4 s,
+    where the walker would be fits g's person by its state now (log-odds 4.1: with the stand's
+    duration it would take the identity) but not by where it began."""
+    def score(at_birth, born, now):
+        idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, decide_accel=0.35,
+                          left_behind=True, behind_at_birth=at_birth)
+        g = JointTrack(0, np.array([3.3, 3.0, 0.0, 0.0]), S0.copy(), confirmed=True, mu=0.99)
+        g.xs, g.Ps = g.s[:2].copy(), S0[:2, :2].copy()
+        n = JointTrack(2, np.array(now, float), S0.copy(), confirmed=True, seen=True)
+        n.born = (born[0], np.array(born[1], float), S0.copy())
+        idl.born = {0: 0.0, 2: born[0]}
+        return idl.walked_on(4.0, n, (np.array([3.0, 3.0, 0.6, 0.0]), S0.copy(), 2.0), g)
+
+    on_path = ((2.8, (3.48, 3.0, 0.6, 0.0)), (4.2, 3.0, 0.6, 0.0))
+    assert score(True, *on_path) > EXCHANGE_LOG_ODDS and score(False, *on_path) > 0.0
+    set_off = ((2.5, (2.4, 3.15, 1.2, -0.1)), (4.2, 3.0, 1.2, -0.1))
+    assert score(False, *set_off) > 3.0
+    assert score(True, *set_off) < -EXCHANGE_LOG_ODDS
+
+
+def test_a_track_born_on_the_target_that_then_turned_takes_the_identity_of_its_standing_track():
+    """``left_behind_run``'s head-on pass, the target's track left standing where the pair met; a
+    new track, born at 2.3 s on the target walking on east, follows it as it turns north at 2.6 s
+    (head-on development 131's pattern: there the target paused at the north wall and turned
+    east). By its state at the decision (3.5 s) it is neither the
+    walker walked on nor one who stood and walked off; by its birth it is the target walked on,
+    and it takes the identity."""
+    a = head_on()["A"]
+    turned = lambda t: a(t) if t < 2.6 else (a(2.6)[0], 3.0 + 1.5 * (t - 2.6), 0.0, 1.5)
+    idl = left_behind_run(turned, born_at=2.3)
+    (d,) = [d for d in idl.decisions if d["kind"] == "left behind"]
+    assert d["b"] == 2 and d["log_odds"] > EXCHANGE_LOG_ODDS and idl.holder(0) == 2
+    off = left_behind_run(turned, born_at=2.3, behind_at_birth=False)
+    (d,) = [d for d in off.decisions if d["kind"] == "left behind"]
+    assert d["log_odds"] < 0.0 and off.holder(0) == 0
 
 
 def test_a_waiting_left_behind_decision_counts_the_stand_and_ends_when_the_track_walks():
