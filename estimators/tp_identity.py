@@ -61,8 +61,8 @@ of the pair's states before and after it, with both assignments kept until then:
   nothing). Each track n confirmed since the encounter began, under its own identity, is scored
   as g's person walked on (``walked_on``: ``found_again``'s walked-on and stood-then-walked-off
   terms, from g's pre state, the stop at g's standing position) against someone new, by n's
-  first state, at its birth at a two-camera crossing (``behind_at_birth``; its state now when it
-  was born otherwise): where n began says whose person it is, where its own tracking has taken it
+  first state, at its birth at a two-camera crossing (``behind_at_birth``; a track with no birth
+  state, split off a too-wide window, by its state now): where n began says whose person it is, where its own tracking has taken it
   since says little more (a look-alike setting off behind g's stop would fit the stop-then-walk-off
   term by now). The
   likeliest with positive log-odds waits (``behind``): that g's person has stood on since g became
@@ -118,7 +118,6 @@ of the pair's states before and after it, with both assignments kept until then:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -391,20 +390,25 @@ class IdentityLag:
     def _continues(self, t: float, tr, pre, mu: float, stop_at, area: float, accel: float | None = None) -> float:
         """log L(track ``tr`` at t is the person of state ``pre`` (s, S, t0), standing probability
         ``mu`` then) - log L(``tr`` is someone new, anywhere on ``area`` m^2 at a walker's
-        velocity): the person walked on at constant velocity (white acceleration ``accel``,
-        default ``accel_sigma``), or stopped within t - t0 (a walker stops after ``walk_s`` on
-        average) at ``stop_at`` (x, S[x]) and walked off from there at most the track's age ago."""
+        velocity): ``_continues_state`` with the track's state and its age at t."""
+        return self._continues_state(t, tr.s, tr.S, t - self.born.get(tr.tid, t), pre, mu, stop_at, area, accel)
+
+    def _continues_state(self, t: float, x: np.ndarray, X: np.ndarray, age: float, pre, mu: float, stop_at, area: float,
+                         accel: float | None = None) -> float:
+        """``_continues`` for a track's state ``x``, ``X`` at t, ``age`` s after its birth: the
+        person walked on at constant velocity (white acceleration ``accel``, default
+        ``accel_sigma``), or stopped within t - t0 (a walker stops after ``walk_s`` on average) at
+        ``stop_at`` (x, S[x]) and walked off from there at most ``age`` ago."""
         s, S, t0 = pre
         xw, Sw = stop_at
-        age = t - self.born.get(tr.tid, t)
-        moving = self._walking(tr.s, tr.S)
+        moving = self._walking(x, X)
         new = float(-np.log(area)) + moving
         dt = t - t0
         p, C = self._predict(s, S, dt, accel)
         stop = 1.0 - (1.0 - mu) * float(np.exp(-dt / self.walk_s))
-        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(tr.s - p, C + tr.S)
+        walked = np.log(max(1.0 - stop, 1e-300)) + gauss_loglik(x - p, C + X)
         stood = np.log(max(stop, 1e-300)) + moving + gauss_loglik(
-            tr.s[:2] - xw, Sw + tr.S[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
+            x[:2] - xw, Sw + X[:2, :2] + (self.sigma_v * age) ** 2 * np.eye(2))
         return float(np.logaddexp(walked, stood)) - new
 
     def _successors(self, t: float, tracks, fresh: list) -> None:
@@ -611,9 +615,9 @@ class IdentityLag:
         as ``_successors`` scores a successor; a track without a birth state (split off a
         too-wide window) by its state now."""
         stop_at = (tg.xs, tg.Ps) if tg.xs is not None else (tg.s[:2], tg.S[:2, :2])
-        if self.behind_at_birth and getattr(tr, "born", None) is not None:
+        if self.behind_at_birth and tr.born is not None:
             tb, sb, Sb = tr.born
-            return self._continues(tb, SimpleNamespace(tid=tr.tid, s=sb, S=Sb), pre, 0.0, stop_at, self.area, self.walker_accel)
+            return self._continues_state(tb, sb, Sb, tb - self.born.get(tr.tid, tb), pre, 0.0, stop_at, self.area, self.walker_accel)
         return self._continues(td, tr, pre, 0.0, stop_at, self.area, self.walker_accel)
 
     def _left_behind(self, td: float, ep: Episode, alive: dict) -> None:
