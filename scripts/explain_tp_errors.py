@@ -1,0 +1,115 @@
+"""How far `target_planes`' tracks are off the movers they follow, by how the cameras held them.
+
+    python -m scripts.explain_tp_errors DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+
+Runs the multi-person tracker on each occlusion_lab recording as ``scripts/experiment_tsutsui.py``
+does and reads its internal tracks (every frame of every confirmed track, before the output's
+lag and selection) against the movers' truth, by the experimenter. Each frame, tracks and movers
+are matched one to one (least total distance, a pair only within 1 m); for each matched pair
+with the mover walking (the truth's ``walking``, true speed at least 0.3 m/s):
+
+- ``err``: the track's distance from the mover, m;
+- ``along``: its offset along the mover's true heading, m (negative: the track lags behind);
+- ``speed``: the track's speed over the mover's true speed;
+- ``mode``: how the cameras held the track that frame (``planes``: windows of its own in two or
+  more cameras; ``area``: in one; ``merged``: only shares of merged windows; ``predicted``: no
+  window);
+- ``pair``: whether another mover was within 1 m (``beside``) or not (``apart``).
+
+Unlike ``measure_tp_lag`` (the reported target's lag, along its reported velocity, where two or
+more cameras update it), this reads every mover's track, internal, by the true heading, in every
+mode. It prints, per mode and pair, the frames, the median and 90th percentile of ``err``, the median
+``along`` and the median ``speed``; ``--csv`` writes every matched frame.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+
+GATE_M = 1.0  # a track and a mover this near may be matched (the movers' MOTA gate)
+BESIDE_M = 1.0  # another mover this near: the pair is "beside"
+WALK_MPS = 0.3  # a mover at least this fast is walking
+MODES = ("planes", "area", "merged", "predicted")
+
+
+def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
+    """Each frame's confirmed tracks matched to the walking movers (module docstring).
+
+    ``internal``: ``t, track_id, x, y, vx, vy, mode, confirmed``; ``movers``: the movers' truth,
+    ``t, person_id, x, y, vx, vy, walking`` (looked up at the nearest earlier or equal simulation
+    step). Returns rows ``t, track_id, person_id, mode, pair, err, along, speed``."""
+    cols = ["t", "track_id", "person_id", "mode", "pair", "err", "along", "speed"]
+    tracks = internal[internal["confirmed"].astype(bool)]
+    if tracks.empty or movers.empty:
+        return pd.DataFrame(columns=cols)
+    by_person = {pid: g.sort_values("t", kind="stable") for pid, g in movers.groupby("person_id", sort=True)}
+    rows = []
+    for t, g in tracks.groupby("t", sort=True):
+        people = []
+        for pid, h in by_person.items():
+            k = min(int(np.searchsorted(h["t"].to_numpy(float), float(t) - 1e-9)), len(h) - 1)
+            r = h.iloc[k]
+            people.append((pid, np.array([r["x"], r["y"]], float), np.array([r["vx"], r["vy"]], float), bool(r["walking"])))
+        P = np.array([p[1] for p in people])
+        X = g[["x", "y"]].to_numpy(float)
+        D = np.linalg.norm(X[:, None, :] - P[None, :, :], axis=2)
+        a, b = linear_sum_assignment(np.where(D <= GATE_M, D, 1e6))
+        for i, j in zip(a, b):
+            pid, xy, v, walking = people[j]
+            speed = float(np.linalg.norm(v))
+            if D[i, j] > GATE_M or not walking or speed < WALK_MPS:
+                continue
+            others = np.delete(P, j, axis=0)
+            near = bool(len(others)) and float(np.min(np.linalg.norm(others - xy, axis=1))) <= BESIDE_M
+            tr = g.iloc[i]
+            head = v / speed
+            rows.append((float(t), int(tr["track_id"]), pid, str(tr["mode"]), "beside" if near else "apart", float(D[i, j]),
+                         float((X[i] - xy) @ head), float(np.hypot(tr["vx"], tr["vy"])) / speed))
+    return pd.DataFrame(rows, columns=cols)
+
+
+def summary(E: pd.DataFrame) -> pd.DataFrame:
+    """Per mode and pair: frames, median and 90th percentile error (m), median along-heading
+    offset (m) and median speed ratio."""
+    out = []
+    for (mode, pair), g in E.groupby(["mode", "pair"], sort=False):
+        out.append({"mode": mode, "pair": pair, "frames": len(g), "err_median": g["err"].median(),
+                    "err_p90": g["err"].quantile(0.9), "along_median": g["along"].median(), "speed_median": g["speed"].median()})
+    S = pd.DataFrame(out, columns=["mode", "pair", "frames", "err_median", "err_p90", "along_median", "speed_median"])
+    order = {m: k for k, m in enumerate(MODES)}
+    return S.sort_values(["mode", "pair"], key=lambda s: s.map(order) if s.name == "mode" else s).reset_index(drop=True)
+
+
+def errors(d: str, params: dict) -> pd.DataFrame:
+    """One recording's matched frames (``track_errors``), with its folder."""
+    from scripts.experiment_tsutsui import movers_only, multi_estimator
+    from trackroom.dataset import read_recording
+    from trackroom.scenes.loader import load_scene
+
+    rec = read_recording(d)
+    scene = load_scene(Path(d) / "scene.toml")
+    res = multi_estimator(rec, params).run(rec.observations, rec.calibration)
+    E = track_errors(res.internal, movers_only(rec, scene).truth.people)
+    E.insert(0, "recording", d)
+    return E
+
+
+def main(argv=None) -> int:
+    from scripts.experiment_tsutsui import recordings_and_params
+
+    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write every matched frame to this CSV file")
+    E = pd.concat([errors(d, params) for d in dirs], ignore_index=True)
+    print(f"{len(dirs)} recordings, {len(E)} matched frames of walking movers")
+    with pd.option_context("display.width", 200, "display.float_format", "{:.3f}".format):
+        print(summary(E).to_string(index=False))
+    if csv:
+        E.to_csv(csv, index=False)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,54 @@
+"""scripts/explain_tp_errors.py: target_planes' confirmed tracks read against the walking movers."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from scripts.explain_tp_errors import summary, track_errors
+
+T = np.round(np.arange(0, 3.0, 0.1), 1)
+
+
+def mover(name, start, v, walking=True):
+    p = np.asarray(start, float) + np.outer(T, v)
+    return pd.DataFrame({"t": T, "person_id": name, "x": p[:, 0], "y": p[:, 1], "vx": v[0], "vy": v[1], "walking": walking})
+
+
+def track(tid, start, v, mode, confirmed=True):
+    p = np.asarray(start, float) + np.outer(T, v)
+    return pd.DataFrame({"t": T, "track_id": tid, "x": p[:, 0], "y": p[:, 1], "vx": v[0], "vy": v[1], "mode": mode,
+                         "confirmed": confirmed})
+
+
+def test_a_lagging_track_is_measured_behind_and_slow_and_a_good_one_on_its_mover():
+    """Mover a walks east at 1 m/s, its track 0.2 m behind and 0.1 m aside, at 0.8 m/s relative
+    speed at the start (the offset grows 0.02 m a frame); mover b walks north 3 m away, its
+    track exact. An unconfirmed track on a and a standing mover are not measured."""
+    movers = pd.concat([mover("a", (0, 0), (1.0, 0.0)), mover("b", (3, 3), (0.0, 1.0)),
+                        mover("s", (6, 0), (0.0, 0.0), walking=False)], ignore_index=True)
+    internal = pd.concat([track(1, (-0.2, 0.1), (0.8, 0.0), "merged"), track(2, (3, 3), (0.0, 1.0), "planes"),
+                          track(3, (0.05, 0.0), (1.0, 0.0), "area", confirmed=False), track(4, (6, 0), (0, 0), "predicted")],
+                         ignore_index=True)
+    E = track_errors(internal, movers)
+    a = E[E["track_id"] == 1].sort_values("t")
+    assert set(E["track_id"]) == {1, 2}  # 3 unconfirmed, 4 on a standing person
+    assert (a["person_id"] == "a").all() and (a["mode"] == "merged").all() and (a["pair"] == "apart").all()
+    lag = -0.2 - 0.2 * T[: len(a)]
+    assert np.allclose(a["along"], lag) and np.allclose(a["speed"], 0.8)
+    assert np.allclose(a["err"], np.hypot(lag, 0.1))
+    b = E[E["track_id"] == 2]
+    assert np.allclose(b["err"], 0.0) and np.allclose(b["speed"], 1.0) and (b["person_id"] == "b").all()
+    S = summary(E).set_index("mode")
+    assert list(S.index) == ["planes", "merged"]  # the modes' order
+    assert S.loc["merged", "frames"] == len(a) and S.loc["merged", "speed_median"] == pytest.approx(0.8)
+    assert S.loc["merged", "along_median"] == pytest.approx(np.median(lag))
+
+
+def test_a_track_more_than_a_metre_off_is_not_matched_and_a_pair_within_a_metre_is_beside():
+    """Two movers 0.6 m apart walking east: both tracks matched, both 'beside'; a track 1.5 m from
+    every mover is matched to none."""
+    movers = pd.concat([mover("a", (0, 0), (1.0, 0.0)), mover("b", (0, 0.6), (1.0, 0.0))], ignore_index=True)
+    internal = pd.concat([track(1, (0, 0), (1.0, 0.0), "planes"), track(2, (0, 0.6), (1.0, 0.0), "area"),
+                          track(3, (0, 2.1), (1.0, 0.0), "planes")], ignore_index=True)
+    E = track_errors(internal, movers)
+    assert set(E["track_id"]) == {1, 2} and (E["pair"] == "beside").all()
+    assert track_errors(internal.iloc[:0], movers).empty
