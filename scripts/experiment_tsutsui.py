@@ -78,14 +78,15 @@ def truth_at(rec: Recording, times: np.ndarray) -> pd.DataFrame:
     return people_at(rec.truth.people, times)
 
 
-def people_at(ppl: pd.DataFrame, times: np.ndarray) -> pd.DataFrame:
-    """``truth_at`` on a truth people table (t, person_id, x, y)."""
+def people_at(ppl: pd.DataFrame, times: np.ndarray, columns: tuple[str, ...] = ("x", "y")) -> pd.DataFrame:
+    """``truth_at`` on a truth people table (t, person_id and ``columns``): ``t, person_id`` and
+    ``columns`` at each of ``times``."""
     times = np.asarray(times, float)
     out = []
     for pid, g in ppl.groupby("person_id"):
         t = g["t"].to_numpy(float)
         k = np.clip(np.searchsorted(t, times - 1e-9), 0, len(t) - 1)
-        out.append(pd.DataFrame({"t": times, "person_id": pid, "x": g["x"].to_numpy()[k], "y": g["y"].to_numpy()[k]}))
+        out.append(pd.DataFrame({"t": times, "person_id": pid, **{c: g[c].to_numpy()[k] for c in columns}}))
     return pd.concat(out, ignore_index=True)
 
 

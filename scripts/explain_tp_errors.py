@@ -46,29 +46,27 @@ def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
     tracks = internal[internal["confirmed"].astype(bool)]
     if tracks.empty or movers.empty:
         return pd.DataFrame(columns=cols)
-    by_person = {pid: g.sort_values("t", kind="stable") for pid, g in movers.groupby("person_id", sort=True)}
+    from scripts.experiment_tsutsui import people_at
+
+    truth = people_at(movers.sort_values("t", kind="stable"), np.unique(tracks["t"].to_numpy(float)),
+                      ("x", "y", "vx", "vy", "walking"))
+    truth_by_t = dict(iter(truth.groupby("t", sort=False)))
     rows = []
     for t, g in tracks.groupby("t", sort=True):
-        people = []
-        for pid, h in by_person.items():
-            k = min(int(np.searchsorted(h["t"].to_numpy(float), float(t) - 1e-9)), len(h) - 1)
-            r = h.iloc[k]
-            people.append((pid, np.array([r["x"], r["y"]], float), np.array([r["vx"], r["vy"]], float), bool(r["walking"])))
-        P = np.array([p[1] for p in people])
+        h = truth_by_t[t]
+        P, V, walking = h[["x", "y"]].to_numpy(float), h[["vx", "vy"]].to_numpy(float), h["walking"].to_numpy(bool)
         X = g[["x", "y"]].to_numpy(float)
         D = np.linalg.norm(X[:, None, :] - P[None, :, :], axis=2)
         a, b = linear_sum_assignment(np.where(D <= GATE_M, D, 1e6))
         for i, j in zip(a, b):
-            pid, xy, v, walking = people[j]
-            speed = float(np.linalg.norm(v))
-            if D[i, j] > GATE_M or not walking or speed < WALK_MPS:
+            speed = float(np.linalg.norm(V[j]))
+            if D[i, j] > GATE_M or not walking[j] or speed < WALK_MPS:
                 continue
             others = np.delete(P, j, axis=0)
-            near = bool(len(others)) and float(np.min(np.linalg.norm(others - xy, axis=1))) <= BESIDE_M
+            near = bool(len(others)) and float(np.min(np.linalg.norm(others - P[j], axis=1))) <= BESIDE_M
             tr = g.iloc[i]
-            head = v / speed
-            rows.append((float(t), int(tr["track_id"]), pid, str(tr["mode"]), "beside" if near else "apart", float(D[i, j]),
-                         float((X[i] - xy) @ head), float(np.hypot(tr["vx"], tr["vy"])) / speed))
+            rows.append((float(t), int(tr["track_id"]), h["person_id"].iloc[j], str(tr["mode"]), "beside" if near else "apart",
+                         float(D[i, j]), float((X[i] - P[j]) @ (V[j] / speed)), float(np.hypot(tr["vx"], tr["vy"])) / speed))
     return pd.DataFrame(rows, columns=cols)
 
 
