@@ -104,7 +104,7 @@ class TargetPlanesResult:
     ``mode``: planes / area / predicted); ``status``: t, track_id, camera, status, reason, window (the camera's own track id it
     follows while tracking). For diagnosis (``scripts/explain_tp_losses.py``): ``internal``, every
     track the tracker held in every frame under its internal id (t, track_id, x, y, vx, vy,
-    n_cameras, mode, confirmed; before the identity decision's relabelling and the output's
+    n_cameras, mode, confirmed, and cxx, cxy, cyy: the position's covariance, m^2; before the identity decision's relabelling and the output's
     selection), and ``ends``, each confirmed track the tracker dropped (t, track_id, x, y, reason:
     unseen / existence / off floor / duplicate, other: the track it duplicated), and ``decisions``,
     each identity decision scored (``tp_identity.IdentityLag.record``: t, kind - pair or handover -,
@@ -199,13 +199,14 @@ class TargetPlanes(Estimator):
                                "walker's velocity change over the mean (white acceleration accel_sigma; "
                                "tp_frames.mean_lag_s), so a walker setting off is not held back by its lagging flow "
                                "(docs/target_planes.md)")
-        flow_gain: float = param(1.0, "the flow detector's gain in eq. 7, f = flow_gain J V: 1 takes a window's flow for "
-                                      "its person's image velocity. Measured (scripts/measure_flow_errors.py, a window's "
-                                      "flow along its person's image motion over the body centre's image speed, median "
-                                      "over windows of one walker, 10-120 px/s): 0.924 on rendered development recordings "
-                                      "100-119, 0.903 on their analytic twins; 0.92 removes about a quarter of the track's lag "
-                                      "and lowers RMSE, but held the target on fewer development recordings "
-                                      "(docs/target_planes.md, the twenty-first session), so 1 stays")
+        flow_gain: float = param(0.85, "the flow detector's gain in eq. 7, f = flow_gain J V. Measured on the flows "
+                                       "the tracker takes, each the mean over its camera track's last flow_window frames "
+                                       "(scripts/measure_flow_errors.py --flow-window 5: a window's flow along its person's "
+                                       "image motion over the body centre's image speed, median over windows of one walker, "
+                                       "10-120 px/s): 0.851 on rendered development recordings 100-119, 0.862 on their "
+                                       "analytic twins (one frame's flow: 0.924 and 0.907; the mean takes in the detector's "
+                                       "short runs of failed flows). 1 before issue 12's fifty-second session "
+                                       "(docs/target_planes.md)")
         width_tail: float = param(0.03, "probability e that a window's width error is gross (a shadow, a limb, clutter "
                                          "joined to the region): one edge moved outwards by a half-normal of spread "
                                          "width_tail_sigma x the predicted width, the centre by half that; else the "
@@ -447,7 +448,7 @@ class TargetPlanes(Estimator):
             raise EstimatorError(f"{self.name}: no oblique cameras")
         if not cfg.flow_gain > 0:
             raise EstimatorError(f"{self.name}: flow_gain must be a positive number (a window's flow over its person's "
-                                 f"image velocity; measured 0.92), got {cfg.flow_gain!r}")
+                                 f"image velocity; measured 0.85), got {cfg.flow_gain!r}")
         if not (0.0 <= cfg.width_tail < 1.0 and cfg.width_tail_sigma > 0):
             raise EstimatorError(f"{self.name}: width_tail must be a probability below 1 and width_tail_sigma positive (a gross "
                                  f"width error's share and spread; measured 0.03 and 0.34), got {cfg.width_tail!r} and "
@@ -548,8 +549,8 @@ class TargetPlanes(Estimator):
             for tr in st.tracks:
                 # every track is kept for now (in single-target mode too: the identity decision
                 # may hand the target's identity to another track retroactively, within the lag)
-                x = tr.estimate()
-                st.rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed))
+                x, C = tr.estimate(), tr.position_cov()
+                st.rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed, C[0, 0], C[0, 1], C[1, 1]))
                 for c in cams:
                     status, reason, win = tr.status.get(c, (LOST, "", None))
                     st.status_rows.append((t, tr.tid, c, status, reason, win))
@@ -588,9 +589,9 @@ class TargetPlanes(Estimator):
         rows, status_rows, end_rows = st.rows, st.status_rows, st.end_rows
         if idl is not None:
             idl.finish(tracks)
-        tracks_df = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed"])
+        internal = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed", "cxx", "cxy", "cyy"])
+        tracks_df = internal.drop(columns=["cxx", "cxy", "cyy"])
         status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
-        internal = tracks_df.copy()
         ends = pd.DataFrame(end_rows, columns=["t", "track_id", "x", "y", "reason", "other"])
         # a track is reported once confirmed, and - the output being fixed-lag - from up to
         # identity_lag_s before its confirmation: its first frames, from its birth, when it was

@@ -174,6 +174,14 @@ class JointTrack:
             return self.s
         return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:]]
 
+    def position_cov(self) -> np.ndarray:
+        """The covariance (2, 2) of ``estimate``'s position: the two modes' spreads and the
+        spread between their means, mode-weighted."""
+        if self.xs is None:
+            return self.S[:2, :2].copy()
+        d = self.s[:2] - self.xs
+        return (1.0 - self.mu) * self.S[:2, :2] + self.mu * self.Ps + self.mu * (1.0 - self.mu) * np.outer(d, d)
+
     @property
     def xy(self) -> np.ndarray:
         return self.s[:2]

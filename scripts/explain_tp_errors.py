@@ -14,12 +14,17 @@ with the mover walking (the truth's ``walking``, true speed at least 0.3 m/s):
 - ``mode``: how the cameras held the track that frame (``planes``: windows of its own in two or
   more cameras; ``area``: in one; ``merged``: only shares of merged windows; ``predicted``: no
   window);
-- ``pair``: whether another mover was within 1 m (``beside``) or not (``apart``).
+- ``pair``: whether another mover was within 1 m (``beside``) or not (``apart``);
+- ``d2``: the error's squared Mahalanobis distance under the track's own position covariance
+  (the internal rows' ``cxx, cxy, cyy``; NaN without them): for a consistent tracker it is
+  chi^2_2, median 1.39, beyond 9.21 one frame in a hundred (fewer here: errors beyond the 1 m
+  match are not measured).
 
 Unlike ``measure_tp_lag`` (the reported target's lag, along its reported velocity, where two or
 more cameras update it), this reads every mover's track, internal, by the true heading, in every
 mode. It prints, per mode and pair, the frames, the median and 90th percentile of ``err``, the median
-``along`` and the median ``speed``; ``--csv`` writes every matched frame.
+``along``, the median ``speed``, the median ``d2`` and the share of frames with ``d2`` beyond
+chi^2_2(0.99); ``--csv`` writes every matched frame.
 """
 from __future__ import annotations
 
@@ -34,6 +39,7 @@ GATE_M = 1.0  # a track and a mover this near may be matched (the movers' MOTA g
 BESIDE_M = 1.0  # another mover this near: the pair is "beside"
 WALK_MPS = 0.3  # a mover at least this fast is walking
 MODES = ("planes", "area", "merged", "predicted")
+CHI2_2_99 = 9.21  # chi^2_2's 99th percentile
 
 
 def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
@@ -41,8 +47,10 @@ def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
 
     ``internal``: ``t, track_id, x, y, vx, vy, mode, confirmed``; ``movers``: the movers' truth,
     ``t, person_id, x, y, vx, vy, walking`` (looked up at the nearest earlier or equal simulation
-    step). Returns rows ``t, track_id, person_id, mode, pair, err, along, speed``."""
-    cols = ["t", "track_id", "person_id", "mode", "pair", "err", "along", "speed"]
+    step); with ``cxx, cxy, cyy`` (the position's covariance) ``d2`` is measured, else NaN.
+    Returns rows ``t, track_id, person_id, mode, pair, err, along, speed, d2``."""
+    cols = ["t", "track_id", "person_id", "mode", "pair", "err", "along", "speed", "d2"]
+    has_cov = {"cxx", "cxy", "cyy"} <= set(internal.columns)
     tracks = internal[internal["confirmed"].astype(bool)]
     if tracks.empty or movers.empty:
         return pd.DataFrame(columns=cols)
@@ -65,19 +73,22 @@ def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
             others = np.delete(P, j, axis=0)
             near = bool(len(others)) and float(np.min(np.linalg.norm(others - P[j], axis=1))) <= BESIDE_M
             tr = g.iloc[i]
+            e = X[i] - P[j]
+            d2 = float(e @ np.linalg.solve(np.array([[tr["cxx"], tr["cxy"]], [tr["cxy"], tr["cyy"]]]), e)) if has_cov else np.nan
             rows.append((float(t), int(tr["track_id"]), h["person_id"].iloc[j], str(tr["mode"]), "beside" if near else "apart",
-                         float(D[i, j]), float((X[i] - P[j]) @ (V[j] / speed)), float(np.hypot(tr["vx"], tr["vy"])) / speed))
+                         float(D[i, j]), float(e @ (V[j] / speed)), float(np.hypot(tr["vx"], tr["vy"])) / speed, d2))
     return pd.DataFrame(rows, columns=cols)
 
 
 def summary(E: pd.DataFrame) -> pd.DataFrame:
     """Per mode and pair: frames, median and 90th percentile error (m), median along-heading
-    offset (m) and median speed ratio."""
+    offset (m), median speed ratio, median ``d2`` and its share beyond chi^2_2(0.99)."""
     out = []
     for (mode, pair), g in E.groupby(["mode", "pair"], sort=False):
         out.append({"mode": mode, "pair": pair, "frames": len(g), "err_median": g["err"].median(),
-                    "err_p90": g["err"].quantile(0.9), "along_median": g["along"].median(), "speed_median": g["speed"].median()})
-    S = pd.DataFrame(out, columns=["mode", "pair", "frames", "err_median", "err_p90", "along_median", "speed_median"])
+                    "err_p90": g["err"].quantile(0.9), "along_median": g["along"].median(), "speed_median": g["speed"].median(),
+                    "d2_median": g["d2"].median(), "beyond99": (g["d2"] > CHI2_2_99).mean() if g["d2"].notna().any() else np.nan})
+    S = pd.DataFrame(out, columns=["mode", "pair", "frames", "err_median", "err_p90", "along_median", "speed_median", "d2_median", "beyond99"])
     order = {m: k for k, m in enumerate(MODES)}
     return S.sort_values(["mode", "pair"], key=lambda s: s.map(order) if s.name == "mode" else s).reset_index(drop=True)
 

@@ -52,3 +52,19 @@ def test_a_track_more_than_a_metre_off_is_not_matched_and_a_pair_within_a_metre_
     E = track_errors(internal, movers)
     assert set(E["track_id"]) == {1, 2} and (E["pair"] == "beside").all()
     assert track_errors(internal.iloc[:0], movers).empty
+
+
+def test_the_error_is_normalised_by_the_tracks_own_covariance_and_counted_beyond_the_99_percent_gate():
+    """Mover a walks east; its track 0.1 m ahead with a position variance of 0.1^2 along x: d2 = 1,
+    inside the gate; mover b's track 0.5 m off with a spread of 0.1 m: d2 = 25, beyond it.
+    Without the covariance columns d2 is NaN and the summary's consistency columns too."""
+    movers = pd.concat([mover("a", (0, 0), (1.0, 0.0)), mover("b", (3, 3), (0.0, 1.0))], ignore_index=True)
+    internal = pd.concat([track(1, (0.1, 0.0), (1.0, 0.0), "planes"), track(2, (3.5, 3.0), (0.0, 1.0), "area")], ignore_index=True)
+    internal["cxx"], internal["cxy"], internal["cyy"] = 0.01, 0.0, 0.04
+    E = track_errors(internal, movers)
+    assert np.allclose(E.loc[E["track_id"] == 1, "d2"], 1.0) and np.allclose(E.loc[E["track_id"] == 2, "d2"], 25.0)
+    S = summary(E).set_index("mode")
+    assert S.loc["planes", "beyond99"] == 0.0 and S.loc["area", "beyond99"] == 1.0
+    assert S.loc["area", "d2_median"] == pytest.approx(25.0)
+    bare = track_errors(internal.drop(columns=["cxx", "cxy", "cyy"]), movers)
+    assert bare["d2"].isna().all() and summary(bare)["beyond99"].isna().all()

@@ -724,11 +724,12 @@ def test_a_walker_setting_off_is_not_held_back_by_its_lagging_mean_flow():
     cameras; each window's flow is the causal mean over the last 5 frames (``flow_window``), as
     the estimator computes it, so it reports the velocity of 0.2 s ago. With the flow's lag in its
     noise (``flow_lag``) the track's velocity after 1 s is nearer the walker's than without, and
-    its position too (without, the filter trusts the lagging flow and falls behind)."""
+    its position too (without, the filter trusts the lagging flow and falls behind). The flows
+    here are exactly J V, so the gain is 1."""
     cams = four_cameras()
     err = {}
     for lag in (False, True):
-        cfg, jt = _tracker(cams, flow_lag=lag)  # 10 fps
+        cfg, jt = _tracker(cams, flow_lag=lag, flow_gain=1.0)  # 10 fps
         tr = JointTrack(1, np.r_[2.5, 2.5, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=True,
                         hits=20, exist=EXIST_ACCEPT)
         vs, x = [0.0] * 5, 2.5
@@ -775,12 +776,12 @@ def test_a_detector_flow_short_by_its_gain_gives_the_walkers_speed_and_birth_vel
     """Flow windows report 0.92 of the body centre's image velocity (the rendered detector's gain,
     measured on development recordings). A walker at a steady 1 m/s in all four views, the
     windows' flow 0.92 J V: with ``flow_gain`` 0.92 the track's speed after 3 s is the walker's and
-    it keeps up; with the default 1 (the flow taken as J V) the filter believes the short flows,
-    runs slow and lags behind. A track born from two such windows starts at the walker's velocity
-    when the gain is modelled."""
+    it keeps up; with 1 (the flow taken as J V, the default before the fifty-second session) the
+    filter believes the short flows, runs slow and lags behind. A track born from two such windows
+    starts at the walker's velocity when the gain is modelled."""
     cams = four_cameras()
     g = 0.92
-    assert TargetPlanes.Config().flow_gain == 1.0
+    assert TargetPlanes.Config().flow_gain == 0.85  # the gain of the flows the tracker takes (five-frame means)
     out = {}
     for gain in (g, 1.0):
         cfg, jt = _tracker(cams, flow_gain=gain)
@@ -801,6 +802,22 @@ def test_a_detector_flow_short_by_its_gain_gives_the_walkers_speed_and_birth_vel
     assert out[1.0][0] < 0.96  # measured: 0.944 m/s
     assert abs(out[g][1]) < 0.5 * abs(out[1.0][1])  # behind the walker: measured 0.002 against 0.009 m
     assert out[g][2] == pytest.approx(1.0, abs=0.02) and out[1.0][2] == pytest.approx(g, abs=0.02)  # births: 1.0, 0.92 m/s
+
+
+def test_the_internal_rows_carry_each_tracks_position_covariance_and_the_output_does_not():
+    """``internal`` has each track's position covariance (cxx, cxy, cyy, m^2: positive definite);
+    the reported tracks do not. A track half walking, half standing 0.4 m apart has the two
+    modes' spreads and the spread between them: 0.5 Pw + 0.5 Ps + 0.25 d d^T."""
+    cams = four_cameras()
+    obs, start = short_walk(cams)
+    res = TargetPlanes(initial_xy=start).run(obs, calib(cams))
+    C = res.internal[["cxx", "cxy", "cyy"]].to_numpy(float)
+    assert len(C) and np.isfinite(C).all() and (C[:, 0] > 0).all() and (C[:, 0] * C[:, 2] > C[:, 1] ** 2).all()
+    assert not {"cxx", "cxy", "cyy"} & set(res.tracks.columns)
+    tr = JointTrack(1, np.r_[1.0, 2.0, 0.0, 0.0], np.diag([0.1**2, 0.2**2, 0.3**2, 0.3**2]))
+    tr.xs, tr.Ps, tr.mu = np.array([1.4, 2.0]), np.diag([0.05**2, 0.05**2]), 0.5
+    expect = 0.5 * np.diag([0.1**2, 0.2**2]) + 0.5 * np.diag([0.05**2, 0.05**2]) + 0.25 * np.diag([0.4**2, 0.0])
+    assert np.allclose(tr.position_cov(), expect)
 
 
 def short_walk(cams):
