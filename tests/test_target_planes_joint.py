@@ -724,12 +724,11 @@ def test_a_walker_setting_off_is_not_held_back_by_its_lagging_mean_flow():
     cameras; each window's flow is the causal mean over the last 5 frames (``flow_window``), as
     the estimator computes it, so it reports the velocity of 0.2 s ago. With the flow's lag in its
     noise (``flow_lag``) the track's velocity after 1 s is nearer the walker's than without, and
-    its position too (without, the filter trusts the lagging flow and falls behind). The flows
-    here are exactly J V, so the gain is 1."""
+    its position too (without, the filter trusts the lagging flow and falls behind)."""
     cams = four_cameras()
     err = {}
     for lag in (False, True):
-        cfg, jt = _tracker(cams, flow_lag=lag, flow_gain=1.0)  # 10 fps
+        cfg, jt = _tracker(cams, flow_lag=lag)  # 10 fps
         tr = JointTrack(1, np.r_[2.5, 2.5, 0.0, 0.0], np.diag([0.05**2] * 2 + [0.1**2] * 2), confirmed=True, seen=True,
                         hits=20, exist=EXIST_ACCEPT)
         vs, x = [0.0] * 5, 2.5
@@ -776,12 +775,12 @@ def test_a_detector_flow_short_by_its_gain_gives_the_walkers_speed_and_birth_vel
     """Flow windows report 0.92 of the body centre's image velocity (the rendered detector's gain,
     measured on development recordings). A walker at a steady 1 m/s in all four views, the
     windows' flow 0.92 J V: with ``flow_gain`` 0.92 the track's speed after 3 s is the walker's and
-    it keeps up; with 1 (the flow taken as J V, the default before the fifty-second session) the
-    filter believes the short flows, runs slow and lags behind. A track born from two such windows
-    starts at the walker's velocity when the gain is modelled."""
+    it keeps up; with the default 1 (the flow taken as J V) the filter believes the short flows,
+    runs slow and lags behind. A track born from two such windows starts at the walker's velocity
+    when the gain is modelled."""
     cams = four_cameras()
     g = 0.92
-    assert TargetPlanes.Config().flow_gain == 0.85  # the gain of the flows the tracker takes (five-frame means)
+    assert TargetPlanes.Config().flow_gain == 1.0
     out = {}
     for gain in (g, 1.0):
         cfg, jt = _tracker(cams, flow_gain=gain)
