@@ -142,6 +142,14 @@ MAX_RANGE = 30.0  # tp_geometry.target_area's default depth limit, m
 TRACKING, LOST, UNRELIABLE, MERGED = "tracking", "lost", "unreliable", "merged"
 
 
+def mixture_moments(w: float, m1: np.ndarray, C1: np.ndarray, m2: np.ndarray, C2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the two-component mixture (1 - w) N(m1, C1) + w N(m2, C2): each
+    component's spread about the mixture's mean, weighted (moment matching)."""
+    m = (1.0 - w) * m1 + w * m2
+    d1, d2 = m1 - m, m2 - m
+    return m, (1.0 - w) * (C1 + np.outer(d1, d1)) + w * (C2 + np.outer(d2, d2))
+
+
 @dataclass
 class JointTrack:
     """One person: state s = [x, y, vx, vy] (m, m/s), covariance S (4, 4)."""
@@ -175,12 +183,11 @@ class JointTrack:
         return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:]]
 
     def position_cov(self) -> np.ndarray:
-        """The covariance (2, 2) of ``estimate``'s position: the two modes' spreads and the
-        spread between their means, mode-weighted."""
+        """The covariance (2, 2) of ``estimate``'s position: the mode-weighted mixture's
+        (``mixture_moments``)."""
         if self.xs is None:
             return self.S[:2, :2].copy()
-        d = self.s[:2] - self.xs
-        return (1.0 - self.mu) * self.S[:2, :2] + self.mu * self.Ps + self.mu * (1.0 - self.mu) * np.outer(d, d)
+        return mixture_moments(self.mu, self.s[:2], self.S[:2, :2], self.xs, self.Ps)[1]
 
     @property
     def xy(self) -> np.ndarray:
@@ -421,16 +428,10 @@ class JointTracker:
         Cs[:2, :2], Cs[2:, 2:] = tr.Ps, cfg.start_sigma_v**2 * np.eye(2)
         if mu_p < 1.0:
             b = mu * q_sw / (1.0 - mu_p)  # share of the walking prior that was standing
-            m = (1.0 - b) * tr.s + b * ms
-            da, db = tr.s - m, ms - m
-            tr.S = (1.0 - b) * (tr.S + np.outer(da, da)) + b * (Cs + np.outer(db, db))
-            tr.s = m
+            tr.s, tr.S = mixture_moments(b, tr.s, tr.S, ms, Cs)
         if mu_p > 0.0:
             c = (1.0 - mu) * q_ws / mu_p  # share of the standing prior that was walking
-            m = (1.0 - c) * tr.xs + c * tr.s[:2]
-            da, db = tr.xs - m, tr.s[:2] - m
-            tr.Ps = (1.0 - c) * (tr.Ps + np.outer(da, da)) + c * (tr.S[:2, :2] + np.outer(db, db))
-            tr.xs = m
+            tr.xs, tr.Ps = mixture_moments(c, tr.xs, tr.Ps, tr.s[:2], tr.S[:2, :2])
         tr.Ps = tr.Ps + cfg.stand_sigma**2 * dt * np.eye(2)  # a standing person sways and shifts a little
         tr.mu = mu_p
 

@@ -34,12 +34,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
 
 GATE_M = 1.0  # a track and a mover this near may be matched (the movers' MOTA gate)
 BESIDE_M = 1.0  # another mover this near: the pair is "beside"
 WALK_MPS = 0.3  # a mover at least this fast is walking
 MODES = ("planes", "area", "merged", "predicted")
-CHI2_2_99 = 9.21  # chi^2_2's 99th percentile
+CHI2_2_99 = float(chi2.ppf(0.99, 2))  # chi^2_2's 99th percentile, 9.21
 
 
 def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
