@@ -379,6 +379,15 @@ class TargetPlanes(Estimator):
                                      "recording worse, rendered and analytic development identical "
                                      "(docs/target_planes.md)")
         confirm_frames: int = param(5, "frames with a window of its own before a track is reported")
+        pair_log_odds: float = param(float(np.log(2422 / 11)), "a pair's identities are exchanged when log L(X) - log L(K) "
+                                     "exceeds this (tp_identity.IdentityLag.decide): Bayes' decision at the prior odds "
+                                     "of an exchange among the pair decisions of the 520 development recordings, "
+                                     "labelled from the truth (scripts/measure_tp_identity.py: 11 exchanged of 2433, "
+                                     "log(2422 / 11) = 5.39; log 99 until the fifty-third session)")
+        handover_log_odds: float = param(float(np.log(109 / 8)), "a hand-over is made when its log-odds exceed this "
+                                         "(tp_identity.IdentityLag._hand_over): Bayes' decision at the prior odds, "
+                                         "measured as pair_log_odds' (8 made rightly of 117 hand-overs scored, "
+                                         "log(109 / 8) = 2.61; log 99 until the fifty-third session)")
         identity_accel: float = param(0.35, "white acceleration of the walker model that predicts a pair's states "
                                            "across an encounter in the identity decision (exchanges, hand-overs), "
                                            "m/s^2/sqrt(Hz): the largest the scenes' walkers show on development truth "
@@ -495,6 +504,7 @@ class TargetPlanes(Estimator):
             # someone new: anywhere on the floor, at a walker's velocity (the new-track spread)
             idl.handover, idl.area, idl.sigma_v = cfg.handover, (floor_area if floor_area > 0 else None), 0.5 * cfg.max_speed
             idl.decide_accel = cfg.identity_accel
+            idl.pair_log_odds, idl.handover_log_odds = cfg.pair_log_odds, cfg.handover_log_odds
             idl.output_lag_s = cfg.output_lag_s
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
             idl.behind_at_birth = cfg.behind_at_birth

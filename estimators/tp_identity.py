@@ -26,8 +26,10 @@ of the pair's states before and after it, with both assignments kept until then:
   F and Q the constant-velocity model over td - t_pre with white acceleration ``decide_accel``
   (the walkers' own, measured on development truth; the tracker's ``accel_sigma`` without it):
   the paper's velocity discrimination over position and velocity together, for the pair. The
-  identities are exchanged when log L(X) - log L(K) > ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01)
-  (the design's 1 % error level, as the existence test's); otherwise they are kept (a pair
+  identities are exchanged when log L(X) - log L(K) > ``pair_log_odds`` (Bayes' decision at the
+  prior odds of an exchange measured on development truth, ``TargetPlanes.Config``;
+  ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01), the design's 1 % error level, by default here and in
+  the other decisions); otherwise they are kept (a pair
   whose track is gone: the hand-over below). A pair that has separated when the recording ends,
   its lag not yet passed, is decided at the last frame with the states there are (``finish``).
 - **Retroactive relabelling, within the output lag**: the output is final ``output_lag_s`` after
@@ -50,7 +52,7 @@ of the pair's states before and after it, with both assignments kept until then:
                                                     log(1 / floor area) + log N(v_new; 0, sigma_v^2 I + S_new[v]))
 
   (kept: the new track is the gone person found again, or someone new). The new track of the
-  largest log L(X) - log L(K) above ``EXCHANGE_LOG_ODDS`` takes the survivor's identity from the
+  largest log L(X) - log L(K) above ``handover_log_odds`` takes the survivor's identity from the
   end on, and the survivor the gone one's. With ``handover_reach`` the survivor's exchange holds
   from the frame where the pair was nearest, as a pair's does (``reach``): the tracks swapped
   people where they met, so the gone track carries the survivor's identity from there to its
@@ -181,6 +183,8 @@ class IdentityLag:
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of an ended confirmed track
     links: list = field(default_factory=list)  # (t, new id, ended id, log L(walked on) - log L(someone new)) of each link
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
+    pair_log_odds: float = EXCHANGE_LOG_ODDS  # a pair's identities are exchanged above these log-odds (``decide``)
+    handover_log_odds: float = EXCHANGE_LOG_ODDS  # a hand-over is made above these (``_hand_over``)
     decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
@@ -484,7 +488,7 @@ class IdentityLag:
         llr = self.exchange_log_odds(td, ep, ta, tb)
         t_from = self.reach(td, ep, ep.t1, (ep.a, ep.b))
         self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb, t1=ep.t1, t_from=t_from)
-        if llr <= EXCHANGE_LOG_ODDS:
+        if llr <= self.pair_log_odds:
             if self.left_behind:
                 self._left_behind(td, ep, alive)
             return
@@ -562,7 +566,7 @@ class IdentityLag:
         are scored as the pair's continuation, kept (the survivor continues its own pre state,
         the new track the gone one's or is someone new) against exchanged, as
         ``exchange_log_odds``; the new track
-        of the largest log-odds exchanges when they exceed ``EXCHANGE_LOG_ODDS``: the new track
+        of the largest log-odds exchanges when they exceed ``handover_log_odds``: the new track
         takes the survivor's identity from the end on, and the survivor the gone track's - from
         the pair's nearest approach (``reach``, the gone track carrying the survivor's identity
         until its end) with ``handover_reach``, else from the end."""
@@ -577,7 +581,7 @@ class IdentityLag:
         t_pre = min(v[2] for v in ep.pre.values())
         pg = self._predict(*ep.pre[ep.gone][:2], td - ep.pre[ep.gone][2], self.walker_accel)
         ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2], self.walker_accel)
-        best, best_llr = None, EXCHANGE_LOG_ODDS
+        best, best_llr = None, self.handover_log_odds
         for tid, tr in alive.items():
             if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
                 continue

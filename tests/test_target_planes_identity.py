@@ -700,3 +700,50 @@ def test_a_gap_longer_than_the_output_lag_or_off_the_floor_is_not_bridged():
     extended = short.copy()
     extended.loc[(extended.track_id == 0) & (extended.t < 2.0 - 1e-9) & (extended.t > 1.5 - 1e-9), "mode"] = "extrapolated"
     assert len(bridge_gaps(extended, TIMES, 3.5, lambda xy: np.ones(len(xy), bool))) == len(short)
+
+
+def test_a_pair_is_exchanged_above_its_own_threshold_and_a_hand_over_above_its_own():
+    """The decisions' thresholds are ``pair_log_odds`` and ``handover_log_odds`` (log 99 unless
+    set): the same scored decision exchanges identities just below its log-odds and not just
+    above them, and one kind's threshold does not move the other's."""
+    idl, *_ = run(head_on(), swap_at=2.05)
+    (d,) = idl.decisions
+    for delta, exchanged in ((-1e-3, True), (1e-3, False)):
+        i2 = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, pair_log_odds=d["log_odds"] + delta)
+        for t in TIMES:
+            on = ("A", "B") if t < 2.05 else ("B", "A")
+            i2.update(float(t), [JointTrack(k, np.array(head_on()[n](t), float), S0.copy(), confirmed=True, seen=True)
+                                 for k, n in enumerate(on)])
+        assert (i2.holder(0) == 1) is exchanged
+    idl, *_ = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A")
+    (h,) = idl.handovers
+    for delta, made in ((-1e-3, True), (1e-3, False)):
+        idl, *_ = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A", handover_log_odds=h["log_odds"] + delta,
+                           pair_log_odds=1e9)
+        assert (idl.holder(0) == 2) is made
+
+
+def test_the_estimators_thresholds_reach_the_identity_decision(monkeypatch):
+    """``TargetPlanes.Config``'s ``pair_log_odds`` and ``handover_log_odds`` are the thresholds
+    of the decision the estimator runs; by default Bayes' decision at the prior odds measured on
+    development truth (11 pair exchanges of 2433, 8 hand-overs of 117), log 99 in ``IdentityLag``
+    used alone."""
+    from tests.test_target_planes_joint import boxes_table, line_path
+    from trackroom.estimators import target_planes as tp
+
+    made = []
+
+    class Recorded(IdentityLag):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(tp, "IdentityLag", Recorded)
+    south, west = right_angle_pair()
+    times = np.round(np.arange(0, 2.0, 0.1), 6)
+    paths = {"A": line_path([1.0, 1.0], [3.0, 1.6], times)}
+    obs, cal = Observations({"boxes": boxes_table([south, west], paths, times)}, 2.0), calib([south, west])
+    TargetPlanes(multi_person=True, pair_log_odds=5.0, handover_log_odds=2.5).run(obs, cal)
+    TargetPlanes(multi_person=True).run(obs, cal)
+    assert [(i.pair_log_odds, i.handover_log_odds) for i in made] == [(5.0, 2.5), (np.log(2422 / 11), np.log(109 / 8))]
+    assert IdentityLag(1.0, 1.0, 0.2).pair_log_odds == IdentityLag(1.0, 1.0, 0.2).handover_log_odds == EXCHANGE_LOG_ODDS
