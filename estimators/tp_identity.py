@@ -214,7 +214,8 @@ class IdentityLag:
         kept), "handover" (a: the survivor, b: a new track, scored against the gone track's
         pre state ``pre_b``), "left behind" (a: a track of the pair likelier standing, b: a new
         track, scored as its person walked on, ``walked_on``) or "left behind made" (that
-        exchange, when its log-odds with the stand's duration pass ``EXCHANGE_LOG_ODDS``);
+        exchange, when its log-odds with the stand's duration pass ``EXCHANGE_LOG_ODDS``) or
+        "open" (an encounter still ambiguous at the end, not scored: ``finish``);
         log L(X) - log L(K); pre states (s, S, t) and the tracks at td."""
         self.decisions.append({"t": td, "kind": kind, "a": a, "b": b, "gone": gone, "log_odds": llr, "t1": t1, "t_from": t_from,
                                "t_pre": min(pre_a[2], pre_b[2]), "a_pre": pre_a[0][:2].copy(), "b_pre": pre_b[0][:2].copy(),
@@ -545,11 +546,16 @@ class IdentityLag:
         are, as a fixed-lag smoother ends - an encounter whose pair has separated (t1 passed, the
         lag not) is decided (``decide``) and a pending hand-over made or refused (``hand_over``),
         both at the last frame; then links still waiting for a hand-over that will not come are
-        made (``_release``). (An encounter still ambiguous at the end is left as tracked: its
-        pair has not come apart.)"""
+        made (``_release``). An encounter still ambiguous at the end is left as tracked (its pair
+        has not come apart) and logged, unscored, as kind "open" (log-odds NaN), so that an
+        encounter never decided can be found and labelled (``scripts/measure_tp_identity.py``)."""
         alive = {tr.tid: tr for tr in tracks}
         if self.last:
-            self._close(max(v[2] for v in self.last.values()), alive, end=True)
+            t_end = max(v[2] for v in self.last.values())
+            self._close(t_end, alive, end=True)
+            for ep in self.episodes.values():
+                if ep.gone is None and ep.a in alive and ep.b in alive:
+                    self.record(t_end, "open", ep.a, ep.b, float("nan"), ep.pre[ep.a], ep.pre[ep.b], alive[ep.a], alive[ep.b])
         for gone in list(self.deferred):
             self._release(gone, alive)
 

@@ -5,7 +5,10 @@
 The single-target tracker's identity decision (``tp_identity``) scores two kinds of decision,
 each in ``TargetPlanesResult.decisions``: a **pair** - two tracks after an encounter, exchanged
 or kept - and a **hand-over** - the survivor of an encounter one of whose tracks ended, and a
-track confirmed since, scored against the gone track's pre state. Each is labelled here from
+track confirmed since, scored against the gone track's pre state (and others: ``record``). An
+encounter still ambiguous at the recording's end is logged unscored, kind **open**, its "post"
+the tracks at the end: labelled exchanged, the tracks swapped people and nothing undid it. Each
+is labelled here from
 the truth, by the experimenter: the person nearest each pre state at the encounter's start (a's,
 p_a, and b's, p_b - for a hand-over, the gone track's) and nearest each track at the decision
 (q_a, q_b):
@@ -103,6 +106,12 @@ def main(argv=None) -> int:
         print(f"{len(dirs)} recordings: no identity decision was scored")
         return 0
     for kind, sub in df.groupby("kind"):
+        if sub["log_odds"].isna().all():
+            # "open": encounters still ambiguous at the end, never scored; labelled exchanged, the
+            # tracks had swapped people and the swap stands
+            counts = ", ".join(f"{k} {v}" for k, v in sub["label"].value_counts().sort_index().items())
+            print(f"\n{kind}: {len(sub)} logged in {len(dirs)} recordings, not scored (still ambiguous at the end): {counts}")
+            continue
         print(f"\n{kind}: {len(sub)} scored in {len(dirs)} recordings")
         print(sub.groupby("label")["log_odds"].describe()[["count", "min", "25%", "50%", "75%", "max"]].round(2).to_string())
         decided = sub[sub["label"].isin(["exchanged", "kept"])]

@@ -747,3 +747,21 @@ def test_the_estimators_thresholds_reach_the_identity_decision(monkeypatch):
     TargetPlanes(multi_person=True).run(obs, cal)
     assert [(i.pair_log_odds, i.handover_log_odds) for i in made] == [(5.0, 2.5), (np.log(2422 / 11), np.log(109 / 8))]
     assert IdentityLag(1.0, 1.0, 0.2).pair_log_odds == IdentityLag(1.0, 1.0, 0.2).handover_log_odds == EXCHANGE_LOG_ODDS
+
+
+def test_an_encounter_still_ambiguous_at_the_end_is_logged_open_and_unscored():
+    """Two look-alikes side by side (0.5 m apart) the whole recording, their tracks swapped at
+    2.5 s: the pair never comes apart, so nothing is decided; ``finish`` logs the encounter as
+    "open" with no log-odds, its post states the tracks at the end (on each other's person)."""
+    paths = {"A": lambda t: (1.0 + t, 3.0, 1.0, 0.0), "B": lambda t: (1.0 + t, 3.5, 1.0, 0.0)}
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0)
+    for t in TIMES:
+        on = ("A", "B") if t < 2.5 else ("B", "A")
+        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        idl.update(float(t), trs)
+    assert not idl.decisions
+    idl.finish(trs)
+    (d,) = idl.decisions
+    assert d["kind"] == "open" and np.isnan(d["log_odds"]) and d["t"] == pytest.approx(TIMES[-1])
+    assert d["a_pre"][1] == pytest.approx(3.0) and d["a_post"][1] == pytest.approx(3.5)  # track 0 ends on B
+    assert idl.holder(0) == 0  # left as tracked
