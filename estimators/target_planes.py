@@ -388,6 +388,11 @@ class TargetPlanes(Estimator):
                                          "(tp_identity.IdentityLag._hand_over): Bayes' decision at the prior odds, "
                                          "measured as pair_log_odds' (8 made rightly of 117 hand-overs scored, "
                                          "log(109 / 8) = 2.61; log 99 until the fifty-third session)")
+        pre_while_apart: bool = param(True, "an encounter's pre states, when the pair first comes within 4 radius, are those "
+                                           "of its last frame before, merged in a view or not (not only of its last merged "
+                                           "frame: a pair apart and merged nowhere is not in doubt either); on since the fifty-third "
+                                           "session (development 520: identity 501 -> 502, head-on 195 40.3 -> 100 %, "
+                                           "nothing else changed)")
         identity_accel: float = param(0.35, "white acceleration of the walker model that predicts a pair's states "
                                            "across an encounter in the identity decision (exchanges, hand-overs), "
                                            "m/s^2/sqrt(Hz): the largest the scenes' walkers show on development truth "
@@ -505,6 +510,7 @@ class TargetPlanes(Estimator):
             idl.handover, idl.area, idl.sigma_v = cfg.handover, (floor_area if floor_area > 0 else None), 0.5 * cfg.max_speed
             idl.decide_accel = cfg.identity_accel
             idl.pair_log_odds, idl.handover_log_odds = cfg.pair_log_odds, cfg.handover_log_odds
+            idl.pre_while_apart = cfg.pre_while_apart
             idl.output_lag_s = cfg.output_lag_s
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
             idl.behind_at_birth = cfg.behind_at_birth

@@ -11,9 +11,13 @@ of the pair's states before and after it, with both assignments kept until then:
   bodies side by side, each a window width: any nearer and one's window can be taken for the
   other's). An **episode** starts at the first ambiguous frame; each track's *pre* state is its
   filtered state s, S (``[x, y, vx, vy]``, m, m/s) in the frame before (a track born during the
-  episode: its first state), refreshed while the pair, merged in some view, has not yet come
-  nearer than ``4 radius`` on the floor (the other views see them apart: who is who is not in
-  doubt yet, and the prediction to the decision is that much shorter).
+  episode: its first state), refreshed until the pair first comes nearer than ``4 radius`` on
+  the floor: in a frame where it is merged in some view (the other views see them apart) to the
+  states of the frame before; and, with ``pre_while_apart`` (since the fifty-third session), when
+  the pair comes near for the first time, to those of its last frame merged nowhere (within the
+  lag after a merged one) if that came later. Who is who is not in doubt yet, and the prediction
+  to the decision is that much shorter. (A pair that never comes near keeps the pre states of its
+  last merged frame: the frames after the encounter are not pre states.)
 - **Decision**: the episode ends at the first frame the pair is not ambiguous, t1; the decision
   waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the episode), so
   the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
@@ -154,6 +158,7 @@ class Episode:
     gone: int | None = None  # the track of the pair that ended during the encounter (``handover``)
     t_end: float | None = None  # when it ended
     dist: list = field(default_factory=list)  # (t, floor distance of the pair) of each frame of the encounter
+    apart_pre: dict | None = None  # the states of its last frame merged nowhere, not yet near (``pre_while_apart``)
 
 
 @dataclass
@@ -185,6 +190,7 @@ class IdentityLag:
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
     pair_log_odds: float = EXCHANGE_LOG_ODDS  # a pair's identities are exchanged above these log-odds (``decide``)
     handover_log_odds: float = EXCHANGE_LOG_ODDS  # a hand-over is made above these (``_hand_over``)
+    pre_while_apart: bool = True  # the pre states also refreshed in frames the pair, not yet near, is not ambiguous (``update``)
     decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
@@ -276,11 +282,22 @@ class IdentityLag:
                     self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
+                    if not apart and not ep.near and ep.apart_pre is not None and ep.gone is None \
+                            and min(v[2] for v in ep.apart_pre.values()) > min(v[2] for v in ep.pre.values()):
+                        # coming near for the first time: the last frame merged nowhere is later
+                        # than the last merged one, and no more in doubt
+                        ep.pre = ep.apart_pre
                     ep.near |= not apart
                     if apart and not ep.near and ep.gone is None and all(k in self.last for k in (a.tid, b.tid)):
                         ep.pre = {k: self.last[k] for k in (a.tid, b.tid)}
-            elif ep is not None and ep.t1 is None:
-                ep.t1 = t
+            elif ep is not None:
+                if ep.t1 is None:
+                    ep.t1 = t
+                if self.pre_while_apart and not ep.near and ep.gone is None:
+                    # apart and merged nowhere, not yet near: who is who is not in doubt in this
+                    # frame; its states become the pre states if the pair comes near later (a
+                    # pair that never does is decided from its last merged frame, as before)
+                    ep.apart_pre = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in (a, b)}
             if ep is not None and ep.gone is None:
                 ep.dist.append((t, d_ab))
         self._close(t, alive)

@@ -433,8 +433,9 @@ def test_a_decision_that_closes_another_encounter_of_its_tracks_in_the_same_fram
     now = {0: state(5, 0, 1, 0), 1: state(0, 0, -1, 0), 2: state(0, 5, 0, 1)}
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0)
     # encounter (0, 1): each track's pre state is the other's present one, a second back: exchanged
-    idl.episodes[(0, 1)] = Episode(0, 1, {0: (state(1, 0, -1, 0), S0, 0.0), 1: (state(4, 0, 1, 0), S0, 0.0)}, t1=0.0)
-    idl.episodes[(0, 2)] = Episode(0, 2, {0: (state(4, 0, 1, 0), S0, 0.0), 2: (state(0, 4, 0, 1), S0, 0.0)}, t1=0.0)
+    # (both came near during the encounter: their pre states are no longer refreshed)
+    idl.episodes[(0, 1)] = Episode(0, 1, {0: (state(1, 0, -1, 0), S0, 0.0), 1: (state(4, 0, 1, 0), S0, 0.0)}, t1=0.0, near=True)
+    idl.episodes[(0, 2)] = Episode(0, 2, {0: (state(4, 0, 1, 0), S0, 0.0), 2: (state(0, 4, 0, 1), S0, 0.0)}, t1=0.0, near=True)
     idl.update(1.0, [JointTrack(k, now[k], S0.copy(), confirmed=True, seen=True) for k in (0, 1, 2)])
     assert idl.holder(0) == 1 and not idl.episodes
 
@@ -765,3 +766,25 @@ def test_an_encounter_still_ambiguous_at_the_end_is_logged_open_and_unscored():
     assert d["kind"] == "open" and np.isnan(d["log_odds"]) and d["t"] == pytest.approx(TIMES[-1])
     assert d["a_pre"][1] == pytest.approx(3.0) and d["a_post"][1] == pytest.approx(3.5)  # track 0 ends on B
     assert idl.holder(0) == 0  # left as tracked
+
+
+@pytest.mark.parametrize("pre_while_apart, t_pre, undone", [(False, 1.0, False), (True, 1.7, True)])
+def test_the_pre_states_are_refreshed_until_the_pair_first_comes_near(pre_while_apart, t_pre, undone):
+    """Head-on, merged in one view at 1.0-1.1 s while 3 m apart (an episode opens), merged nowhere
+    at 1.2-1.7 s as they close in, nearer than 4 radius from 1.8 s, swapped at 2.05 s. The pre
+    states are those of the last merged frame before they came near (1.0 s), or with
+    ``pre_while_apart`` of the last frame before they came near at all (1.7 s): the prediction
+    to the decision is that much shorter. Predicted from 1.0 s (through 2.3 s more of a walker
+    model of 1 m/s^2/sqrt(Hz)) the exchange scores 4.2, under log 99, and the swap stands; from
+    1.7 s it is undone."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, pre_while_apart=pre_while_apart)
+    for t in TIMES:
+        on = ("A", "B") if t < 2.05 else ("B", "A")
+        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        if 1.0 - 1e-9 <= t <= 1.1 + 1e-9:
+            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
+        idl.update(float(t), trs)
+    (d,) = idl.decisions
+    assert d["t_pre"] == pytest.approx(t_pre) and d["log_odds"] > 0.0
+    assert (d["log_odds"] > EXCHANGE_LOG_ODDS) is undone and (idl.holder(0) == 1) is undone
