@@ -158,7 +158,7 @@ class Episode:
     gone: int | None = None  # the track of the pair that ended during the encounter (``handover``)
     t_end: float | None = None  # when it ended
     dist: list = field(default_factory=list)  # (t, floor distance of the pair) of each frame of the encounter
-    apart_pre: dict | None = None  # the states of its last frame merged nowhere, not yet near (``pre_while_apart``)
+    apart_pre: dict | None = None  # the states of its last frame merged nowhere, not yet near, since its last merged frame (``pre_while_apart``)
 
 
 @dataclass
@@ -282,14 +282,13 @@ class IdentityLag:
                     self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart)
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
-                    if not apart and not ep.near and ep.apart_pre is not None and ep.gone is None \
-                            and min(v[2] for v in ep.apart_pre.values()) > min(v[2] for v in ep.pre.values()):
-                        # coming near for the first time: the last frame merged nowhere is later
-                        # than the last merged one, and no more in doubt
+                    if not apart and not ep.near and ep.apart_pre is not None and ep.gone is None:
+                        # coming near for the first time: its last frame merged nowhere came after
+                        # its last merged one, and was no more in doubt
                         ep.pre = ep.apart_pre
                     ep.near |= not apart
                     if apart and not ep.near and ep.gone is None and all(k in self.last for k in (a.tid, b.tid)):
-                        ep.pre = {k: self.last[k] for k in (a.tid, b.tid)}
+                        ep.pre, ep.apart_pre = {k: self.last[k] for k in (a.tid, b.tid)}, None
             elif ep is not None:
                 if ep.t1 is None:
                     ep.t1 = t

@@ -20,11 +20,12 @@ S0 = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])  # a well-tracked person: 5 cm,
 TIMES = np.round(np.arange(0.0, 5.01, 0.1), 6)
 
 
-def run(paths, swap_at, lag_s=1.0, output_lag_s=None):
+def run(paths, swap_at, lag_s=1.0, output_lag_s=None, **options):
     """Feed ``IdentityLag`` two confirmed tracks following ``paths`` (name -> function t ->
     (x, y, vx, vy)): track 0 on "A" (the target) and track 1 on "B" until ``swap_at``, on each
-    other's person after it. Returns the decision and the identity of each frame's rows."""
-    idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0, output_lag_s=output_lag_s)
+    other's person after it. ``options``: further ``IdentityLag`` fields. Returns the decision
+    and the identity of each frame's rows."""
+    idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0, output_lag_s=output_lag_s, **options)
     rows = []
     for t in TIMES:
         on = ("A", "B") if t < swap_at else ("B", "A")
@@ -710,11 +711,7 @@ def test_a_pair_is_exchanged_above_its_own_threshold_and_a_hand_over_above_its_o
     idl, *_ = run(head_on(), swap_at=2.05)
     (d,) = idl.decisions
     for delta, exchanged in ((-1e-3, True), (1e-3, False)):
-        i2 = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, pair_log_odds=d["log_odds"] + delta)
-        for t in TIMES:
-            on = ("A", "B") if t < 2.05 else ("B", "A")
-            i2.update(float(t), [JointTrack(k, np.array(head_on()[n](t), float), S0.copy(), confirmed=True, seen=True)
-                                 for k, n in enumerate(on)])
+        i2, *_ = run(head_on(), swap_at=2.05, pair_log_odds=d["log_odds"] + delta)
         assert (i2.holder(0) == 1) is exchanged
     idl, *_ = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A")
     (h,) = idl.handovers
