@@ -18,9 +18,11 @@ of the pair's states before and after it, with both assignments kept until then:
   lag after a merged one) if that came later. Who is who is not in doubt yet, and the prediction
   to the decision is that much shorter. (A pair that never comes near keeps the pre states of its
   last merged frame: the frames after the encounter are not pre states.)
-- **Decision**: the episode ends at the first frame the pair is not ambiguous, t1; the decision
-  waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the episode), so
-  the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
+- **Decision**: the episode ends at the first frame the pair is not ambiguous, t1 (with
+  ``decide_apart``, since the fifty-fourth session: a pair that has been nearer than ``4 radius``
+  is not ambiguous once it is that far apart again, even if a view still sees the two merged);
+  the decision waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the
+  episode), so the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
   the last ``lag_s``, in the filter's form). Both hypotheses are scored, identities kept (K) or
   exchanged (X):
 
@@ -34,7 +36,10 @@ of the pair's states before and after it, with both assignments kept until then:
   prior odds of an exchange measured on development truth, ``TargetPlanes.Config``;
   ``EXCHANGE_LOG_ODDS`` = log(0.99 / 0.01), the design's 1 % error level, by default here and in
   the other decisions); otherwise they are kept (a pair
-  whose track is gone: the hand-over below). A pair that has separated when the recording ends,
+  whose track is gone: the hand-over below). A pair decided while a view still merges the two
+  (``decide_apart``) opens a new episode at once, its pre states the decision's post states; kept,
+  a track left behind (below) is still looked for from the first episode's pre states, among the
+  tracks born since (``Episode.first_pre``). A pair that has separated when the recording ends,
   its lag not yet passed, is decided at the last frame with the states there are (``finish``).
 - **Retroactive relabelling, within the output lag**: the output is final ``output_lag_s`` after
   each frame (at least ``lag_s``). An exchange holds from the frame of the encounter where the
@@ -159,6 +164,7 @@ class Episode:
     t_end: float | None = None  # when it ended
     dist: list = field(default_factory=list)  # (t, floor distance of the pair) of each frame of the encounter
     apart_pre: dict | None = None  # the states of its last frame merged nowhere, not yet near, since its last merged frame (``pre_while_apart``)
+    first_pre: dict | None = None  # the pre states of the encounter this one continues (``decide_apart``: kept, still merged in a view), for ``left_behind``
 
 
 @dataclass
@@ -191,6 +197,8 @@ class IdentityLag:
     pair_log_odds: float = EXCHANGE_LOG_ODDS  # a pair's identities are exchanged above these log-odds (``decide``)
     handover_log_odds: float = EXCHANGE_LOG_ODDS  # a hand-over is made above these (``_hand_over``)
     pre_while_apart: bool = True  # the pre states also refreshed in frames the pair, not yet near, is not ambiguous (``update``)
+    decide_apart: bool = False  # (the estimator's default: on) a pair that has been near is decided lag_s after it is apart on the floor, merged in a view or not (``update``)
+    carried: dict = field(default_factory=dict)  # pair -> first_pre of the encounter decided this frame while merged in a view (``decide``)
     decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
@@ -276,10 +284,13 @@ class IdentityLag:
             ep = self.episodes.get(key)
             d_ab = float(np.linalg.norm(a.s[:2] - b.s[:2]))
             apart = d_ab >= 4.0 * self.radius
-            if self.ambiguous(a, b):
+            amb = self.ambiguous(a, b)
+            if amb and apart and self.decide_apart and ep is not None and ep.near and ep.gone is None:
+                amb = False  # near before, apart on the floor now: merged views alone do not hold the decision
+            if amb:
                 if ep is None:
                     pre = {tr.tid: self.last.get(tr.tid, (tr.s.copy(), tr.S.copy(), t)) for tr in (a, b)}
-                    self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart)
+                    self.episodes[key] = ep = Episode(key[0], key[1], pre, near=not apart, first_pre=self.carried.get(key))
                 else:
                     ep.t1 = None  # together again within the lag: the same encounter
                     if not apart and not ep.near and ep.apart_pre is not None and ep.gone is None:
@@ -299,6 +310,7 @@ class IdentityLag:
                     ep.apart_pre = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in (a, b)}
             if ep is not None and ep.gone is None:
                 ep.dist.append((t, d_ab))
+        self.carried = {}
         self._close(t, alive)
         if self.successor_reject is not None and self.watch is not None:
             self._watched_successor(t, alive)
@@ -506,6 +518,9 @@ class IdentityLag:
         t_from = self.reach(td, ep, ep.t1, (ep.a, ep.b))
         self.record(td, "pair", ep.a, ep.b, llr, ep.pre[ep.a], ep.pre[ep.b], ta, tb, t1=ep.t1, t_from=t_from)
         if llr <= self.pair_log_odds:
+            if self.decide_apart and merged_with(ta, tb):
+                # decided while still merged in a view: the encounter goes on from here (``update``)
+                self.carried[(ep.a, ep.b)] = ep.first_pre or ep.pre
             if self.left_behind:
                 self._left_behind(td, ep, alive)
             return
@@ -656,7 +671,8 @@ class IdentityLag:
         (``_still_behind``, called at once: above ``EXCHANGE_LOG_ODDS`` already, it exchanges)."""
         if not self.area:
             return
-        t_pre = min(v[2] for v in ep.pre.values())
+        pre = ep.first_pre or ep.pre
+        t_pre = min(v[2] for v in pre.values())
         for g in (ep.a, ep.b):
             tg = alive.get(g)
             if tg is None or tg.mu < 0.5:
@@ -665,8 +681,8 @@ class IdentityLag:
             for tid, tr in alive.items():
                 if tid in (ep.a, ep.b) or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
                     continue
-                llr = self.walked_on(td, tr, ep.pre[g], tg)
-                self.record(td, "left behind", g, tid, llr, ep.pre[g], ep.pre[g], tg, tr, gone=g, t1=ep.t1)
+                llr = self.walked_on(td, tr, pre[g], tg)
+                self.record(td, "left behind", g, tid, llr, pre[g], pre[g], tg, tr, gone=g, t1=ep.t1)
                 if llr > best_llr:
                     best, best_llr = tid, llr
             if best is not None and best_llr > 0.0:

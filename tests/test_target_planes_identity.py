@@ -785,3 +785,62 @@ def test_the_pre_states_are_refreshed_until_the_pair_first_comes_near(pre_while_
     (d,) = idl.decisions
     assert d["t_pre"] == pytest.approx(t_pre) and d["log_odds"] > 0.0
     assert (d["log_odds"] > EXCHANGE_LOG_ODDS) is undone and (idl.holder(0) == 1) is undone
+
+
+@pytest.mark.parametrize("decide_apart", [False, True])
+def test_a_pair_apart_on_the_floor_is_decided_while_still_merged_in_a_view(decide_apart):
+    """Head-on, nearer than 4 radius at 1.8-2.2 s, swapped at 2.05 s; from 2.3 s apart on the
+    floor but merged in one view until 8.0 s (a camera that sees them along one line of sight:
+    head-on development 120 stayed so 5 s). Without ``decide_apart`` the encounter lasts until
+    the view parts them and is decided at 9.1 s from the pre states of 1.7 s: 7.4 s of a walker
+    model of 1 m/s^2/sqrt(Hz) leaves 4.3, under log 99, and the swap stands. With it the pair is
+    decided a lag after it parted on the floor (3.3 s, 12.3) and the swap is undone; the
+    encounter goes on from there in the merged view, kept at its end."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, decide_apart=decide_apart)
+    for t in np.round(np.arange(0.0, 10.01, 0.1), 6):
+        on = ("A", "B") if t < 2.05 else ("B", "A")
+        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        if 2.3 - 1e-9 <= t <= 8.0 + 1e-9:
+            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
+        idl.update(float(t), trs)
+    td = [d[0] for d in idl.log]
+    if decide_apart:
+        assert td == pytest.approx([3.3, 9.1]) and idl.log[0][3] > EXCHANGE_LOG_ODDS and idl.log[1][3] < 0.0
+        assert idl.holder(0) == 1
+    else:
+        assert td == pytest.approx([9.1]) and 0.0 < idl.log[0][3] < EXCHANGE_LOG_ODDS
+        assert idl.holder(0) == 0
+
+
+def test_a_track_left_behind_after_a_decision_while_merged_is_found_from_the_encounters_first_pre_states():
+    """``decide_apart`` with ``left_behind``: the pair of the test above keeps its people, is
+    decided kept at 3.3 s while still merged in a view, and the encounter goes on. Track 0 (the
+    target's) stops at 4.0 s and is held standing there, while the target walks on with a new
+    track 2, born at 4.3 s. At the encounter's last decision (7.1 s) track 2 is scored as the
+    target walked on from the encounter's first pre states (1.7 s), which it was born after, and
+    takes the identity. With the pre states of the encounter's last part (5.9 s, refreshed while
+    the pair was merged and apart) track 2 would be older than the encounter and not scored: the
+    identity would stay on the standing track (head-on development 131)."""
+    paths = head_on()
+    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=48.0, sigma_v=1.5, left_behind=True, stand_s=3.0,
+                      decide_accel=0.35, decide_apart=True)
+    stop = np.array(paths["A"](4.0), float)
+    for t in np.round(np.arange(0.0, 8.01, 0.1), 6):
+        if t < 4.0:
+            t0 = JointTrack(0, np.array(paths["A"](t), float), S0.copy(), confirmed=True, seen=True)
+        else:
+            t0 = JointTrack(0, np.r_[stop[:2], 0.0, 0.0], S0.copy(), confirmed=True, seen=False, mu=0.99)
+            t0.xs, t0.Ps = stop[:2].copy(), S0[:2, :2].copy()
+        trs = [t0, JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=True, seen=True)]
+        if 2.3 - 1e-9 <= t <= 6.0 + 1e-9:
+            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
+        if t >= 4.3 - 1e-9:
+            trs.append(JointTrack(2, np.array(paths["A"](t), float), S0.copy(), confirmed=t >= 4.75 - 1e-9, seen=True))
+            trs[-1].born = (4.3, np.array(paths["A"](4.3), float), S0.copy())
+        idl.update(float(t), trs)
+    pairs = [(d["t"], d["t_pre"]) for d in idl.decisions if d["kind"] == "pair" and {d["a"], d["b"]} == {0, 1}]
+    assert pairs == [pytest.approx((3.3, 1.7)), pytest.approx((7.1, 5.9))]
+    (d,) = [d for d in idl.decisions if d["kind"] == "left behind"]
+    assert (d["a"], d["b"]) == (0, 2) and d["t"] == pytest.approx(7.1) and d["t_pre"] == pytest.approx(1.7) and d["log_odds"] > 0.0
+    assert idl.holder(0) == 2
