@@ -53,7 +53,8 @@ of the pair's states before and after it, with both assignments kept until then:
   a duplicate of the other, rejected by the existence test) has nothing left to exchange with,
   yet the survivor may have come out of it on the other person - and the tracker starts a new
   track on its own person. ``lag_s`` after the end, each track confirmed since the encounter
-  began (under its own identity, the gone identity not carried on by ``relink``; the gone track
+  began (with ``since_confirmed``; without it, born since: the left-behind decision's candidates
+  too) (under its own identity, the gone identity not carried on by ``relink``; the gone track
   once confirmed) is scored with the survivor as the pair's continuation:
 
       log L(X) = log N(s_sv; F s_gone^pre, ...) + log N(s_new; F s_sv^pre, ...)
@@ -202,6 +203,8 @@ class IdentityLag:
     decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
     confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
+    first_conf: dict = field(default_factory=dict)  # internal id -> its first confirmed frame
+    since_confirmed: bool = False  # (the estimator's default: on) hand-over and left-behind candidates: confirmed, not born, since the encounter's pre states (``_began``)
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
     handover_reach: bool = True  # a hand-over holds from the encounter's nearest approach (``_hand_over``)
@@ -276,6 +279,7 @@ class IdentityLag:
             self.born.setdefault(tr.tid, t)
             if tr.confirmed:
                 self.confirmed_ids.add(tr.tid)
+                self.first_conf.setdefault(tr.tid, t)
         alive = {tr.tid: tr for tr in tracks}
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
@@ -620,7 +624,7 @@ class IdentityLag:
         ps = self._predict(*ep.pre[sv][:2], td - ep.pre[sv][2], self.walker_accel)
         best, best_llr = None, self.handover_log_odds
         for tid, tr in alive.items():
-            if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
+            if tid == sv or not tr.confirmed or self.ident.get(tid, tid) != tid or self._began(tid) < t_pre - 1e-9:
                 continue
             # kept: the survivor continues itself, the new track the gone one, or someone new
             new = float(-np.log(self.area)) + self._walking(tr.s, tr.S) if self.area else -np.inf
@@ -645,6 +649,11 @@ class IdentityLag:
         for key in [k for k in self.episodes if sv in k or best in k]:
             del self.episodes[key]
         return True
+
+    def _began(self, tid: int) -> float:
+        """When track ``tid`` counts as new for a hand-over or a left-behind decision: its first
+        frame, or with ``since_confirmed`` its first confirmed one."""
+        return (self.first_conf if self.since_confirmed else self.born).get(tid, -np.inf)
 
     def walked_on(self, td: float, tr, pre, tg) -> float:
         """log L(track ``tr`` is the person of the pre state ``pre`` (s, S, t), who walked on) -
@@ -679,7 +688,7 @@ class IdentityLag:
                 continue
             best, best_llr = None, -np.inf
             for tid, tr in alive.items():
-                if tid in (ep.a, ep.b) or not tr.confirmed or self.ident.get(tid, tid) != tid or self.born.get(tid, -np.inf) < t_pre - 1e-9:
+                if tid in (ep.a, ep.b) or not tr.confirmed or self.ident.get(tid, tid) != tid or self._began(tid) < t_pre - 1e-9:
                     continue
                 llr = self.walked_on(td, tr, pre[g], tg)
                 self.record(td, "left behind", g, tid, llr, pre[g], pre[g], tg, tr, gone=g, t1=ep.t1)

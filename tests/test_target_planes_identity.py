@@ -334,11 +334,14 @@ def test_a_rejected_target_track_keeps_the_identity_without_a_successor_when_sta
     assert set(ident[tid == 0]) == {0} and set(ident[tid == 2]) == {2}
 
 
-def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False, **options):
+def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False,
+             born_at=None, **options):
     """As ``run``, but track 1 (on "B", the target's track 0 on "A") ends at ``end_at`` (dropped
     by the tracker, e.g. as a duplicate of track 0) and a new confirmed track 2 follows
     ``new_on`` from ``new_from``; track 0 is on "B" from ``swap_at``, and so is track 1 on "A"
-    with ``gone_swaps``. ``options``: further ``IdentityLag`` fields. Returns as ``run``."""
+    with ``gone_swaps``. With ``born_at`` track 2 is there from then, unconfirmed, standing
+    in the far corner (0.5, 6), until ``new_from``. ``options``: further ``IdentityLag``
+    fields. Returns as ``run``."""
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=area, sigma_v=1.5, handover=handover, **options)
     rows = []
     for t in TIMES:
@@ -348,6 +351,8 @@ def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confi
             trs.append(JointTrack(1, np.array(paths[on](t), float), S0.copy(), confirmed=gone_confirmed, seen=True))
         if t >= new_from - 1e-9:
             trs.append(JointTrack(2, np.array(paths[new_on](t), float), S0.copy(), confirmed=True, seen=True))
+        elif born_at is not None and t >= born_at - 1e-9:
+            trs.append(JointTrack(2, np.array([0.5, 6.0, 0.0, 0.0]), S0.copy(), confirmed=False, seen=True))
         idl.update(float(t), trs)
         rows += [(t, tr.tid) for tr in trs]
     t, tid = np.array(rows).T
@@ -397,6 +402,22 @@ def test_a_hand_over_holds_from_the_crossing_where_the_gone_track_carried_the_ta
     target = ident == 0
     assert (on[target & (t >= 2.05 - 1e-9) & (t < 2.5 - 1e-9)] == "B").all()
     assert set(tid[target & (t < 2.5 - 1e-9)]) == {0}
+
+
+@pytest.mark.parametrize("since_confirmed", [False, True])
+def test_a_hand_over_candidate_is_a_track_confirmed_since_the_encounter_began(since_confirmed):
+    """The hand-over above, but the new track was born at 1.0 s, before the encounter's pre
+    states (1.7 s), and confirmed only at 2.3 s, on the target (analytic development 158: born
+    0.5 s before, confirmed after). With ``since_confirmed`` it is a candidate - the design's
+    "each track confirmed since the encounter began" - and takes the target's identity; counted
+    from its birth it is not scored and the target's identity stays on the look-alike."""
+    idl, t, tid, ident = run_gone(head_on(), swap_at=2.05, end_at=2.1, new_from=2.3, new_on="A", born_at=1.0,
+                                  since_confirmed=since_confirmed)
+    if since_confirmed:
+        (h,) = idl.handovers
+        assert h["b"] == 2 and h["log_odds"] > EXCHANGE_LOG_ODDS and idl.holder(0) == 2
+    else:
+        assert not idl.handovers and idl.holder(0) == 0
 
 
 def test_a_survivor_on_its_own_person_keeps_its_identity_when_the_other_track_ends():
