@@ -22,8 +22,8 @@ of the pair's states before and after it, with both assignments kept until then:
   ``decide_apart``, since the fifty-fourth session: a pair that has been nearer than ``4 radius``
   is not ambiguous once it is that far apart again, even if a view still sees the two merged);
   the decision waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the
-  episode), so the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a smoother over
-  the last ``lag_s``, in the filter's form). Both hypotheses are scored, identities kept (K) or
+  episode), so the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a
+  smoother over the last ``lag_s``, in the filter's form). Both hypotheses are scored, identities kept (K) or
   exchanged (X):
 
       log L(K) = log N(s_a(td); F s_a^pre, F S_a^pre F^T + Q + S_a(td)) + (the same for b)
@@ -39,7 +39,7 @@ of the pair's states before and after it, with both assignments kept until then:
   whose track is gone: the hand-over below). A pair decided while a view still merges the two
   (``decide_apart``) opens a new episode at once, its pre states the decision's post states; kept,
   a track left behind (below) is still looked for from the first episode's pre states, among the
-  tracks born since (``Episode.first_pre``). A pair that has separated when the recording ends,
+  tracks new since then (``Episode.first_pre``). A pair that has separated when the recording ends,
   its lag not yet passed, is decided at the last frame with the states there are (``finish``).
 - **Retroactive relabelling, within the output lag**: the output is final ``output_lag_s`` after
   each frame (at least ``lag_s``). An exchange holds from the frame of the encounter where the
@@ -53,9 +53,9 @@ of the pair's states before and after it, with both assignments kept until then:
   a duplicate of the other, rejected by the existence test) has nothing left to exchange with,
   yet the survivor may have come out of it on the other person - and the tracker starts a new
   track on its own person. ``lag_s`` after the end, each track confirmed since the encounter
-  began (with ``since_confirmed``; without it, born since: the left-behind decision's candidates
-  too) (under its own identity, the gone identity not carried on by ``relink``; the gone track
-  once confirmed) is scored with the survivor as the pair's continuation:
+  began (``since_confirmed``; without it, born since; the left-behind decision's candidates
+  alike), under its own identity (the gone identity not carried on by ``relink``; the gone track
+  once confirmed), is scored with the survivor as the pair's continuation:
 
       log L(X) = log N(s_sv; F s_gone^pre, ...) + log N(s_new; F s_sv^pre, ...)
       log L(K) = log N(s_sv; F s_sv^pre, ...) + max(log N(s_new; F s_gone^pre, ...),
