@@ -188,7 +188,6 @@ class IdentityLag:
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
     walk_s: float = 8.0  # mean time a walker walks before stopping, s (the tracker's walking mode)
     born: dict = field(default_factory=dict)  # internal id -> time of its first frame
-    conf_t: dict = field(default_factory=dict)  # internal id -> time of its confirmation (the ids confirmed so far)
     hist: dict = field(default_factory=dict)  # internal id -> [(t, s, S)] over the last hold_s
     last_mu: dict = field(default_factory=dict)  # internal id -> standing probability in the previous frame
     last_seen: dict = field(default_factory=dict)  # internal id -> (x, S[x]) in its last frame with a window
@@ -202,8 +201,7 @@ class IdentityLag:
     carried: dict = field(default_factory=dict)  # pair -> first_pre of the encounter decided this frame while merged in a view (``decide``)
     decide_accel: float | None = None  # white acceleration of the exchange and hand-over predictions (None: accel_sigma)
     area: float | None = None  # floor area, m^2: someone new is anywhere on it (``hand_over``)
-    confirmed_ids: set = field(default_factory=set)  # internal ids confirmed so far
-    first_conf: dict = field(default_factory=dict)  # internal id -> its first confirmed frame
+    conf_t: dict = field(default_factory=dict)  # internal id -> its first confirmed frame (the ids confirmed so far)
     since_confirmed: bool = False  # (the estimator's default: on) hand-over and left-behind candidates: confirmed, not born, since the encounter's pre states (``_began``)
     handover: bool = False  # a pair whose track ended during the encounter is decided with a new track (module docstring)
     left_behind: bool = False  # a pair's track standing after the encounter may have been left behind (module docstring)
@@ -278,8 +276,7 @@ class IdentityLag:
             self.identity(tr.tid)
             self.born.setdefault(tr.tid, t)
             if tr.confirmed:
-                self.confirmed_ids.add(tr.tid)
-                self.first_conf.setdefault(tr.tid, t)
+                self.conf_t.setdefault(tr.tid, t)
         alive = {tr.tid: tr for tr in tracks}
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
@@ -352,9 +349,8 @@ class IdentityLag:
         for tid in [k for k in self.last_seen if k not in alive]:
             del self.last_seen[tid]
         for tr in tracks:
-            if not tr.confirmed or tr.tid in self.conf_t:
-                continue
-            self.conf_t[tr.tid] = t
+            if self.conf_t.get(tr.tid) != t:
+                continue  # not confirmed first in this frame
             held = {self.ident.get(o.tid, o.tid) for o in tracks if o.tid != tr.tid}
             best, best_llr = None, 0.0
             for tid in self.ended:
@@ -458,7 +454,8 @@ class IdentityLag:
                 continue
             best, best_llr = None, 0.0
             for y in tracks:
-                if not y.confirmed or self.ident.get(y.tid, y.tid) != y.tid or t - self.conf_t.get(y.tid, -np.inf) > self.lag_s + 1e-9:
+                c = self.conf_t.get(y.tid, t)  # confirmed in an earlier frame, within lag_s
+                if not y.confirmed or self.ident.get(y.tid, y.tid) != y.tid or c >= t or t - c > self.lag_s + 1e-9:
                     continue
                 hy, he = self.hist.get(y.tid), self.hist.get(e)
                 if not hy or not he:
@@ -616,7 +613,7 @@ class IdentityLag:
             return False
         if self.ident.get(ep.gone, ep.gone) in {self.ident.get(k, k) for k in alive}:
             return False  # the gone identity was found again (``relink``)
-        if ep.gone not in self.confirmed_ids:
+        if ep.gone not in self.conf_t:
             return False  # a track never confirmed (a fragment's): no one to hand over
         ts = alive[sv]
         t_pre = min(v[2] for v in ep.pre.values())
@@ -653,7 +650,7 @@ class IdentityLag:
     def _began(self, tid: int) -> float:
         """When track ``tid`` counts as new for a hand-over or a left-behind decision: its first
         frame, or with ``since_confirmed`` its first confirmed one."""
-        return (self.first_conf if self.since_confirmed else self.born).get(tid, -np.inf)
+        return (self.conf_t if self.since_confirmed else self.born).get(tid, -np.inf)
 
     def walked_on(self, td: float, tr, pre, tg) -> float:
         """log L(track ``tr`` is the person of the pre state ``pre`` (s, S, t), who walked on) -

@@ -20,16 +20,24 @@ S0 = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])  # a well-tracked person: 5 cm,
 TIMES = np.round(np.arange(0.0, 5.01, 0.1), 6)
 
 
-def run(paths, swap_at, lag_s=1.0, output_lag_s=None, **options):
+def merge(a: JointTrack, b: JointTrack) -> None:
+    """Tracks a and b share a merged window in one camera this frame."""
+    a.status, b.status = {"c": ("merged", str(b.tid), None)}, {"c": ("merged", str(a.tid), None)}
+
+
+def run(paths, swap_at, lag_s=1.0, output_lag_s=None, times=TIMES, merged=None, **options):
     """Feed ``IdentityLag`` two confirmed tracks following ``paths`` (name -> function t ->
     (x, y, vx, vy)): track 0 on "A" (the target) and track 1 on "B" until ``swap_at``, on each
-    other's person after it. ``options``: further ``IdentityLag`` fields. Returns the decision
-    and the identity of each frame's rows."""
+    other's person after it, at frame ``times``; ``merged`` (t0, t1): merged in one camera in
+    the frames between (``merge``). ``options``: further ``IdentityLag`` fields. Returns the
+    decision and the identity of each frame's rows."""
     idl = IdentityLag(lag_s, accel_sigma=1.0, radius=0.2, watch=0, output_lag_s=output_lag_s, **options)
     rows = []
-    for t in TIMES:
+    for t in times:
         on = ("A", "B") if t < swap_at else ("B", "A")
         trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
+        if merged is not None and merged[0] - 1e-9 <= t <= merged[1] + 1e-9:
+            merge(trs[0], trs[1])
         idl.update(float(t), trs)
         rows += [(t, k) for k in (0, 1)]
     t, tid = np.array(rows).T
@@ -795,14 +803,7 @@ def test_the_pre_states_are_refreshed_until_the_pair_first_comes_near(pre_while_
     to the decision is that much shorter. Predicted from 1.0 s (through 2.3 s more of a walker
     model of 1 m/s^2/sqrt(Hz)) the exchange scores 4.2, under log 99, and the swap stands; from
     1.7 s it is undone."""
-    paths = head_on()
-    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, pre_while_apart=pre_while_apart)
-    for t in TIMES:
-        on = ("A", "B") if t < 2.05 else ("B", "A")
-        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
-        if 1.0 - 1e-9 <= t <= 1.1 + 1e-9:
-            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
-        idl.update(float(t), trs)
+    idl, *_ = run(head_on(), swap_at=2.05, merged=(1.0, 1.1), pre_while_apart=pre_while_apart)
     (d,) = idl.decisions
     assert d["t_pre"] == pytest.approx(t_pre) and d["log_odds"] > 0.0
     assert (d["log_odds"] > EXCHANGE_LOG_ODDS) is undone and (idl.holder(0) == 1) is undone
@@ -817,14 +818,8 @@ def test_a_pair_apart_on_the_floor_is_decided_while_still_merged_in_a_view(decid
     model of 1 m/s^2/sqrt(Hz) leaves 4.3, under log 99, and the swap stands. With it the pair is
     decided a lag after it parted on the floor (3.3 s, 12.3) and the swap is undone; the
     encounter goes on from there in the merged view, kept at its end."""
-    paths = head_on()
-    idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, decide_apart=decide_apart)
-    for t in np.round(np.arange(0.0, 10.01, 0.1), 6):
-        on = ("A", "B") if t < 2.05 else ("B", "A")
-        trs = [JointTrack(k, np.array(paths[n](t), float), S0.copy(), confirmed=True, seen=True) for k, n in enumerate(on)]
-        if 2.3 - 1e-9 <= t <= 8.0 + 1e-9:
-            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
-        idl.update(float(t), trs)
+    idl, *_ = run(head_on(), swap_at=2.05, times=np.round(np.arange(0.0, 10.01, 0.1), 6), merged=(2.3, 8.0),
+                  decide_apart=decide_apart)
     td = [d[0] for d in idl.log]
     if decide_apart:
         assert td == pytest.approx([3.3, 9.1]) and idl.log[0][3] > EXCHANGE_LOG_ODDS and idl.log[1][3] < 0.0
@@ -855,7 +850,7 @@ def test_a_track_left_behind_after_a_decision_while_merged_is_found_from_the_enc
             t0.xs, t0.Ps = stop[:2].copy(), S0[:2, :2].copy()
         trs = [t0, JointTrack(1, np.array(paths["B"](t), float), S0.copy(), confirmed=True, seen=True)]
         if 2.3 - 1e-9 <= t <= 6.0 + 1e-9:
-            trs[0].status, trs[1].status = {"c": ("merged", "1", None)}, {"c": ("merged", "0", None)}
+            merge(trs[0], trs[1])
         if t >= 4.3 - 1e-9:
             trs.append(JointTrack(2, np.array(paths["A"](t), float), S0.copy(), confirmed=t >= 4.75 - 1e-9, seen=True))
             trs[-1].born = (4.3, np.array(paths["A"](4.3), float), S0.copy())
