@@ -94,7 +94,9 @@ Per frame:
    the union's, or the others' alone); a camera that should see a
    walker (moving in its image, not hidden by the floor plan's boxes, ``Occluders``, nor
    overlapping another track) and has no window counts log P(miss), from the flow tracker's
-   measured detection rate ``p_detect`` and mean miss run ``miss_run`` (a two-state chain).
+   measured detection rate ``p_detect`` and mean miss run ``miss_run`` (a two-state chain);
+   for a confirmed track located by two or more views in the last frame (``slow_misses``)
+   weighed by the chance that the walker is slower than ``mover_flow_px`` there.
    The walking and standing modes are marginalised: with no window anywhere the frame's
    likelihood is (1 - mu) P(misses | walking) + mu (a standing person makes none), so a
    standing person loses nothing. A track with windows in one camera that the others should
@@ -588,10 +590,16 @@ class JointTracker:
         predicted mean alone made misses free for a track unseen for a second: its mean velocity
         decays with ``stop_tau`` while its spread does not, so the walking mode never lost to the
         standing one and its position spread grew to ``sigma_max``.)"""
+        slow = self.p_slow(p)
+        return -float(np.log(slow + (1.0 - slow) * self.cfg.p_miss))
+
+    def p_slow(self, p: Projection) -> float:
+        """P(the walking mode moves slower than ``mover_flow_px`` in this image): its predicted
+        image velocity N(flow, var_f) taken isotropic, a non-central chi-square with 2 degrees
+        of freedom (``miss_walk``)."""
         var = 0.5 * float(np.trace(p.var_f))
         thr, m2 = self.cfg.mover_flow_px**2, float(p.flow @ p.flow)
-        slow = float(chndtr(thr / var, 2, m2 / var)) if var > 1e-12 else float(m2 < thr)
-        return -float(np.log(slow + (1.0 - slow) * self.cfg.p_miss))
+        return float(chndtr(thr / var, 2, m2 / var)) if var > 1e-12 else float(m2 < thr)
 
     def miss_cost(self, p: Projection) -> float:
         """A track without a window: free for a track predicted standing (no flow region), else
@@ -723,7 +731,9 @@ class JointTracker:
           the others alone says it is not); None: 0 (its own window cannot be told apart).
         - No window: log P(no window | a walking person here) (no one there makes none: log 1).
           A walker is expected seen when it moves in this image (predicted image speed at least
-          ``mover_flow_px``), is not hidden by the floor plan's boxes (``visible``: ``Occluders``,
+          ``mover_flow_px``; with ``slow_misses``, for a confirmed track located by two or more
+          views in the last frame, weighed by P(slow), ``p_slow``: P(no window) = P(slow) + (1 -
+          P(slow)) P(miss)), is not hidden by the floor plan's boxes (``visible``: ``Occluders``,
           computed by the caller for all tracks of the view at once) and its
           projected cylinder overlaps no other track's (``hidden``: hidden by it, or merged with it
           into a window the explanation may have given to the other alone); then
@@ -738,13 +748,19 @@ class JointTracker:
         if merged:
             tr.missed.discard(c)
             return 0.0 if merged_lr is None else float(merged_lr)
-        moving = float(np.linalg.norm(p.flow)) >= cfg.mover_flow_px
-        if hidden or not moving or not visible:
+        if cfg.slow_misses and tr.confirmed and tr.mode == "planes":
+            # its velocity measured in both floor axes: a walker slowing to a stop is no longer
+            # rejected in the frame its windows end (one view measures it along its image axis
+            # only, and a track on trial may be a crossing of fragments: their misses count in full)
+            slow = self.p_slow(p)
+        else:
+            slow = float(float(np.linalg.norm(p.flow)) < cfg.mover_flow_px)
+        if hidden or slow >= 1.0 or not visible:
             tr.missed.discard(c)
             return 0.0
         see = self.p_see_after_miss if c in tr.missed else self.p_see_after_hit
         tr.missed.add(c)
-        return float(np.log(max(1.0 - see, 1e-12)))
+        return float(np.log(max(slow + (1.0 - slow) * (1.0 - see), 1e-12)))
 
     def detection_evidence(self, tr: JointTrack, c: str, xy: np.ndarray, Sxy: np.ndarray, projs: dict[int, Projection], i: int,
                            now: dict[str, bool]) -> float:
