@@ -1,6 +1,6 @@
 """Flow windows' region flow against the true image velocity, by image speed.
 
-    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths] [--fragments] [--border]   # occlusion_lab recordings, either mode
+    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths] [--fragments] [--border] [--below]   # occlusion_lab recordings, either mode
 
 For every window of the ``boxes`` table that holds exactly one walking mover (the scene's target
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
@@ -103,6 +103,7 @@ def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
     Ps = {c: np.asarray(cam.P, float) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
     fps = {c: float(rec.calibration.cameras[c].fps) for c in Ps}
     widths = {c: float(rec.calibration.cameras[c].width) for c in Ps}
+    heights = {c: float(rec.calibration.cameras[c].height) for c in Ps}
     boxes = mean_flows(rec.observations["boxes"].sort_values("t", kind="stable"), flow_window)
     at = {t: g for t, g in people.groupby(people.t.round(2))}
     rows = []
@@ -111,7 +112,8 @@ def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
         g = at.get(t)
         if g is None:
             continue
-        spans = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS)[:2] for x, y in zip(g.x, g.y)])
+        wins = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS) for x, y in zip(g.x, g.y)])
+        spans, spans_v = wins[:, :2], wins[:, 3]  # columns; bottom row (the feet)
         overlap = np.clip(np.minimum(spans[:, 1], b.u_right) - np.maximum(spans[:, 0], b.u_left), 0.0, None)
         covered = np.maximum(spans[:, 1] - spans[:, 0], 1.0)
         if fragments:  # a narrow window holds a person it lies on, however small a part of the person
@@ -138,9 +140,11 @@ def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
         lo, hi = spans[k]
         share = (float(b.u_right) - float(b.u_left)) / max(float(hi - lo), 1.0)
         border = bool(lo < 0.0 or hi > widths[b.camera])
-        rows.append((str(d), t, int(round(t * fps[b.camera])), b.camera, b.track, pid, speed, along, across, du, e[0], e[1], share, border))
+        below = bool(spans_v[k] > heights[b.camera])
+        rows.append((str(d), t, int(round(t * fps[b.camera])), b.camera, b.track, pid, speed, along, across, du, e[0], e[1], share, border,
+                     below))
     return pd.DataFrame(rows, columns=["rec", "t", "frame", "camera", "track", "pid", "speed", "along", "across", "du",
-                                       "e_u", "e_v", "share", "border"])
+                                       "e_u", "e_v", "share", "border", "below"])
 
 
 def autocorrelation(df: pd.DataFrame, col: str, max_lag: int = MAX_LAG) -> np.ndarray:
@@ -208,14 +212,16 @@ def over_speed_share(df: pd.DataFrame) -> float:
 CUT_MIN_SPEED = 20.0  # px/s: slower, a cut window falls short of the motion within about 1 px/s of an uncut one (the --border tables)
 
 
-def cut_excess(df: pd.DataFrame, min_speed: float = CUT_MIN_SPEED) -> tuple[float, float]:
+def cut_excess(df: pd.DataFrame, min_speed: float = CUT_MIN_SPEED, col: str = "border") -> tuple[float, float]:
     """How much more a border-cut window's flow errs than an uncut one's, as a share of the true
     image speed (a flow noise for cut windows, along and across the motion): over windows at
     ``min_speed`` px/s or more, sqrt(rsd_cut^2 - rsd_uncut^2 + (median_cut - median_uncut)^2) of
     the error over the speed, along the motion and across it (the spread and the shortfall both,
-    a robust sd ``rsd``); NaN without windows of both kinds."""
+    a robust sd ``rsd``); NaN without windows of both kinds. ``col``: the column that says a
+    window is cut (``border``: by the left or right border; ``below``: the person reaches below
+    the image, ``--below``)."""
     g = df[df.speed >= min_speed]
-    cut = g["border"].astype(bool)
+    cut = g[col].astype(bool)
     if not cut.any() or cut.all():
         return float("nan"), float("nan")
     out = []
@@ -299,6 +305,7 @@ def main(argv=None) -> int:
     ap.add_argument("--by-share", action="store_true", help="also the flow error by the window's share of its person's width")
     ap.add_argument("--fragments", action="store_true", help="count windows narrower than 30 %% of their person too (by share, finer bins)")
     ap.add_argument("--border", action="store_true", help="also the error table split: windows of people cut by the image border, and the rest")
+    ap.add_argument("--below", action="store_true", help="also the flow error in excess for windows of people whose feet are below the image")
     ap.add_argument("--widths", action="store_true", help="also how often a window is much wider than its person, and the fit of target_planes' width_tail")
     a = ap.parse_args(argv)
     df = pd.concat([errors(d, a.flow_window, a.fragments) for d in recording_folders(a.recordings, ap.prog)], ignore_index=True)
@@ -316,6 +323,12 @@ def main(argv=None) -> int:
         along, across = cut_excess(df)
         print(f"a cut window's flow error in excess of an uncut one's, over the image speed ({CUT_MIN_SPEED:g}+ px/s): "
               f"along the motion {along:.3f}, across {across:.3f}")
+    if a.below:
+        g = df[~df["border"].astype(bool)]
+        along, across = cut_excess(g, col="below")
+        print(f"{int(g['below'].sum())} windows of people whose projected cylinder reaches below the image (the feet out of it, not cut left "
+              f"or right; gain {gain(g[g['below']]):.3f} against {gain(g[~g['below']]):.3f}); their flow error in excess of the others', over the "
+              f"image speed ({CUT_MIN_SPEED:g}+ px/s): along the motion {along:.3f}, across {across:.3f}")
     if a.by_share or a.fragments:
         print("flow error (px/s, image axes) by the window's width over its person's projected width (people cut by the image border left out"
               + ("; windows covering 30 % of the narrower of window and person" if a.fragments else "") + "):")

@@ -165,3 +165,6 @@ def test_a_cut_windows_excess_error_counts_its_spread_and_its_shortfall_over_the
     assert a == pytest.approx(np.sqrt(0.3**2 - 0.1**2 + 0.2**2), abs=0.02)
     assert c < 0.03
     assert all(np.isnan(cut_excess(df[~df.border.astype(bool)])))
+    # the same excess read from another column (``--below``: the feet below the image)
+    below = df.rename(columns={"border": "below"})
+    assert cut_excess(below, col="below") == (a, c)
