@@ -26,7 +26,7 @@ from trackroom.estimators.tp_joint import EXIST_ACCEPT, EXIST_REJECT, JointTrack
 from tests.test_target_planes import four_cameras
 from tests.test_target_planes_joint import _box, _tracker, window_row
 
-DECEL = 0.9  # m/s^2: the scenes' walkers slow to their waypoint stops at about this rate (development truth)
+DECEL = 0.9  # m/s^2: the scenes' walkers slow to their waypoint stops at about this rate (rendered development truth, docs)
 LAG_S = 0.2  # a window's flow is the mean over its camera track's last five frames: the velocity of two frames ago
 
 
@@ -75,11 +75,12 @@ def test_a_track_seen_by_one_camera_alone_or_not_yet_confirmed_counts_its_misses
         assert on == off
 
 
-def _stop(slow_misses: bool) -> tuple[JointTrack, list[float]]:
+def _stop(slow_misses: bool) -> tuple[JointTrack, list[float], float]:
     """A walker at 0.8 m/s east from (2.5, 3.5) slows to a stop at DECEL in view of all four
     cameras; each reports its window (with the flow of ``LAG_S`` before, as the tracker's
     five-frame mean flows are) while the person moves at least ``mover_flow_px`` in its image,
-    none after. Returns the track after 4 s and its existence log-odds per frame."""
+    none after. Returns the track after 4 s, its existence log-odds per frame and where the
+    walker stopped (x, m)."""
     cams = four_cameras()
     cfg, jt = _tracker(cams, slow_misses=slow_misses)
     tr = _walker([2.5, 3.5], [0.8, 0.0], "planes")
@@ -94,15 +95,16 @@ def _stop(slow_misses: bool) -> tuple[JointTrack, list[float]]:
             frame[c.name] = _box(c, [x, 3.5], (v_flow, 0.0)) if moving else CameraBoxes.empty()
         jt.step([tr], frame, 0.1)
         exist.append(float(tr.exist))
-    return tr, exist
+    return tr, exist, x
 
 
 def test_a_walker_slowing_to_a_stop_ends_standing_and_accepted():
     """The whole stop: the windows end camera by camera; the track ends standing where the walker
     stopped, never rejected, and the existence evidence it loses on the way is less with
     ``slow_misses`` than without."""
-    tr, on = _stop(True)
-    _, off = _stop(False)
+    tr, on, x = _stop(True)
+    _, off, _ = _stop(False)
     assert tr.mu > 0.9
+    assert np.linalg.norm(tr.estimate()[:2] - [x, 3.5]) < 0.2
     assert min(on) > EXIST_REJECT
     assert EXIST_ACCEPT - min(on) < EXIST_ACCEPT - min(off)
