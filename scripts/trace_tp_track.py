@@ -1,6 +1,6 @@
 """Frame trace of one target_planes track: what each camera showed it and how it moved.
 
-    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--param KEY=VALUE ...]
+    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--param KEY=VALUE ...]
 
 Runs target_planes on one occlusion_lab recording (single-target with the experiment's click,
 ``experiment_tsutsui.run_target``, or every mover with ``--multi``) and prints, for each frame in
@@ -14,6 +14,12 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   window was explained by; a window absent is clutter);
 - its state after the frame's updates, its mode (planes / area / merged / predicted) and each
   camera's status;
+- with ``--updates``, after the cameras' lines, every Kalman update of the track, in order
+  (its camera; a target plane - of its own window, or a merged window's edge with the track's
+  share of it -, an edge, the width, the depth, the flow) and how far it moved the position and
+  velocity
+  (issue 12's fifty-fifth session: rendered 2341, 6.0-7.0 s, where a merged window's edge
+  carries the stopping target's track off);
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
   camera whose image it falls in.
@@ -44,12 +50,16 @@ def _windows(boxes) -> str:
                     for j, (b, f) in enumerate(zip(boxes.win, boxes.flow))) or "none"
 
 
+UPDATES = ("update_plane", "update_own_edge", "update_width", "update_depth", "update_flow")  # JointTracker's Kalman updates
+
+
 class Tracer:
     """Wraps ``tp_joint.JointTracker.step`` and ``explain_camera`` for one run, collecting the
     trace lines of one track in every frame it exists, by frame index (the frame times come
-    with the run's result); ``close`` puts the tracker back."""
+    with the run's result); with ``updates`` also each Kalman update of the track (``UPDATES``)
+    and how far it moved the state; ``close`` puts the tracker back."""
 
-    def __init__(self, tid: int):
+    def __init__(self, tid: int, updates: bool = False):
         self.tid = tid
         self.k = -1  # the frame index: one step per frame
         self.frames: list[tuple[int, list[str]]] = []  # (frame index, its lines: before, cameras, after)
@@ -84,19 +94,44 @@ class Tracer:
             return expl, projs
 
         JT.step, JT.explain_camera = step, explain_camera
+        self.orig_updates = {name: getattr(JT, name) for name in UPDATES} if updates else {}
+        for name, orig in self.orig_updates.items():
+            setattr(JT, name, self._update(name, orig))
+
+    def _update(self, name: str, orig):
+        """``orig`` (a JointTracker update of one track in camera c) with a trace line of the
+        change in the traced track's position and velocity; for a plane, whether its column was
+        the track's own window's or a merged window's edge (``own``) and the edge's share."""
+        tracer = self
+
+        def update(jt, tr, c, *args, **kwargs):
+            before = tr.s.copy()
+            out = orig(jt, tr, c, *args, **kwargs)
+            if tr is tracer.track and tracer.frames:
+                d = tr.s - before
+                what = ""
+                if name == "update_plane":
+                    what = f" {'own' if kwargs.get('own', True) else 'edge'} share {kwargs.get('weight', 1.0):.2f}"
+                tracer.frames[-1][1].append(f"      {c} {name}{what}: dx {d[0]:+.3f},{d[1]:+.3f} dv {d[2]:+.3f},{d[3]:+.3f}")
+            return out
+
+        return update
 
     def close(self) -> None:
         tp_joint.JointTracker.step, tp_joint.JointTracker.explain_camera = self.orig
+        for name, orig in self.orig_updates.items():
+            setattr(tp_joint.JointTracker, name, orig)
 
 
-def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None) -> list[str]:
+def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None,
+          updates: bool = False) -> list[str]:
     """The trace lines of track ``tid`` over [t0, t1] s of the recording in folder ``d``, each
-    frame's true positions after it."""
+    frame's true positions after it (``updates``: each Kalman update's change of the state too)."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
     ts.refuse_lookahead("trace_tp_track", params, "trace")
     rec = read_recording(d)
-    tracer = Tracer(tid)
+    tracer = Tracer(tid, updates)
     try:
         if multi:
             res = ts.multi_estimator(rec, params).run(rec.observations, rec.calibration)
@@ -129,8 +164,9 @@ def main(argv=None) -> int:
     ap.add_argument("--track", type=int, default=0, help="track id (default 0: the hand-chosen target's)")
     ap.add_argument("--multi", action="store_true", help="track every mover (multi_person=true) instead of the clicked target")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
+    ap.add_argument("--updates", action="store_true", help="also each Kalman update of the track and how far it moved the state")
     a = ap.parse_args(argv)
-    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param))
+    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates)
     if not lines:
         print(f"track {a.track} does not exist between {a.t0:g} and {a.t1:g} s")
         return 1

@@ -57,3 +57,34 @@ def test_the_truth_lines_give_each_persons_columns_in_the_cameras_that_see_them(
         w = geo.cylinder_window(P, (target.x, target.y), 1.8, 0.2)
         if "target" in ln:
             assert f"target {w[0]:.0f}-{w[1]:.0f}" in ln
+
+
+def test_updates_are_traced_and_add_up_to_the_frames_change(rec_dir):
+    """``--updates``: each Kalman update of the track is a line with how far it moved the state;
+    over a frame the position changes of the update lines add up to the step from the predicted
+    state (before plus dt times the velocity) to the state after, up to the caps and the mode
+    mixing the prediction applies (a few mm here); the tracker's methods are put back after."""
+    import numpy as np
+
+    before = {name: getattr(tp_joint.JointTracker, name) for name in tt.UPDATES}
+    lines = tt.trace(rec_dir, 0, 2.0, 2.3, updates=True)
+    assert {name: getattr(tp_joint.JointTracker, name) for name in tt.UPDATES} == before
+    ups = [ln for ln in lines if ln.startswith("      obl_")]
+    assert ups and all(any(f" {name}" in ln for name in tt.UPDATES) and " dx " in ln and " dv " in ln for ln in ups)
+    assert any("update_plane own share 1.00" in ln for ln in ups)
+    assert tt.trace(rec_dir, 0, 2.0, 2.3) == [ln for ln in lines if not ln.startswith("      obl_")]  # the same run otherwise
+    # one frame: before + 0.1 v (the prediction) + the updates' dx = after
+    frame, blocks = [], []
+    for ln in lines:
+        if ln.startswith("t ") and frame:
+            blocks.append(frame)
+            frame = []
+        frame.append(ln)
+    blocks.append(frame)
+    nums = lambda s, key: np.array([float(v) for v in s.split(key)[1].split()[0].split(",")])
+    for b in blocks:
+        dx = sum((nums(ln, " dx ") for ln in b if ln.startswith("      obl_")), np.zeros(2))
+        x0, v0 = nums(b[0], " x "), nums(b[0], " v ")
+        x1 = nums(next(ln for ln in b if ln.lstrip().startswith("after:")), " x ")
+        if dx.any():
+            np.testing.assert_allclose(x0 + 0.1 * v0 + dx, x1, atol=0.02)
