@@ -94,6 +94,7 @@ class Tracer:
             return expl, projs
 
         JT.step, JT.explain_camera = step, explain_camera
+        self.depth = 0  # updates under way (one may call another)
         self.orig_updates = {name: getattr(JT, name) for name in UPDATES} if updates else {}
         for name, orig in self.orig_updates.items():
             setattr(JT, name, self._update(name, orig))
@@ -101,13 +102,18 @@ class Tracer:
     def _update(self, name: str, orig):
         """``orig`` (a JointTracker update of one track in camera c) with a trace line of the
         change in the traced track's position and velocity; for a plane, whether its column was
-        the track's own window's or a merged window's edge (``own``) and the edge's share."""
+        the track's own window's or a merged window's edge (``own``) and the edge's share. An
+        update made inside another (``update_own_edge``'s plane) is that one's line alone."""
         tracer = self
 
         def update(jt, tr, c, *args, **kwargs):
             before = tr.s.copy()
-            out = orig(jt, tr, c, *args, **kwargs)
-            if tr is tracer.track and tracer.frames:
+            tracer.depth += 1
+            try:
+                out = orig(jt, tr, c, *args, **kwargs)
+            finally:
+                tracer.depth -= 1
+            if tr is tracer.track and tracer.frames and tracer.depth == 0:
                 d = tr.s - before
                 what = ""
                 if name == "update_plane":

@@ -88,3 +88,14 @@ def test_updates_are_traced_and_add_up_to_the_frames_change(rec_dir):
         x1 = nums(next(ln for ln in b if ln.lstrip().startswith("after:")), " x ")
         if dx.any():
             np.testing.assert_allclose(x0 + 0.1 * v0 + dx, x1, atol=0.02)
+
+
+def test_an_update_made_inside_another_is_traced_once(rec_dir):
+    """``update_own_edge`` makes its plane update through ``update_plane``: the trace shows the
+    own-edge update once, not also the plane inside it with the same change."""
+    lines = tt.trace(rec_dir, 0, 0.0, 6.0, multi=True, updates=True)
+    edges = [k for k, ln in enumerate(lines) if "update_own_edge" in ln]
+    assert edges  # this recording's track 0 has a window too wide for it at least once
+    for k in edges:
+        change = lines[k].split(":", 1)[1]
+        assert not ("update_plane" in lines[k - 1] and lines[k - 1].split(":", 1)[1] == change)
