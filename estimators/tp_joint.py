@@ -754,7 +754,7 @@ class JointTracker:
             # only, and a track on trial may be a crossing of fragments: their misses count in full)
             slow = self.p_slow(p)
         else:
-            slow = float(float(np.linalg.norm(p.flow)) < cfg.mover_flow_px)
+            slow = float(np.linalg.norm(p.flow) < cfg.mover_flow_px)
         if hidden or slow >= 1.0 or not visible:
             tr.missed.discard(c)
             return 0.0
