@@ -15,6 +15,11 @@ with the mover walking (the truth's ``walking``, true speed at least 0.3 m/s):
   more cameras; ``area``: in one; ``merged``: only shares of merged windows; ``predicted``: no
   window);
 - ``pair``: whether another mover was within 1 m (``beside``) or not (``apart``);
+- ``below``: whether an oblique camera sees the mover with the feet below its image (its
+  projected cylinder, height 1.8 m and radius 0.2 m as the tracker's person, reaches past the
+  image's bottom row while lying at least in part between its left and right borders: a person
+  1-3 m from a corner camera, whose windows hold the upper body; the fifty-fifth session's
+  failures at the west wall near the south-west corner; False where no camera is given);
 - ``d2``: the error's squared Mahalanobis distance under the track's own position covariance
   (the internal rows' ``cxx, cxy, cyy``; NaN without them): for a consistent tracker it is
   chi^2_2, median 1.39, beyond 9.21 one frame in a hundred (fewer here: errors beyond the 1 m
@@ -24,7 +29,8 @@ Unlike ``measure_tp_lag`` (the reported target's lag, along its reported velocit
 more cameras update it), this reads every mover's track, internal, by the true heading, in every
 mode. It prints, per mode and pair, the frames, the median and 90th percentile of ``err``, the median
 ``along``, the median ``speed``, the median ``d2`` and the share of frames with ``d2`` beyond
-chi^2_2(0.99); ``--csv`` writes every matched frame.
+chi^2_2(0.99), then the same by mode and ``below`` (frames with and without a camera that sees
+the mover's feet below its image); ``--csv`` writes every matched frame.
 """
 from __future__ import annotations
 
@@ -41,16 +47,30 @@ BESIDE_M = 1.0  # another mover this near: the pair is "beside"
 WALK_MPS = 0.3  # a mover at least this fast is walking
 MODES = ("planes", "area", "merged", "predicted")
 CHI2_2_99 = float(chi2.ppf(0.99, 2))  # chi^2_2's 99th percentile, 9.21
+PERSON_HEIGHT, PERSON_RADIUS = 1.8, 0.2  # the tracker's person (Config height and radius' defaults), m
 
 
-def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
+def feet_below(cameras: dict, xy: np.ndarray) -> bool:
+    """Whether some camera of ``cameras`` (name -> (P, width, height), px) sees a person standing
+    at floor point xy with the feet below its image (module docstring, ``below``)."""
+    from trackroom.estimators import tp_geometry as geo
+
+    for P, width, height in cameras.values():
+        win = geo.cylinder_window(P, np.asarray(xy, float), PERSON_HEIGHT, PERSON_RADIUS)
+        if np.isfinite(win).all() and win[1] >= 0.0 and win[0] <= width and win[3] > height:
+            return True
+    return False
+
+
+def track_errors(internal: pd.DataFrame, movers: pd.DataFrame, cameras: dict | None = None) -> pd.DataFrame:
     """Each frame's confirmed tracks matched to the walking movers (module docstring).
 
     ``internal``: ``t, track_id, x, y, vx, vy, mode, confirmed``; ``movers``: the movers' truth,
     ``t, person_id, x, y, vx, vy, walking`` (looked up at the nearest earlier or equal simulation
-    step); with ``cxx, cxy, cyy`` (the position's covariance) ``d2`` is measured, else NaN.
-    Returns rows ``t, track_id, person_id, mode, pair, err, along, speed, d2``."""
-    cols = ["t", "track_id", "person_id", "mode", "pair", "err", "along", "speed", "d2"]
+    step); with ``cxx, cxy, cyy`` (the position's covariance) ``d2`` is measured, else NaN;
+    ``cameras`` (name -> (P, width, height)) the oblique cameras for ``below`` (None: all False).
+    Returns rows ``t, track_id, person_id, mode, pair, err, along, speed, d2, below``."""
+    cols = ["t", "track_id", "person_id", "mode", "pair", "err", "along", "speed", "d2", "below"]
     has_cov = {"cxx", "cxy", "cyy"} <= set(internal.columns)
     tracks = internal[internal["confirmed"].astype(bool)]
     if tracks.empty or movers.empty:
@@ -77,21 +97,24 @@ def track_errors(internal: pd.DataFrame, movers: pd.DataFrame) -> pd.DataFrame:
             e = X[i] - P[j]
             d2 = float(e @ np.linalg.solve(np.array([[tr["cxx"], tr["cxy"]], [tr["cxy"], tr["cyy"]]]), e)) if has_cov else np.nan
             rows.append((float(t), int(tr["track_id"]), h["person_id"].iloc[j], str(tr["mode"]), "beside" if near else "apart",
-                         float(D[i, j]), float(e @ (V[j] / speed)), float(np.hypot(tr["vx"], tr["vy"])) / speed, d2))
+                         float(D[i, j]), float(e @ (V[j] / speed)), float(np.hypot(tr["vx"], tr["vy"])) / speed, d2,
+                         feet_below(cameras or {}, P[j])))
     return pd.DataFrame(rows, columns=cols)
 
 
-def summary(E: pd.DataFrame) -> pd.DataFrame:
-    """Per mode and pair: frames, median and 90th percentile error (m), median along-heading
-    offset (m), median speed ratio, median ``d2`` and its share beyond chi^2_2(0.99)."""
+def summary(E: pd.DataFrame, by: tuple[str, ...] = ("mode", "pair")) -> pd.DataFrame:
+    """Per mode and pair (or the columns ``by``): frames, median and 90th percentile error (m),
+    median along-heading offset (m), median speed ratio, median ``d2`` and its share beyond
+    chi^2_2(0.99)."""
     out = []
-    for (mode, pair), g in E.groupby(["mode", "pair"], sort=False):
-        out.append({"mode": mode, "pair": pair, "frames": len(g), "err_median": g["err"].median(),
+    for key, g in E.groupby(list(by), sort=False):
+        key = key if isinstance(key, tuple) else (key,)
+        out.append({**dict(zip(by, key)), "frames": len(g), "err_median": g["err"].median(),
                     "err_p90": g["err"].quantile(0.9), "along_median": g["along"].median(), "speed_median": g["speed"].median(),
                     "d2_median": g["d2"].median(), "beyond99": (g["d2"] > CHI2_2_99).mean() if g["d2"].notna().any() else np.nan})
-    S = pd.DataFrame(out, columns=["mode", "pair", "frames", "err_median", "err_p90", "along_median", "speed_median", "d2_median", "beyond99"])
+    S = pd.DataFrame(out, columns=[*by, "frames", "err_median", "err_p90", "along_median", "speed_median", "d2_median", "beyond99"])
     order = {m: k for k, m in enumerate(MODES)}
-    return S.sort_values(["mode", "pair"], key=lambda s: s.map(order) if s.name == "mode" else s).reset_index(drop=True)
+    return S.sort_values(list(by), key=lambda s: s.map(order) if s.name == "mode" else s).reset_index(drop=True)
 
 
 def errors(d: str, params: dict) -> pd.DataFrame:
@@ -103,7 +126,9 @@ def errors(d: str, params: dict) -> pd.DataFrame:
     rec = read_recording(d)
     scene = load_scene(Path(d) / "scene.toml")
     res = multi_estimator(rec, params).run(rec.observations, rec.calibration)
-    E = track_errors(res.internal, movers_only(rec, scene).truth.people)
+    cams = {c: (np.asarray(cam.P, float), float(cam.width), float(cam.height))
+            for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
+    E = track_errors(res.internal, movers_only(rec, scene).truth.people, cams)
     E.insert(0, "recording", d)
     return E
 
@@ -116,6 +141,8 @@ def main(argv=None) -> int:
     print(f"{len(dirs)} recordings, {len(E)} matched frames of walking movers")
     with pd.option_context("display.width", 200, "display.float_format", "{:.3f}".format):
         print(summary(E).to_string(index=False))
+        print("by mode and whether a camera sees the mover's feet below its image:")
+        print(summary(E, ("mode", "below")).to_string(index=False))
     if csv:
         E.to_csv(csv, index=False)
     return 0

@@ -68,3 +68,26 @@ def test_the_error_is_normalised_by_the_tracks_own_covariance_and_counted_beyond
     assert S.loc["area", "d2_median"] == pytest.approx(25.0)
     bare = track_errors(internal.drop(columns=["cxx", "cxy", "cyy"]), movers)
     assert bare["d2"].isna().all() and summary(bare)["beyond99"].isna().all()
+
+
+def test_frames_where_a_corner_camera_sees_the_movers_feet_below_its_image_are_told_apart():
+    """The four test cameras (corners of an 8 x 7 m room, 2.6 m up): mover a walks 1 m from the
+    south-west camera, whose image the feet are below of (``below``); mover b walks in the middle
+    of the room, seen whole by all four. Without cameras every frame is not ``below``. The
+    summary by ``below`` splits the frames."""
+    from scripts.explain_tp_errors import feet_below
+    from tests.test_target_planes import four_cameras
+
+    cams = {c.name: (np.asarray(c.P, float), float(c.width), float(c.height)) for c in four_cameras()}
+    assert feet_below(cams, (1.0, 0.8)) and not feet_below(cams, (4.0, 3.5))
+    assert [n for n in cams if feet_below({n: cams[n]}, (1.0, 0.8))] == ["sw"]
+    movers = pd.concat([mover("a", (0.8, 0.8), (0.1, 0.0)), mover("b", (3.5, 3.5), (0.1, 0.0))], ignore_index=True)
+    movers["vx"] = 0.5  # walking (the positions move 0.1 m/s: they stay where they are)
+    internal = pd.concat([track(1, (0.8, 0.85), (0.1, 0.0), "area"), track(2, (3.5, 3.5), (0.1, 0.0), "planes")],
+                         ignore_index=True)
+    E = track_errors(internal, movers, cams)
+    assert E.loc[E["track_id"] == 1, "below"].all() and not E.loc[E["track_id"] == 2, "below"].any()
+    assert not track_errors(internal, movers)["below"].any()
+    S = summary(E, ("below",)).set_index("below")
+    assert S.loc[True, "frames"] == S.loc[False, "frames"] == len(T)
+    assert S.loc[True, "err_median"] == pytest.approx(0.05) and S.loc[False, "err_median"] == pytest.approx(0.0)

@@ -168,3 +168,39 @@ def test_a_cut_windows_excess_error_counts_its_spread_and_its_shortfall_over_the
     # the same excess read from another column (``--below``: the feet below the image)
     below = df.rename(columns={"border": "below"})
     assert cut_excess(below, col="below") == (a, c)
+
+
+def test_the_visible_parts_centre_is_half_way_up_the_axis_inside_the_image():
+    """The test cameras (corners, 2.6 m up, 320 x 240): a person in the room's middle is seen
+    whole (half the height); 1.4 m from the south-west camera the feet are below its image, and
+    the reference is half-way between where the axis enters the bottom row and the head, whose
+    image row is then near the middle of the axis's rows inside the image."""
+    from scripts.measure_flow_errors import HEIGHT, visible_centre_z
+    from tests.test_target_planes import four_cameras
+    from trackroom.estimators import tp_geometry as geo
+
+    sw = next(c for c in four_cameras() if c.name == "sw")
+    P = np.asarray(sw.P, float)
+    assert visible_centre_z(P, (4.0, 3.5), sw.height) == pytest.approx(0.5 * HEIGHT)
+    z = visible_centre_z(P, (0.7, 1.4), sw.height)
+    assert 0.5 * HEIGHT < z < HEIGHT
+    head_row = geo.project(P, np.array([0.7, 1.4, HEIGHT]))[0][1]
+    assert geo.project(P, np.array([0.7, 1.4, 0.0]))[0][1] > sw.height > head_row
+    assert geo.project(P, np.array([0.7, 1.4, z]))[0][1] == pytest.approx(0.5 * (sw.height + head_row), abs=2.0)
+
+
+def test_the_centroid_table_compares_both_references_by_whether_the_feet_are_below():
+    """Windows with feet in the image err 1 px from both references; those with the feet below
+    err 6 px from the body centre's and 1 px from the visible part's; cut and narrow windows are
+    left out."""
+    from scripts.measure_flow_errors import centroid_table
+
+    n = 10
+    df = pd.DataFrame({"du": [1.0] * n + [6.0] * n + [30.0], "du_vis": [1.0] * n + [1.0] * n + [30.0],
+                       "below": [False] * n + [True] * n + [True], "border": [False] * (2 * n) + [True],
+                       "share": [1.0] * (2 * n + 1)})
+    T = centroid_table(df).set_index("windows")
+    assert T.loc["feet in the image", "n"] == n and T.loc["feet below the image", "n"] == n
+    assert T.loc["feet below the image", "rms_body_centre"] == pytest.approx(6.0)
+    assert T.loc["feet below the image", "rms_visible_centre"] == pytest.approx(1.0)
+    assert T.loc["the two 5+ px apart", "n"] == 0  # 5 px apart exactly: not more than 5
