@@ -116,15 +116,17 @@ def visible_centre_z(P: np.ndarray, xy, image_height: float, height: float = HEI
     B = P[:, 2]
     if A[2] <= 1e-9 or A[2] + height * B[2] <= 1e-9:
         return 0.5 * height  # behind the camera
-    lo, hi = 0.0, height
-    for z_end, v_cut in ((0.0, image_height), (height, 0.0)):
-        v_end = (A[1] + z_end * B[1]) / (A[2] + z_end * B[2])
-        if (z_end == 0.0 and v_end > image_height) or (z_end == height and v_end < 0.0):
-            den = B[1] - v_cut * B[2]
-            if abs(den) < 1e-12:
-                return 0.5 * height
-            z = (v_cut * A[2] - A[1]) / den
-            lo, hi = (max(lo, z), hi) if z_end == 0.0 else (lo, min(hi, z))
+
+    def row(z: float) -> float:
+        return (A[1] + z * B[1]) / (A[2] + z * B[2])
+
+    def height_at(v: float) -> float:  # the axis's height at image row v (NaN: the axis runs along that row)
+        den = B[1] - v * B[2]
+        return (v * A[2] - A[1]) / den if abs(den) >= 1e-12 else float("nan")
+
+    lo = height_at(image_height) if row(0.0) > image_height else 0.0  # the feet below the image
+    hi = height_at(0.0) if row(height) < 0.0 else height  # the head above it
+    lo, hi = max(lo, 0.0), min(hi, height)
     return 0.5 * (lo + hi) if hi > lo else 0.5 * height
 
 
@@ -190,10 +192,10 @@ def centroid_table(df: pd.DataFrame, shift_px: float = 5.0) -> pd.DataFrame:
     out = []
     for name, h in (("feet in the image", g[~g["below"].astype(bool)]), ("feet below the image", g[g["below"].astype(bool)]),
                     (f"the two {shift_px:g}+ px apart", g[shift > shift_px])):
-        out.append({"windows": name, "n": len(h), "rms_body_centre": float(np.sqrt((h["du"] ** 2).mean())) if len(h) else np.nan,
-                    "rms_visible_centre": float(np.sqrt((h["du_vis"] ** 2).mean())) if len(h) else np.nan,
-                    "median_body_centre": float(h["du"].abs().median()) if len(h) else np.nan,
-                    "median_visible_centre": float(h["du_vis"].abs().median()) if len(h) else np.nan})
+        # (an empty group's mean and median are NaN)
+        out.append({"windows": name, "n": len(h), "rms_body_centre": float(np.sqrt((h["du"] ** 2).mean())),
+                    "rms_visible_centre": float(np.sqrt((h["du_vis"] ** 2).mean())),
+                    "median_body_centre": float(h["du"].abs().median()), "median_visible_centre": float(h["du_vis"].abs().median())})
     return pd.DataFrame(out)
 
 
