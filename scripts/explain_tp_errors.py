@@ -47,16 +47,17 @@ BESIDE_M = 1.0  # another mover this near: the pair is "beside"
 WALK_MPS = 0.3  # a mover at least this fast is walking
 MODES = ("planes", "area", "merged", "predicted")
 CHI2_2_99 = float(chi2.ppf(0.99, 2))  # chi^2_2's 99th percentile, 9.21
-PERSON_HEIGHT, PERSON_RADIUS = 1.8, 0.2  # the tracker's person (Config height and radius' defaults), m
 
 
 def feet_below(cameras: dict, xy: np.ndarray) -> bool:
     """Whether some camera of ``cameras`` (name -> (P, width, height), px) sees a person standing
     at floor point xy with the feet below its image (module docstring, ``below``)."""
     from trackroom.estimators import tp_geometry as geo
+    from trackroom.estimators.target_planes import TargetPlanes
 
+    person = TargetPlanes.Config  # the tracker's person model: its height and radius defaults
     for P, width, height in cameras.values():
-        win = geo.cylinder_window(P, np.asarray(xy, float), PERSON_HEIGHT, PERSON_RADIUS)
+        win = geo.cylinder_window(P, np.asarray(xy, float), person.height, person.radius)
         if np.isfinite(win).all() and win[1] >= 0.0 and win[0] <= width and win[3] > height:
             return True
     return False
@@ -107,8 +108,7 @@ def summary(E: pd.DataFrame, by: tuple[str, ...] = ("mode", "pair")) -> pd.DataF
     median along-heading offset (m), median speed ratio, median ``d2`` and its share beyond
     chi^2_2(0.99)."""
     out = []
-    for key, g in E.groupby(list(by), sort=False):
-        key = key if isinstance(key, tuple) else (key,)
+    for key, g in E.groupby(list(by), sort=False):  # key: a tuple, one value per column of ``by``
         out.append({**dict(zip(by, key)), "frames": len(g), "err_median": g["err"].median(),
                     "err_p90": g["err"].quantile(0.9), "along_median": g["along"].median(), "speed_median": g["speed"].median(),
                     "d2_median": g["d2"].median(), "beyond99": (g["d2"] > CHI2_2_99).mean() if g["d2"].notna().any() else np.nan})

@@ -96,12 +96,13 @@ from scipy.optimize import curve_fit
 
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import mean_flows
 from trackroom.sim.perception_fit import lagged_products
 
 MOVERS = ("target", "distractor")
 CENTRE_Z = 0.85
-HEIGHT, RADIUS = 1.8, 0.2
+HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 SPEED_BINS = (5, 10, 20, 30, 40, 60, 80, 1000)  # px/s
 MAX_LAG = 30  # frames
 

@@ -39,10 +39,11 @@ import pandas as pd
 
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import (VIS_FRACTIONS, Occluders, coincidence_chance, detection_gate, detector_sees,
                                           partly_in_image, wholly_in_image)
 
-HEIGHT, RADIUS, CENTRE = 1.8, 0.2, 0.9  # the tracker's person model (m) and the axis point it projects
+HEIGHT, RADIUS, CENTRE = TargetPlanes.Config.height, TargetPlanes.Config.radius, 0.9  # the tracker's person model (m) and the axis point it projects
 GHOSTS = 60
 GHOST_SD = 0.1  # m
 STILL = 0.05  # m/s: a person standing (the truth's speed below this), where ``person_detections`` is used

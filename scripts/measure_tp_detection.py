@@ -33,8 +33,10 @@ import pandas as pd
 
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import Occluders
 
+HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 COLUMNS = ["rec", "t", "cam", "pid", "speed", "hid", "near", "det", "overlap", "cover", "walking", "gs", "dgs"]
 BACK_STEPS = 10  # simulation steps (0.01 s) back for the ground speed's change
 SPEED_BANDS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8, 2.0)  # m/s
@@ -61,7 +63,7 @@ def recording_rows(d, slowing: bool = False) -> list[tuple]:
     bx = {k: g for k, g in boxes.groupby([boxes.t.round(6), "camera"])}
     cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
-    occ = Occluders(rec.calibration.floorplan, Ps, 1.8)
+    occ = Occluders(rec.calibration.floorplan, Ps, HEIGHT)
     pp = {pid: g.sort_values("t").reset_index(drop=True) for pid, g in ppl.groupby("person_id")}
     movers = ["target", "distractor"]
     standing = [q for q in pp if q not in movers]
@@ -74,13 +76,13 @@ def recording_rows(d, slowing: bool = False) -> list[tuple]:
         x, y, z, vx, vy = p[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
         uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
         sp = float(np.hypot(*(uv[1] - uv[0]) / 0.01))
-        win = geo.cylinder_window(P, np.array([x, y]), 1.8, 0.2)
+        win = geo.cylinder_window(P, np.array([x, y]), HEIGHT, RADIUS)
         if win[1] < 0 or win[0] > cam.width: continue
         if not occ.visible(r.camera, np.array([x, y])): continue
         o = pp[[m for m in movers if m != r.person_id][0]]
         ox, oy = o.x.iloc[k], o.y.iloc[k]
         C = occ.centres[r.camera]
-        wo = geo.cylinder_window(P, np.array([ox, oy]), 1.8, 0.2)
+        wo = geo.cylinder_window(P, np.array([ox, oy]), HEIGHT, RADIUS)
         u = 0.5 * (win[0] + win[1])
         hid = np.hypot(ox - C[0], oy - C[1]) < np.hypot(x - C[0], y - C[1]) and wo[0] <= u <= wo[1]
         near_other = wo[0] <= win[1] and win[0] <= wo[1]
@@ -89,7 +91,7 @@ def recording_rows(d, slowing: bool = False) -> list[tuple]:
         for q in standing:
             sq = pp[q].iloc[min(k, len(pp[q]) - 1)]
             if np.hypot(sq.x - C[0], sq.y - C[1]) < dist:
-                ws = geo.cylinder_window(P, np.array([sq.x, sq.y]), 1.8, 0.2)
+                ws = geo.cylinder_window(P, np.array([sq.x, sq.y]), HEIGHT, RADIUS)
                 cover = max(cover, max(0.0, min(ws[1], win[1]) - max(ws[0], win[0])) / max(win[1] - win[0], 1e-9))
         g = bx.get((round(float(r.t), 6), r.camera))
         det = overlap = False

@@ -17,8 +17,10 @@ import pandas as pd
 
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import Occluders
 
+HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 FRAMES = range(-8, 4)
 
 
@@ -28,7 +30,7 @@ def stops(d) -> pd.DataFrame:
     by = {k: g for k, g in boxes.groupby([boxes.t.round(6), "camera"])}
     cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
-    occ = Occluders(rec.calibration.floorplan, Ps, 1.8)
+    occ = Occluders(rec.calibration.floorplan, Ps, HEIGHT)
     rows = []
     for pid in ("target", "distractor"):
         p = people[people.person_id == pid].sort_values("t").reset_index(drop=True)
@@ -38,7 +40,7 @@ def stops(d) -> pd.DataFrame:
                 continue
             xy = np.array([p.x[k], p.y[k]])
             for c, cam in cams.items():
-                win = geo.cylinder_window(Ps[c], xy, 1.8, 0.2)
+                win = geo.cylinder_window(Ps[c], xy, HEIGHT, RADIUS)
                 if not occ.visible(c, xy) or win[0] < 0 or win[1] > cam.width:
                     continue
                 u = 0.5 * (win[0] + win[1])
