@@ -342,6 +342,11 @@ class TargetPlanes(Estimator):
                                      "walking state no longer takes a neighbour's window (with border_edges: movers' "
                                      "MOTA >= 0.9 on 166 instead of 141 of 260 development recordings; "
                                      "docs/target_planes.md)")
+        post_path: bool = param(True, "a pair's identity decision takes each track's velocity after the encounter "
+                                "as its displacement over the identity lag (tp_identity.IdentityLag.post_state), not "
+                                "the filter's velocity, which lags a walker whose windows were merged (no parameter "
+                                "value; on: development identity 503 -> 504 of 520, head-on 180 gained, none lost; "
+                                "docs/target_planes.md, fifty-eighth session)")
         border_edges: bool = param(True, "a window ending at an image border, of a track predicted across it, is the "
                                    "visible part of someone cut by it (rendered: 21 % of windows end at a border; "
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "
@@ -532,6 +537,7 @@ class TargetPlanes(Estimator):
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
             idl.behind_at_birth, idl.since_confirmed = cfg.behind_at_birth, cfg.since_confirmed
             idl.handover_reach = cfg.handover_reach
+            idl.post_path = cfg.post_path
             if cfg.rejected_successor and not cfg.multi_person:
                 idl.successor_reject, idl.hold_s = EXIST_REJECT, cfg.hold_s
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:

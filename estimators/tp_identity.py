@@ -23,8 +23,12 @@ of the pair's states before and after it, with both assignments kept until then:
   is not ambiguous once it is that far apart again, even if a view still sees the two merged);
   the decision waits ``lag_s`` more (a pair that becomes ambiguous again within it continues the
   episode), so the *post* states s, S at td = t1 + ``lag_s`` have the lag's windows in them (a
-  smoother over the last ``lag_s``, in the filter's form). Both hypotheses are scored, identities kept (K) or
-  exchanged (X):
+  smoother over the last ``lag_s``). With ``post_path`` (since the fifty-eighth session) a post
+  state's velocity is the track's displacement from t1 to td over td - t1, not the filter's
+  velocity at td (``post_state``): in the encounter's merged frames no flow updates a track, so
+  its velocity after it lags the person it is on (or still carries the other person's, when the
+  tracks swapped), while the lag's positions are held by the windows' planes. Both hypotheses are
+  scored, identities kept (K) or exchanged (X):
 
       log L(K) = log N(s_a(td); F s_a^pre, F S_a^pre F^T + Q + S_a(td)) + (the same for b)
       log L(X) = log N(s_b(td); F s_a^pre, F S_a^pre F^T + Q + S_b(td)) + (a with b's prediction)
@@ -213,6 +217,8 @@ class IdentityLag:
     decisions: list = field(default_factory=list)  # every scored decision (``record``), for diagnosis
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
+    post_path: bool = False  # (the estimator's default: on) a pair's post velocities are its tracks' displacements over the lag (``post_state``)
+    path: dict = field(default_factory=dict)  # internal id -> [(t, x, S[x])] over the last lag_s (``post_path``)
     successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
     watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
@@ -278,6 +284,14 @@ class IdentityLag:
             if tr.confirmed:
                 self.conf_t.setdefault(tr.tid, t)
         alive = {tr.tid: tr for tr in tracks}
+        if self.post_path:
+            for tr in tracks:
+                h = self.path.setdefault(tr.tid, [])
+                h.append((t, tr.s[:2].copy(), tr.S[:2, :2].copy()))
+                while h and t - h[0][0] > self.lag_s + 1e-6:
+                    h.pop(0)
+            for tid in [k for k in self.path if k not in alive]:
+                del self.path[tid]
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
         for a, b in self._candidates(tracks):
@@ -505,11 +519,31 @@ class IdentityLag:
         """The white acceleration of the decisions' walker model (``decide_accel``, else ``accel_sigma``)."""
         return self.accel_sigma if self.decide_accel is None else self.decide_accel
 
+    def post_state(self, tr, t1: float | None, td: float) -> tuple[np.ndarray, np.ndarray]:
+        """A pair's post state at td: the track's filtered state, or with ``post_path`` its
+        position at td and, for velocity, its displacement since t1 over td - t1 (the lag's
+        positions smoothed, not the filter's velocity, which lags a walker whose windows were
+        merged: no flow updates it there); covariance from the two positions' (taken
+        independent), with the cross term of the shared end."""
+        if not self.post_path or t1 is None or td - t1 < 0.5 * self.lag_s:
+            return tr.s, tr.S
+        then = next(((x, C) for (t, x, C) in self.path.get(tr.tid, []) if abs(t - t1) < 1e-6), None)
+        if then is None:
+            return tr.s, tr.S
+        dt = td - t1
+        x1, C1 = then
+        Cd = tr.S[:2, :2]
+        s = np.r_[tr.s[:2], (tr.s[:2] - x1) / dt]
+        S = np.block([[Cd, Cd / dt], [Cd / dt, (C1 + Cd) / dt**2]])
+        return s, S
+
     def exchange_log_odds(self, td: float, ep: Episode, ta, tb) -> float:
-        """log L(X) - log L(K) of the module docstring."""
+        """log L(X) - log L(K) of the module docstring (with ``post_path``, the post states of
+        ``post_state``)."""
         pa, pb = (self._predict(ep.pre[k][0], ep.pre[k][1], td - ep.pre[k][2], self.walker_accel) for k in (ep.a, ep.b))
-        keep = gauss_loglik(ta.s - pa[0], pa[1] + ta.S) + gauss_loglik(tb.s - pb[0], pb[1] + tb.S)
-        swap = gauss_loglik(tb.s - pa[0], pa[1] + tb.S) + gauss_loglik(ta.s - pb[0], pb[1] + ta.S)
+        (sa, Sa), (sb, Sb) = self.post_state(ta, ep.t1, td), self.post_state(tb, ep.t1, td)
+        keep = gauss_loglik(sa - pa[0], pa[1] + Sa) + gauss_loglik(sb - pb[0], pb[1] + Sb)
+        swap = gauss_loglik(sb - pa[0], pa[1] + Sb) + gauss_loglik(sa - pb[0], pb[1] + Sa)
         return swap - keep
 
     def decide(self, td: float, ep: Episode, ta, tb, alive: dict) -> None:
