@@ -192,7 +192,7 @@ class IdentityLag:
     hold_s: float = 6.0  # an ended track may be found again this long after its end, s
     walk_s: float = 8.0  # mean time a walker walks before stopping, s (the tracker's walking mode)
     born: dict = field(default_factory=dict)  # internal id -> time of its first frame
-    hist: dict = field(default_factory=dict)  # internal id -> [(t, s, S)] over the last hold_s
+    hist: dict = field(default_factory=dict)  # internal id -> [(t, s, S)]: its first and those of the last hold_s (found-again links) or lag_s (``post_path``)
     last_mu: dict = field(default_factory=dict)  # internal id -> standing probability in the previous frame
     last_seen: dict = field(default_factory=dict)  # internal id -> (x, S[x]) in its last frame with a window
     ended: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of an ended confirmed track
@@ -218,7 +218,6 @@ class IdentityLag:
     deferred: dict = field(default_factory=dict)  # ended id -> (t, track, log-odds) of its likeliest link, waiting for a hand-over
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
     post_path: bool = False  # (the estimator's default: on) a pair's post velocities are its tracks' displacements over the lag (``post_state``)
-    path: dict = field(default_factory=dict)  # internal id -> [(t, x, S[x])] over the last lag_s (``post_path``)
     successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
     watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
@@ -284,14 +283,6 @@ class IdentityLag:
             if tr.confirmed:
                 self.conf_t.setdefault(tr.tid, t)
         alive = {tr.tid: tr for tr in tracks}
-        if self.post_path:
-            for tr in tracks:
-                h = self.path.setdefault(tr.tid, [])
-                h.append((t, tr.s[:2].copy(), tr.S[:2, :2].copy()))
-                while h and t - h[0][0] > self.lag_s + 1e-6:
-                    h.pop(0)
-            for tid in [k for k in self.path if k not in alive]:
-                del self.path[tid]
         if self.relink_area is not None:
             self._relink(t, tracks, alive)
         for a, b in self._candidates(tracks):
@@ -331,12 +322,14 @@ class IdentityLag:
             self._watched_successor(t, alive)
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
-        if self.relink_area is not None:
+        if self.relink_area is not None or self.post_path:
+            # found-again links read the last hold_s, a pair's post state the lag's first frame (t1)
+            keep_s = max(self.hold_s if self.relink_area is not None else 0.0, self.lag_s + 1e-6 if self.post_path else 0.0)
             for tr in tracks:
                 h = self.hist.setdefault(tr.tid, [])
                 h.append((t, tr.s.copy(), tr.S.copy()))
-                while len(h) > 2 and t - h[1][0] > self.hold_s:
-                    h.pop(1)  # keep the first state (its birth) and the last hold_s
+                while len(h) > 2 and t - h[1][0] > keep_s:
+                    h.pop(1)  # keep the first state (its birth) and the last keep_s
             for tid in [k for k in self.hist if k not in alive]:
                 del self.hist[tid]
         for tr in tracks:
@@ -527,11 +520,11 @@ class IdentityLag:
         independent), with the cross term of the shared end."""
         if not self.post_path or t1 is None or td - t1 < 0.5 * self.lag_s:
             return tr.s, tr.S
-        then = next(((x, C) for (t, x, C) in self.path.get(tr.tid, []) if abs(t - t1) < 1e-6), None)
+        then = state_at(self.hist.get(tr.tid, []), t1)
         if then is None:
             return tr.s, tr.S
         dt = td - t1
-        x1, C1 = then
+        x1, C1 = then[0][:2], then[1][:2, :2]
         Cd = tr.S[:2, :2]
         s = np.r_[tr.s[:2], (tr.s[:2] - x1) / dt]
         S = np.block([[Cd, Cd / dt], [Cd / dt, (C1 + Cd) / dt**2]])
