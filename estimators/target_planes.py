@@ -342,6 +342,18 @@ class TargetPlanes(Estimator):
                                      "walking state no longer takes a neighbour's window (with border_edges: movers' "
                                      "MOTA >= 0.9 on 166 instead of 141 of 260 development recordings; "
                                      "docs/target_planes.md)")
+        rows_explain: bool = param(True, "the joint explanation weighs section 3.2's rows (rows_cost: a window's top "
+                                   "above the projected head, its bottom below the projected feet, with the Gaussian's "
+                                   "normalisation, rows_norm) for a window gated by two or more tracks: people on one "
+                                   "line of sight differ in depth, so in their rows. Each track's rows are taken "
+                                   "relative to the track they fit best and then to the track's own best window (they "
+                                   "move a track between windows, never towards a miss); a track is not alone on such "
+                                   "a window, nor a member of a merged one, when the window's rows do not reach its "
+                                   "projected rows (rows_reach; rendered development: 3 of 240329 windows lie wholly "
+                                   "above the 1.8 m head of everyone in their columns). No parameter value; on: the 520 "
+                                   "development recordings meeting identity / RMSE >= 2 cameras / RMSE 1 camera / MOTA "
+                                   "504 / 512 / 510 / 516 -> 508 / 514 / 514 / 516, head-on draw-1 107 lost "
+                                   "(docs/target_planes.md, sixtieth session)")
         post_path: bool = param(True, "a pair's identity decision takes each track's velocity after the encounter "
                                 "as its displacement over the identity lag (tp_identity.IdentityLag.post_state), not "
                                 "the filter's velocity, which lags a walker whose windows were merged (no parameter "

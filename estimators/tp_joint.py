@@ -25,8 +25,13 @@ Per frame:
    ``c_clutter`` per clutter window and ``c_miss`` per moving track without a window (0 for a
    track predicted to stand still: it makes no window). Both are 0.5 chi^2_4(0.99): a window is
    explained by a track when that is likelier than a missed track plus a clutter window at the
-   99 % gate. Solved exactly by enumeration over each connected component of the gating graph
-   (a track gates a window whose extent, widened by 3 sigma, holds its predicted axis), with
+   99 % gate. With ``rows_explain`` (the default) a window that two or more tracks gate adds,
+   for a track alone on it, section 3.2's rows (its top above the projected head, its bottom
+   below the projected feet: people on one line of sight differ in depth, so in their rows)
+   relative to the gating track they fit best and to the track's own best window
+   (``rows_relative``), and holds no track, alone or merged, whose projected rows its own do not
+   reach (``rows_reach``). Solved exactly by enumeration over each connected component of the
+   gating graph (a track gates a window whose extent, widened by 3 sigma, holds its predicted axis), with
    ``scipy.optimize.linear_sum_assignment`` on single-person explanations where a component
    has more than ``MAX_HYPOTHESES`` hypotheses.
 3. **Update** (Kalman; every measurement is linear in s):
@@ -563,14 +568,61 @@ class JointTracker:
         projected feet (one-sided: a shorter person, feet hidden by a desk), against the window
         edge noise and the track's position spread; capped at 0.5 chi^2_2(0.99), as the flow
         (the windows' rows have heavy tails: merges, fragments)."""
+        var = self.row_vars(c, tr)
+        d2 = 0.0
+        for v, excess in zip(var, (p.win[2] - boxes.win[j, 2], boxes.win[j, 3] - p.win[3])):
+            if excess > 0.0:
+                d2 += excess**2 / (v + 1e-9)
+        return 0.5 * min(d2, FLOW_CAP)
+
+    def rows_relative(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, gate: dict) -> dict:
+        """``rows_explain``: (track, window) -> the track's section 3.2 rows for a window that two
+        or more tracks gate (``rows_cost``, with ``rows_norm`` under ``fit_normalised``), relative
+        to the gating track they fit best, and then to the track's own best window's: the rows
+        choose who takes a window and move a track between windows, never towards a miss (a
+        lone track's window whose rows fit it badly stays its own: a partial view)."""
+        cfg = self.cfg
+        relative: dict = {}
+        for j in range(len(boxes.u)):
+            rc = {i: self.rows_cost(c, tracks[i], projs[i], boxes, j) + (self.rows_norm(c, tracks[i]) if cfg.fit_normalised else 0.0)
+                  for i in projs if j in gate[i]}
+            if len(rc) > 1:
+                low = min(rc.values())
+                relative.update({(i, j): v - low for i, v in rc.items()})
+        for i in projs:
+            own = min((relative.get((i, j), 0.0) for j in gate[i]), default=0.0)
+            for j in gate[i]:
+                if (i, j) in relative:
+                    relative[(i, j)] -= own
+        return relative
+
+    def row_vars(self, c: str, tr: JointTrack) -> tuple[float, float]:
+        """Variances (px^2) of track tr's projected head and feet rows in camera c: the window
+        edge noise and the track's position spread through each row's Jacobian."""
         P = self.Ps[c]
         Sxy = tr.S[:2, :2]
-        d2 = 0.0
-        for z, excess in ((self.cfg.height, p.win[2] - boxes.win[j, 2]), (0.0, boxes.win[j, 3] - p.win[3])):
-            if excess > 0.0:
-                jv = geo.flow_jacobian(P, np.array([tr.s[0], tr.s[1], z]))[1, :2]
-                d2 += excess**2 / (self.box_sigma**2 + float(jv @ Sxy @ jv) + 1e-9)
-        return 0.5 * min(d2, FLOW_CAP)
+        var = []
+        for z in (self.cfg.height, 0.0):
+            jv = geo.flow_jacobian(P, np.array([tr.s[0], tr.s[1], z]))[1, :2]
+            var.append(self.box_sigma**2 + float(jv @ Sxy @ jv))
+        return var[0], var[1]
+
+    def rows_norm(self, c: str, tr: JointTrack) -> float:
+        """``fit_normalised``'s normalisation of ``rows_cost``'s two terms (``rows_explain``): 0.5
+        log of each row's predicted variance (``row_vars``) over the edge noise alone, so that a
+        spread-out prediction, whose rows fit any window, is not preferred for it."""
+        return sum(0.5 * float(np.log((v + 1e-9) / (self.box_sigma**2 + 1e-9))) for v in self.row_vars(c, tr))
+
+    def rows_reach(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> bool:
+        """Whether window j's rows reach track projection p's (``rows_explain``): their spans
+        overlap, the window's widened by 3 standard deviations of each projected row
+        (``row_vars``, as ``rows_cost`` weighs them: near a camera a tenth of a metre moves the
+        feet tens of pixels). A person whose projected rows lie wholly above or below a window is
+        neither seen in it nor hidden by whoever made it (a near person's head at the bottom of a
+        corner camera's image, a far person's body high above it), so is not in it: not alone on
+        a window others gate, nor a member of a merged explanation of it."""
+        head, feet = (3.0 * float(np.sqrt(v)) for v in self.row_vars(c, tr))
+        return bool(p.win[2] <= boxes.win[j, 3] + head and p.win[3] >= boxes.win[j, 2] - feet)
 
     def centroid_var(self, p: Projection, width: float) -> float:
         """Variance (px^2) of a window's centroid about the track's projected axis: the
@@ -655,10 +707,17 @@ class JointTracker:
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
         walk = {i: self.walk_cost(tracks[i].mu) * self.wake_share.get(id(tracks[i]), 1.0) for i in projs}
 
+        relative = self.rows_relative(c, tracks, projs, boxes, gate) if cfg.rows_explain else {}
+
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
             if key not in cache:
                 cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
+                if cfg.rows_explain and len(members) <= 3:
+                    if not all(self.rows_reach(c, tracks[i], projs[i], boxes, j) for i in members if len(members) > 1 or (i, j) in relative):
+                        cache[key] = np.inf  # a person whose projected rows the window's do not reach is not in it
+                    elif len(members) == 1 and (members[0], j) in relative:
+                        cache[key] += relative[(members[0], j)]
             return cache[key]
 
         gated = {j for js in gate.values() for j in js}
