@@ -113,20 +113,25 @@ def test_a_far_track_is_no_member_of_a_near_persons_window_its_rows_do_not_reach
         assert expl == ({0: (0,)} if on else {0: (0, 1)})
 
 
+def _near_and_far():
+    """Camera sw; a track 2 m from it walking slowly (0.22 m/s), one 6 m away on nearly the same
+    line of sight 0.2 m off sideways from its walker, and that walker's window (the only one)."""
+    sw = four_cameras()[0]
+    near_xy = cam_xy(sw) + 2.0 * ALONG
+    far_xy = cam_xy(sw) + 6.0 * ALONG + 0.05 * ACROSS
+    near = JointTrack(0, np.r_[near_xy, 0.2, -0.1], np.diag([0.05**2, 0.05**2, 0.3**2, 0.3**2]), confirmed=True, hits=30)
+    return sw, near, _track(1, far_xy - 0.2 * ACROSS), _box(sw, far_xy, VEL)
+
+
 def test_a_near_track_takes_a_far_window_within_its_rows_alone():
     """The limit: someone 2 m from camera sw walking slowly (0.22 m/s) in front of a walker 6 m
     away on nearly the same line of sight, whose window (whole) is the only one; the far track
     0.2 m off sideways. The window lies within the near track's columns and its rows reach the
     near track's projected head; it is the near track's best window, so relative to that its rows
     cost nothing, and by columns, widths and flows the near track alone takes it."""
-    sw = four_cameras()[0]
-    near_xy = cam_xy(sw) + 2.0 * ALONG
-    far_xy = cam_xy(sw) + 6.0 * ALONG + 0.05 * ACROSS
-    boxes = _box(sw, far_xy, VEL)
+    sw, near, far, boxes = _near_and_far()
     for on in (False, True):
         _, jt = _tracker([sw], rows_explain=on)
-        near = JointTrack(0, np.r_[near_xy, 0.2, -0.1], np.diag([0.05**2, 0.05**2, 0.3**2, 0.3**2]), confirmed=True, hits=30)
-        far = _track(1, far_xy - 0.2 * ACROSS)
         expl, projs = jt.explain_camera(sw.name, [near, far], boxes)
         assert projs[0].win[0] < boxes.win[0, 0] and boxes.win[0, 1] < projs[0].win[1]  # the window within the near one's columns
         assert jt.rows_reach(sw.name, near, projs[0], boxes, 0)
@@ -141,14 +146,9 @@ def test_a_near_track_takes_no_far_window_above_its_head_alone():
     nothing (the fifty-ninth session's 'own_best'). A track is not alone on a window gated by
     others whose rows do not reach its projected rows: with the rows the far track is in the
     window's explanation."""
-    sw = four_cameras()[0]
-    near_xy = cam_xy(sw) + 2.0 * ALONG
-    far_xy = cam_xy(sw) + 6.0 * ALONG + 0.05 * ACROSS
-    full = _box(sw, far_xy, VEL)
+    sw, near, far, full = _near_and_far()
     for on in (False, True):
         _, jt = _tracker([sw], rows_explain=on)
-        near = JointTrack(0, np.r_[near_xy, 0.2, -0.1], np.diag([0.05**2, 0.05**2, 0.3**2, 0.3**2]), confirmed=True, hits=30)
-        far = _track(1, far_xy - 0.2 * ACROSS)
         head = jt.project(sw.name, near).win[2]  # the near track's projected head row
         win = full.win.copy()
         win[0, 3] = head - 8.0  # the far person seen down to 8 px above the near one's head
