@@ -562,29 +562,32 @@ class JointTracker:
         right = abs(boxes.win[j, 1] - W) <= BORDER_PX and max(p.win[1] for p in projs) > W
         return bool(left), bool(right)
 
-    def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> float:
+    def rows_cost(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int,
+                  var: tuple[float, float] | None = None) -> float:
         """Section 3.2's target area as evidence of depth, for the existence test: 0.5 d^2 of the
         window's top row above the projected (tallest) head and its bottom row below the
         projected feet (one-sided: a shorter person, feet hidden by a desk), against the window
         edge noise and the track's position spread; capped at 0.5 chi^2_2(0.99), as the flow
-        (the windows' rows have heavy tails: merges, fragments)."""
-        var = self.row_vars(c, tr)
+        (the windows' rows have heavy tails: merges, fragments). ``var``: ``row_vars(c, tr)``,
+        when the caller has it."""
+        var = self.row_vars(c, tr) if var is None else var
         d2 = 0.0
         for v, excess in zip(var, (p.win[2] - boxes.win[j, 2], boxes.win[j, 3] - p.win[3])):
             if excess > 0.0:
                 d2 += excess**2 / (v + 1e-9)
         return 0.5 * min(d2, FLOW_CAP)
 
-    def rows_relative(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, gate: dict) -> dict:
+    def rows_relative(self, c: str, tracks: list[JointTrack], projs: dict, boxes: CameraBoxes, gate: dict, rv: dict) -> dict:
         """``rows_explain``: (track, window) -> the track's section 3.2 rows for a window that two
         or more tracks gate (``rows_cost``, with ``rows_norm`` under ``fit_normalised``), relative
         to the gating track they fit best, and then to the track's own best window's: the rows
         choose who takes a window and move a track between windows, never towards a miss (a
-        lone track's window whose rows fit it badly stays its own: a partial view)."""
+        lone track's window whose rows fit it badly stays its own: a partial view). ``rv``: track
+        index -> its ``row_vars`` in camera c."""
         cfg = self.cfg
         relative: dict = {}
         for j in range(len(boxes.u)):
-            rc = {i: self.rows_cost(c, tracks[i], projs[i], boxes, j) + (self.rows_norm(c, tracks[i]) if cfg.fit_normalised else 0.0)
+            rc = {i: self.rows_cost(c, tracks[i], projs[i], boxes, j, rv[i]) + (self.rows_norm(rv[i]) if cfg.fit_normalised else 0.0)
                   for i in projs if j in gate[i]}
             if len(rc) > 1:
                 low = min(rc.values())
@@ -607,21 +610,21 @@ class JointTracker:
             var.append(self.box_sigma**2 + float(jv @ Sxy @ jv))
         return var[0], var[1]
 
-    def rows_norm(self, c: str, tr: JointTrack) -> float:
+    def rows_norm(self, var: tuple[float, float]) -> float:
         """``fit_normalised``'s normalisation of ``rows_cost``'s two terms (``rows_explain``): 0.5
-        log of each row's predicted variance (``row_vars``) over the edge noise alone, so that a
-        spread-out prediction, whose rows fit any window, is not preferred for it."""
-        return sum(0.5 * float(np.log((v + 1e-9) / (self.box_sigma**2 + 1e-9))) for v in self.row_vars(c, tr))
+        log of each row's predicted variance (``var``, a track's ``row_vars``) over the edge noise
+        alone, so that a spread-out prediction, whose rows fit any window, is not preferred for it."""
+        return sum(0.5 * float(np.log((v + 1e-9) / (self.box_sigma**2 + 1e-9))) for v in var)
 
-    def rows_reach(self, c: str, tr: JointTrack, p: Projection, boxes: CameraBoxes, j: int) -> bool:
+    def rows_reach(self, var: tuple[float, float], p: Projection, boxes: CameraBoxes, j: int) -> bool:
         """Whether window j's rows reach track projection p's (``rows_explain``): their spans
-        overlap, the window's widened by 3 standard deviations of each projected row
-        (``row_vars``, as ``rows_cost`` weighs them: near a camera a tenth of a metre moves the
-        feet tens of pixels). A person whose projected rows lie wholly above or below a window is
-        neither seen in it nor hidden by whoever made it (a near person's head at the bottom of a
-        corner camera's image, a far person's body high above it), so is not in it: not alone on
-        a window others gate, nor a member of a merged explanation of it."""
-        head, feet = (3.0 * float(np.sqrt(v)) for v in self.row_vars(c, tr))
+        overlap, the window's widened by 3 standard deviations of each projected row (``var``,
+        the track's ``row_vars``, as ``rows_cost`` weighs them: near a camera a tenth of a metre
+        moves the feet tens of pixels). A person whose projected rows lie wholly above or below a
+        window is neither seen in it nor hidden by whoever made it (a near person's head at the
+        bottom of a corner camera's image, a far person's body high above it), so is not in it:
+        not alone on a window others gate, nor a member of a merged explanation of it."""
+        head, feet = (3.0 * float(np.sqrt(v)) for v in var)
         return bool(p.win[2] <= boxes.win[j, 3] + head and p.win[3] >= boxes.win[j, 2] - feet)
 
     def centroid_var(self, p: Projection, width: float) -> float:
@@ -707,14 +710,15 @@ class JointTracker:
         miss = {i: self.miss_cost(p) for i, p in projs.items()}
         walk = {i: self.walk_cost(tracks[i].mu) * self.wake_share.get(id(tracks[i]), 1.0) for i in projs}
 
-        relative = self.rows_relative(c, tracks, projs, boxes, gate) if cfg.rows_explain else {}
+        rv = {i: self.row_vars(c, tracks[i]) for i in projs} if cfg.rows_explain else {}  # once per track, not per window
+        relative = self.rows_relative(c, tracks, projs, boxes, gate, rv) if cfg.rows_explain else {}
 
         def cost(members: tuple[int, ...], j: int) -> float:
             key = (members, j)
             if key not in cache:
                 cache[key] = self.explain_cost(c, [projs[i] for i in members], boxes, j) + sum(walk[i] for i in members) if len(members) <= 3 else np.inf
                 if cfg.rows_explain and len(members) <= 3:
-                    if not all(self.rows_reach(c, tracks[i], projs[i], boxes, j) for i in members if len(members) > 1 or (i, j) in relative):
+                    if not all(self.rows_reach(rv[i], projs[i], boxes, j) for i in members if len(members) > 1 or (i, j) in relative):
                         cache[key] = np.inf  # a person whose projected rows the window's do not reach is not in it
                     elif len(members) == 1 and (members[0], j) in relative:
                         cache[key] += relative[(members[0], j)]

@@ -134,7 +134,7 @@ def test_a_near_track_takes_a_far_window_within_its_rows_alone():
         _, jt = _tracker([sw], rows_explain=on)
         expl, projs = jt.explain_camera(sw.name, [near, far], boxes)
         assert projs[0].win[0] < boxes.win[0, 0] and boxes.win[0, 1] < projs[0].win[1]  # the window within the near one's columns
-        assert jt.rows_reach(sw.name, near, projs[0], boxes, 0)
+        assert jt.rows_reach(jt.row_vars(sw.name, near), projs[0], boxes, 0)
         assert expl == {0: (0,)}
 
 
@@ -155,5 +155,6 @@ def test_a_near_track_takes_no_far_window_above_its_head_alone():
         boxes = CameraBoxes(full.track, full.u, win, full.flow)
         expl, projs = jt.explain_camera(sw.name, [near, far], boxes)
         assert projs[0].win[0] < win[0, 0] and win[0, 1] < projs[0].win[1]  # the window within the near one's columns
-        assert not jt.rows_reach(sw.name, near, projs[0], boxes, 0) and jt.rows_reach(sw.name, far, projs[1], boxes, 0)
+        assert not jt.rows_reach(jt.row_vars(sw.name, near), projs[0], boxes, 0)
+        assert jt.rows_reach(jt.row_vars(sw.name, far), projs[1], boxes, 0)
         assert (1 in expl[0]) == on
