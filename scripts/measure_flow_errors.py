@@ -1,6 +1,6 @@
 """Flow windows' region flow against the true image velocity, by image speed.
 
-    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths] [--fragments] [--border] [--below] [--centroid]   # occlusion_lab recordings, either mode
+    python scripts/measure_flow_errors.py DIR [DIR ...] [--flow-window N] [--by-share] [--widths] [--merged-widths] [--fragments] [--border] [--below] [--centroid]   # occlusion_lab recordings, either mode
 
 For every window of the ``boxes`` table that holds exactly one walking mover (the scene's target
 or distractor, speed over 0.5 m/s: the window covers 30 % of the width of that person's projected
@@ -68,7 +68,10 @@ session): the share of windows wider than 1.2 ... 2 times the person's projected
 fit of ``target_planes``' gross width errors (``width_tail``, ``width_tail_sigma``: one edge
 moved outwards by a half-normal, ``width_tail``). Rendered development 100-119: 1.14 % wider
 than 1.33 times the person, 0.34 % than 1.5, 0.09 % than 1.75; analytic 100-109: 3.8 % wider
-than 1.5 (the analytic windows' edge errors have heavier tails).
+than 1.5 (the analytic windows' edge errors have heavier tails). ``--merged-widths`` (issue 12's
+sixty-first session) fits the same tail to walkers' windows that hold others too: rendered
+development 100-119, 0.027 and 0.36 with people who never walk (a flow window holds moving
+pixels), 0.19 and 0.75 with two walkers merged.
 
 Then how the errors persist: the autocorrelation, over consecutive frames of one camera track
 holding the same person, of the flow error along the motion and across it and of the window centroid's error (its
@@ -351,6 +354,53 @@ def width_tail(share: pd.Series, levels=TAIL_FIT_LEVELS) -> tuple[float, float]:
     return best[1], best[2]
 
 
+def walker_shares(people: pd.DataFrame, windows: pd.DataFrame, Ps: dict, widths: dict) -> pd.DataFrame:
+    """Each walker's share of the windows holding them (``--merged-widths``): for every window of
+    ``windows`` (boxes rows: t, camera, u_left, u_right) holding one or two walking movers
+    (>= 0.5 m/s; a person is held when the window covers 30 % of their projected width) and any
+    number of other people, one row per walker not cut by the image border: the window's width
+    over that walker's projected width, the walkers held, whether someone who never walks (not a
+    mover: a standing extra) is held too and whether a mover below walking speed is. ``Ps``:
+    camera -> P; ``widths``: camera -> image width."""
+    at = {t: g for t, g in people.groupby(people.t.round(2))}
+    rows = []
+    for b in windows[windows.camera.isin(list(Ps))].itertuples():
+        g = at.get(round(b.t, 2))
+        if g is None:
+            continue
+        spans = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS)[:2] for x, y in zip(g.x, g.y)])
+        overlap = np.clip(np.minimum(spans[:, 1], b.u_right) - np.maximum(spans[:, 0], b.u_left), 0.0, None)
+        holds = overlap > 0.3 * np.maximum(spans[:, 1] - spans[:, 0], 1.0)
+        mover = np.isin(g.person_id.to_numpy(), list(MOVERS))
+        walking = holds & (np.hypot(g.vx.to_numpy(float), g.vy.to_numpy(float)) >= 0.5) & mover
+        n = int(walking.sum())
+        if n not in (1, 2):
+            continue
+        standers, slow = bool((holds & ~mover).any()), bool((holds & mover & ~walking).any())
+        for k in np.nonzero(walking)[0]:
+            lo, hi = spans[k]
+            if lo < 0.0 or hi > widths[b.camera]:
+                continue
+            rows.append(((float(b.u_right) - float(b.u_left)) / max(float(hi - lo), 1.0), n, standers, slow))
+    return pd.DataFrame(rows, columns=["share", "walkers", "standers", "slow"])
+
+
+def merged_width_lines(df: pd.DataFrame) -> list[str]:
+    """``--merged-widths``: the width shares and ``width_tail`` fits of four populations of
+    ``walker_shares``' rows: one walker alone; alone or with standing extras; with a mover below
+    walking speed (stopping, setting off); one walker or two merged (each walker's share)."""
+    lines = []
+    one, nobody = df.walkers == 1, ~df.standers & ~df.slow
+    for name, g in (("one walker alone", df[one & nobody]),
+                    ("one walker, alone or with people who never walk", df[one & ~df.slow]),
+                    ("one walker with a mover below walking speed", df[one & df.slow]),
+                    ("one walker or two merged (each walker's share), no one else", df[nobody])):
+        e, sigma = width_tail(g["share"])
+        lines.append(f"{name} ({len(g)} shares): " + ", ".join(f"> {lv:g}: {100 * (g['share'] > lv).mean():.2f} %" for lv in WIDTH_LEVELS)
+                     + f"; width_tail, width_tail_sigma {e:.3f}, {sigma:.2f}")
+    return lines
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR")
@@ -361,6 +411,8 @@ def main(argv=None) -> int:
     ap.add_argument("--below", action="store_true", help="also the flow error in excess for windows of people whose feet are below the image")
     ap.add_argument("--centroid", action="store_true", help="also the centroid column's error at the body centre and at the visible part's centre")
     ap.add_argument("--widths", action="store_true", help="also how often a window is much wider than its person, and the fit of target_planes' width_tail")
+    ap.add_argument("--merged-widths", action="store_true", help="also the width_tail fit over walkers' windows alone, with people not walking, "
+                    "and with two walkers merged")
     a = ap.parse_args(argv)
     df = pd.concat([errors(d, a.flow_window, a.fragments) for d in recording_folders(a.recordings, ap.prog)], ignore_index=True)
     fps = float(np.median(df["frame"] / df["t"].where(df["t"] > 0)))
@@ -397,6 +449,16 @@ def main(argv=None) -> int:
               + ", ".join(f"> {lv:g}: {100 * (sh > lv).mean():.2f} %" for lv in WIDTH_LEVELS))
         e, sigma = width_tail(sh)
         print(f"gross width errors (target_planes width_tail, width_tail_sigma; fitted at {', '.join(f'{lv:g}' for lv in TAIL_FIT_LEVELS)}): {e:.3f}, {sigma:.2f}")
+    if a.merged_widths:
+        shares = []
+        for d in recording_folders(a.recordings, ap.prog):
+            rec = read_recording(d)
+            Ps = {c: np.asarray(cam.P, float) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
+            shares.append(walker_shares(rec.truth.people, rec.observations["boxes"], Ps,
+                                        {c: float(rec.calibration.cameras[c].width) for c in Ps}))
+        print("walkers' shares of their windows (people cut by the image border left out):")
+        for line in merged_width_lines(pd.concat(shares, ignore_index=True)):
+            print("  " + line)
     lags = (1, 2, 3, 5, 10, 20)
     print("how the errors persist along a camera track (autocorrelation by lag in frames; tau: integrated autocorrelation time):")
     for col, name in (("along", "flow error along the motion"), ("across", "flow error across the motion"), ("du", "centroid column error")):

@@ -204,3 +204,40 @@ def test_the_centroid_table_compares_both_references_by_whether_the_feet_are_bel
     assert T.loc["feet below the image", "rms_body_centre"] == pytest.approx(6.0)
     assert T.loc["feet below the image", "rms_visible_centre"] == pytest.approx(1.0)
     assert T.loc["the two 5+ px apart", "n"] == 0  # 5 px apart exactly: not more than 5
+
+
+def test_walkers_shares_of_their_windows_are_split_by_who_else_is_in_them():
+    """``--merged-widths``: a walker alone, a walker beside a standing extra, a walker beside a
+    mover below walking speed, two walkers merged (a share each); a window of no walker and a
+    walker cut by the border give nothing."""
+    from trackroom.estimators import tp_geometry as geo
+    from scripts.measure_flow_errors import HEIGHT, RADIUS, merged_width_lines, walker_shares
+    P = np.array([[400.0, 0.0, 160.0, 0.0], [0.0, 400.0, 120.0, 0.0], [0.0, 0.0, 1.0, 0.0]]) @ np.array(
+        [[1.0, 0, 0, 0], [0, 0, -1.0, 1.5], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])  # looking along +y from 1.5 m up
+    span = lambda x: geo.cylinder_window(P, np.array([x, 5.0]), HEIGHT, RADIUS)[:2]  # noqa: E731
+    people, windows = [], []
+    cases = [  # (t, [(id, x, speed)], window's people)
+        (0.0, [("target", 0.0, 1.0)], [0]),
+        (0.1, [("target", 0.0, 1.0), ("standing1", 0.3, 0.0)], [0, 1]),
+        (0.2, [("target", 0.0, 1.0), ("distractor", 0.3, 0.2)], [0, 1]),
+        (0.3, [("target", 0.0, 1.0), ("distractor", 0.3, 1.0)], [0, 1]),
+        (0.4, [("standing1", 0.0, 0.0)], [0]),
+        (0.5, [("target", -2.5, 1.0)], [0]),  # cut by the image's left border
+    ]
+    for t, who, held in cases:
+        for pid, x, v in who:
+            people.append({"t": t, "person_id": pid, "x": x, "y": 5.0, "vx": v, "vy": 0.0})
+        lo = min(span(who[k][1])[0] for k in held)
+        hi = max(span(who[k][1])[1] for k in held)
+        windows.append({"t": t, "camera": "obl_a", "u_left": max(lo, 0.0), "u_right": hi})
+    df = walker_shares(pd.DataFrame(people), pd.DataFrame(windows), {"obl_a": P}, {"obl_a": 320.0})
+    one_wide = (span(0.3)[1] - span(0.0)[0]) / (span(0.0)[1] - span(0.0)[0])
+    assert len(df) == 5  # one, one, one, two (a share each)
+    assert df.share.iloc[0] == pytest.approx(1.0)
+    assert df.share.iloc[1] == pytest.approx(one_wide) and bool(df.standers.iloc[1]) and not df.slow.iloc[1]
+    assert bool(df.slow.iloc[2]) and not df.standers.iloc[2]
+    assert list(df.walkers) == [1, 1, 1, 2, 2]
+    lines = merged_width_lines(df)
+    assert lines[0].startswith("one walker alone (1 shares)") and lines[1].startswith("one walker, alone or with people who never walk (2 shares)")
+    assert lines[2].startswith("one walker with a mover below walking speed (1 shares)")
+    assert lines[3].startswith("one walker or two merged (each walker's share), no one else (3 shares)")
