@@ -32,6 +32,8 @@ import trackroom.sim.analytic_detectors as detectors
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.scenes.loader import load_scene
+from trackroom.sim.simulate import simulate
 
 HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 
@@ -162,8 +164,6 @@ def part_table(counts: Counter) -> str:
 
 def analytic_by_part(seeds: list[int], draw: int = 0, overrides: list[str] | None = None, duration: float = 35.0) -> Counter:
     """``off_rows_by_part`` summed over analytic occlusion_lab recordings simulated here."""
-    from trackroom.scenes.loader import load_scene
-    from trackroom.sim.simulate import simulate
     scene = load_scene("occlusion_lab", overrides or None)
     total: Counter = Counter()
     for seed in seeds:
