@@ -1176,6 +1176,13 @@ class JointTracker:
             ids = list(projs)
             visible = dict(zip(ids, self.occluders.visible_many(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2))
                                if self.occluders is not None else np.ones(len(ids), bool)))
+            rv: dict = {}  # each track's row_vars in c, once (no update between here and c's updates)
+
+            def rows(k: int, q: Projection, j: int) -> float:
+                if k not in rv:
+                    rv[k] = self.row_vars(c, tracks[k])
+                return self.rows_cost(c, tracks[k], q, boxes, j, rv[k])
+
             for i, p in projs.items():  # the existence test's evidence, from the predictions
                 j, n = holder.get(i, (None, 0))
                 # its projected cylinder overlaps another track's: hidden by it, or merged with it
@@ -1188,9 +1195,9 @@ class JointTracker:
                 if n == 1:
                     # the window's likelihood ratio: this track against the best explanation
                     # without it - clutter, or another track of this view left without a window
-                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + self.rows_cost(c, tracks[k], q, boxes, j)
+                    alt = min([C_CLUTTER] + [self.explain_cost(c, [q], boxes, j) + rows(k, q, j)
                                              for k, q in projs.items() if k != i and k not in holder])
-                    lr = max(alt - self.explain_cost(c, [p], boxes, j) - self.rows_cost(c, tracks[i], p, boxes, j), 0.0)
+                    lr = max(alt - self.explain_cost(c, [p], boxes, j) - rows(i, p, j), 0.0)
                 # for the mode posterior, if no camera has its window: only a camera without one or
                 # a share of one (``wake_by_own``) that would see a walker there (hidden behind a
                 # shelf or another track, walking or standing makes no window of one's own)
