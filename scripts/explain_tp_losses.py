@@ -16,6 +16,8 @@ confirmed track it dropped, and why):
   ``views``: the cameras that truly see it then (the truth's visibility: in view and not hidden by
   the floor plan's boxes or another person), mean - fewer than two: depth from one camera alone;
 - ``x``, ``y``: where the target was when the episode started (floor, m);
+- ``speed``: the target's lowest speed over the second before the episode and its start (the
+  truth's vx, vy), m/s - below 0.5 it was stopping or setting off;
 - ``other_track``: whether that person had a confirmed track of its own (within 0.5 m) in the
   frame before the episode - ``tracked`` - or not; if not, how the last track on it ended in the
   10 s before: ``duplicate`` (dropped as one person seen twice; ``of target``: as a duplicate of
@@ -73,6 +75,13 @@ def views_before(visibility: pd.DataFrame, person: str, t0: float, span: float =
     return float(v.groupby("t")["visible"].sum().mean())
 
 
+def lowest_speed_before(people: pd.DataFrame, person: str, t0: float, span: float = 1.0) -> float:
+    """The lowest speed (the truth's vx, vy; m/s) of ``person`` over the ``span`` seconds up to
+    and including ``t0``; NaN without rows there."""
+    v = people[(people["person_id"] == person) & (people["t"] >= t0 - span - 1e-9) & (people["t"] <= t0 + 1e-9)]
+    return float(np.hypot(v["vx"].to_numpy(float), v["vy"].to_numpy(float)).min()) if len(v) else float("nan")
+
+
 def explain(d: str, params: dict | None = None) -> list[dict]:
     rec = read_recording(d)
     res = run_target(rec, params)
@@ -98,6 +107,7 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
         before = (t >= t0 - 1.0) & (t < t0)
         cams = float(out["n_cameras"].to_numpy()[before].mean()) if before.any() else float("nan")
         views = views_before(vis, TARGET, t0) if vis is not None else float("nan")
+        speed = lowest_speed_before(rec.truth.people, TARGET, t0)
         # the target's internal track in the frame before: the one at the output's position
         ib = max(i0 - 1, 0)
         g = by_t.get(round(t[ib], 6), internal.iloc[:0])
@@ -132,7 +142,7 @@ def explain(d: str, params: dict | None = None) -> list[dict]:
         rows.append({"recording": d, "seed": rec.seed, "t0": round(float(t0), 1), "t1": round(float(t[i1]), 1),
                      "frames": int((~held[i0:i1 + 1]).sum()), "other": other, "gap": round(gap, 2),
                      "cams": round(cams, 1), "views": round(views, 1),
-                     "x": round(float(P[TARGET][i0][0]), 2), "y": round(float(P[TARGET][i0][1]), 2), "other_track": other_track, "follower": follower, "followed_frames": fol,
+                     "x": round(float(P[TARGET][i0][0]), 2), "y": round(float(P[TARGET][i0][1]), 2), "speed": round(speed, 2), "other_track": other_track, "follower": follower, "followed_frames": fol,
                      "cause": cause,
                      "identity_held": float(held.mean()), "n_frames": len(t)})
     return rows
@@ -166,7 +176,7 @@ def main(argv=None) -> int:
         ep = explain(d, params)
         for r in ep:
             print(f"seed {r['seed']!s:>4} {r['t0']:5.1f}-{r['t1']:5.1f} s  {r['frames']:3d} frames  other {r['other']} "
-                  f"{r['gap']:.2f} m  cams {r['cams']:.1f} of {r['views']:.1f} seeing  at ({r['x']:.1f}, {r['y']:.1f})  other's track {r['other_track']:18s} "
+                  f"{r['gap']:.2f} m  cams {r['cams']:.1f} of {r['views']:.1f} seeing  at ({r['x']:.1f}, {r['y']:.1f})  speed {r['speed']:.2f}  other's track {r['other_track']:18s} "
                   f"follower {'yes' if r['follower'] else 'no '}  {r['cause']}", flush=True)
         rows += ep
     df = pd.DataFrame(rows)

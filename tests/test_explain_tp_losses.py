@@ -2,7 +2,7 @@
 import numpy as np
 import pandas as pd
 
-from scripts.explain_tp_losses import episodes, views_before, why_untracked
+from scripts.explain_tp_losses import episodes, lowest_speed_before, views_before, why_untracked
 
 
 def test_loss_runs_less_than_a_second_apart_are_one_episode():
@@ -42,6 +42,20 @@ def test_views_before_counts_the_cameras_that_truly_see_the_person():
     })
     assert views_before(vis, "target", 1.0) == 1.5
     assert np.isnan(views_before(vis, "target", 10.0))
+
+
+def test_the_targets_lowest_speed_over_the_second_before_the_episode():
+    # the target slows to 0.1 m/s at 0.6 s and sets off again; rows before 0.5 s, after t0 = 1.5
+    # and the distractor's do not count
+    people = pd.DataFrame({
+        "t": [0.2, 0.5, 0.6, 1.0, 1.5, 1.6, 0.6],
+        "person_id": ["target"] * 6 + ["distractor"],
+        "vx": [0.0, 0.6, 0.1, 0.3, 0.8, 0.0, 0.0],
+        "vy": [0.0, 0.8, 0.0, 0.4, 0.6, 0.0, 0.0],
+    })
+    assert lowest_speed_before(people, "target", 1.5) == 0.1
+    assert lowest_speed_before(people, "target", 1.0, span=0.3) == 0.5
+    assert np.isnan(lowest_speed_before(people, "target", 10.0))
 
 
 def test_frames_the_target_was_not_reported_in_count_as_not_held():
