@@ -134,6 +134,17 @@ def visible_centre_z(P: np.ndarray, xy, image_height: float, height: float = HEI
     return 0.5 * (lo + hi) if hi > lo else 0.5 * height
 
 
+def held_by(spans: np.ndarray, u_left: float, u_right: float, narrow: bool = False) -> np.ndarray:
+    """Which people (``spans``: (P, 2) their projected columns) a window [u_left, u_right] holds:
+    it covers 30 % of their projected width (``narrow``: of the narrower of window and person, so
+    a narrow window holds a person it lies on, however small a part of the person)."""
+    overlap = np.clip(np.minimum(spans[:, 1], u_right) - np.maximum(spans[:, 0], u_left), 0.0, None)
+    covered = np.maximum(spans[:, 1] - spans[:, 0], 1.0)
+    if narrow:
+        covered = np.minimum(covered, max(u_right - u_left, 1.0))
+    return overlap > 0.3 * covered
+
+
 def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
     rec = read_recording(d)
     people = rec.truth.people
@@ -151,11 +162,7 @@ def errors(d, flow_window: int = 1, fragments: bool = False) -> pd.DataFrame:
             continue
         wins = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS) for x, y in zip(g.x, g.y)])
         spans, spans_v = wins[:, :2], wins[:, 3]  # columns; bottom row (the feet)
-        overlap = np.clip(np.minimum(spans[:, 1], b.u_right) - np.maximum(spans[:, 0], b.u_left), 0.0, None)
-        covered = np.maximum(spans[:, 1] - spans[:, 0], 1.0)
-        if fragments:  # a narrow window holds a person it lies on, however small a part of the person
-            covered = np.minimum(covered, max(float(b.u_right - b.u_left), 1.0))
-        holds = overlap > 0.3 * covered
+        holds = held_by(spans, float(b.u_left), float(b.u_right), narrow=fragments)
         if holds.sum() != 1:
             continue
         k = int(np.argmax(holds))
@@ -369,8 +376,7 @@ def walker_shares(people: pd.DataFrame, windows: pd.DataFrame, Ps: dict, widths:
         if g is None:
             continue
         spans = np.array([geo.cylinder_window(Ps[b.camera], np.array([x, y]), HEIGHT, RADIUS)[:2] for x, y in zip(g.x, g.y)])
-        overlap = np.clip(np.minimum(spans[:, 1], b.u_right) - np.maximum(spans[:, 0], b.u_left), 0.0, None)
-        holds = overlap > 0.3 * np.maximum(spans[:, 1] - spans[:, 0], 1.0)
+        holds = held_by(spans, float(b.u_left), float(b.u_right))
         mover = np.isin(g.person_id.to_numpy(), list(MOVERS))
         walking = holds & (np.hypot(g.vx.to_numpy(float), g.vy.to_numpy(float)) >= 0.5) & mover
         n = int(walking.sum())

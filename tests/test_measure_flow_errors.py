@@ -212,8 +212,7 @@ def test_walkers_shares_of_their_windows_are_split_by_who_else_is_in_them():
     walker cut by the border give nothing."""
     from trackroom.estimators import tp_geometry as geo
     from scripts.measure_flow_errors import HEIGHT, RADIUS, merged_width_lines, walker_shares
-    P = np.array([[400.0, 0.0, 160.0, 0.0], [0.0, 400.0, 120.0, 0.0], [0.0, 0.0, 1.0, 0.0]]) @ np.array(
-        [[1.0, 0, 0, 0], [0, 0, -1.0, 1.5], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])  # looking along +y from 1.5 m up
+    from tests.test_measure_window_rows import P_ALONG_Y as P
     span = lambda x: geo.cylinder_window(P, np.array([x, 5.0]), HEIGHT, RADIUS)[:2]  # noqa: E731
     people, windows = [], []
     cases = [  # (t, [(id, x, speed)], window's people)

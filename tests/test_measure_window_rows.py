@@ -39,15 +39,18 @@ def test_each_window_is_classed_with_its_gap():
     assert window_off_rows(people, np.array([101.0, 105.0, 75.0, 90.0])) == (None, 0.0)
 
 
+# a 320x240 camera looking along +y from 1.5 m up (focal length 400 px)
+P_ALONG_Y = np.array([[400.0, 0.0, 160.0, 0.0], [0.0, 400.0, 120.0, 0.0], [0.0, 0.0, 1.0, 0.0]]) @ np.array(
+    [[1.0, 0, 0, 0], [0, 0, -1.0, 1.5], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
+
+
 def _recording(windows: list[tuple[float, str, int, list[float]]], people: list[tuple[float, str, float, float]]):
     """A stand-in recording: one oblique camera, boxes ``windows`` (t, camera, track, edges),
     people (t, id, x, y)."""
     from types import SimpleNamespace
 
     import pandas as pd
-    P = np.array([[400.0, 0.0, 160.0, 0.0], [0.0, 400.0, 120.0, 0.0], [0.0, 0.0, 1.0, 0.0]]) @ np.array(
-        [[1.0, 0, 0, 0], [0, 0, -1.0, 1.5], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])  # looking along +y from 1.5 m up
-    cams = {"obl_a": SimpleNamespace(P=P)}
+    cams = {"obl_a": SimpleNamespace(P=P_ALONG_Y)}
     boxes = pd.DataFrame([{"t": t, "camera": c, "track": k, "u_left": e[0], "u_right": e[1], "v_top": e[2], "v_bottom": e[3]}
                           for t, c, k, e in windows])
     truth = pd.DataFrame([{"t": t, "person_id": p, "x": x, "y": y} for t, p, x, y in people])
