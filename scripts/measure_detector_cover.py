@@ -7,10 +7,10 @@ A person who stands makes no flow window, so a track that is likelier standing i
 the cameras' person detections (``person_detections``: ``JointTracker.detection_evidence``), and
 only where a camera's detector sees the place (``JointTracker.detectable``: the person model's
 cylinder in the image, its rays clear of the floor plan's boxes; with ``partial_detections`` also
-partly, as often detected). Elsewhere a standing track - a person or a ghost - keeps its
-existence log-odds: flow windows and detections say nothing there. For every point of a floor grid where a person's
-axis can be (``clear_of_walls``), this counts the cameras that would see a walker there (the
-projected cylinder partly in the image and a ray clear: ``partly_in_image``,
+partly, as often detected). Elsewhere a standing track - a person or a ghost - keeps its existence
+log-odds: flow windows and detections say nothing there. For every point of a floor grid where a
+person's axis can be (``clear_of_walls``), this counts the cameras that would see a walker there
+(the projected cylinder partly in the image and a ray clear: ``partly_in_image``,
 ``Occluders.visible``) and those whose detector would test someone standing there, with the
 recording's calibration and the estimator's default Config; no truth and no observation is read.
 
@@ -41,6 +41,7 @@ def cover(calibration, step: float = 0.1, cfg=None) -> pd.DataFrame:
     cams = sorted(calibration.cameras)
     Ps = {c: np.asarray(calibration.cameras[c].P, float) for c in cams}
     widths = {c: float(calibration.cameras[c].width) for c in cams}
+    # only its geometry is used (``detectable``): the flow and edge noises are placeholders
     jt = JointTracker(cfg, Ps, widths, {c: 1.0 for c in cams}, 1.0, 1.0, {c: float(calibration.cameras[c].fps) for c in cams})
     jt.occluders = Occluders(calibration.floorplan, Ps, cfg.height)
     x0, y0, x1, y1 = calibration.floorplan.bounds()
