@@ -388,6 +388,12 @@ class TargetPlanes(Estimator):
                                         "between the click and the first crossing on it; no parameter value). On: "
                                         "analytic evaluation 1830 (seen) 29.4 -> 99.1 %; every output of 520 "
                                         "development recordings unchanged (docs/target_planes.md)")
+        successor_lagged: bool = param(True, "with rejected_successor, a candidate successor must have been born "
+                                       "while the target's track had a window of its own in fewer than two cameras "
+                                       "(it lagged behind its person); one born beside it while it was seen in two "
+                                       "views is someone else. No parameter value: the rule's own premise (a track born "
+                                       "on its person while it lagged). Trial in the fifty-ninth session (analytic 2472, "
+                                       "seen), on since the sixty-third with successor_log_odds (docs/target_planes.md)")
         rejected_successor: bool = param(True, "single-target mode: the target's track, never dropped, rejected by the "
                                                "existence test while likelier walking passes the target's identity to a "
                                                "track born on its person while it lagged and sharing no merged window with "
@@ -411,6 +417,15 @@ class TargetPlanes(Estimator):
                                          "(tp_identity.IdentityLag._hand_over): Bayes' decision at the prior odds, "
                                          "measured as pair_log_odds' (8 made rightly of 117 hand-overs scored, "
                                          "log(109 / 8) = 2.61; log 99 until the fifty-third session)")
+        successor_log_odds: float = param(float(np.log(3 / 2)), "with rejected_successor, the watched track's successor "
+                                          "takes its identity when the successor log-odds exceed this "
+                                          "(tp_identity.IdentityLag._watched_successor): Bayes' decision at the prior "
+                                          "odds, measured as pair_log_odds' on the 520 development recordings' "
+                                          "successor candidates (successor_lagged, exchanges off; one decision per "
+                                          "candidate, its likeliest frame; 2 rightful of 5, log(3 / 2) = 0.41; a "
+                                          "small sample: any level from -1.2 to 2.0, the prior's 95 % interval, "
+                                          "decides every development candidate alike). log 99 until the "
+                                          "sixty-third session")
         pre_while_apart: bool = param(True, "an encounter's pre states, when the pair first comes within 4 radius, are those "
                                            "of its last frame before, merged in a view or not (not only of its last merged "
                                            "frame: a pair apart and merged nowhere is not in doubt either); on since the fifty-third "
@@ -544,6 +559,7 @@ class TargetPlanes(Estimator):
             idl.handover, idl.area, idl.sigma_v = cfg.handover, (floor_area if floor_area > 0 else None), 0.5 * cfg.max_speed
             idl.decide_accel = cfg.identity_accel
             idl.pair_log_odds, idl.handover_log_odds = cfg.pair_log_odds, cfg.handover_log_odds
+            idl.successor_log_odds = cfg.successor_log_odds
             idl.pre_while_apart, idl.decide_apart = cfg.pre_while_apart, cfg.decide_apart
             idl.output_lag_s = cfg.output_lag_s
             idl.left_behind, idl.stand_s = cfg.left_behind, cfg.stand_s
@@ -552,6 +568,7 @@ class TargetPlanes(Estimator):
             idl.post_path = cfg.post_path
             if cfg.rejected_successor and not cfg.multi_person:
                 idl.successor_reject, idl.hold_s = EXIST_REJECT, cfg.hold_s
+                idl.successor_lagged = cfg.successor_lagged
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         st = _RunState(tracks, keep, next_id, idl, float(times[0]) if len(times) else 0.0)

@@ -117,7 +117,9 @@ of the pair's states before and after it, with both assignments kept until then:
   walking (it lost its person), a track born at a two-camera crossing while it was recorded, and
   sharing no merged window with it now, is scored as its successor in the same way (its birth
   state against the watched track's state then) and takes the identity from its birth on above
-  ``EXCHANGE_LOG_ODDS`` (``_watched_successor``).
+  ``successor_log_odds`` (``_watched_successor``). With ``successor_lagged`` only a track born
+  while the watched track had a window of its own in fewer than two cameras is a candidate (born
+  beside it while it was seen in two views, it is someone else).
 
 - **An encounter's ended track waits for its hand-over**: a confirmed track that ended while
   its encounter's other track lives is not found again, nor succeeded, at once: the link is
@@ -200,6 +202,7 @@ class IdentityLag:
     scores: list = field(default_factory=list)  # the same for every ended track a new one was compared with
     pair_log_odds: float = EXCHANGE_LOG_ODDS  # a pair's identities are exchanged above these log-odds (``decide``)
     handover_log_odds: float = EXCHANGE_LOG_ODDS  # a hand-over is made above these (``_hand_over``)
+    successor_log_odds: float = EXCHANGE_LOG_ODDS  # the watched track's successor takes its identity above these (``_watched_successor``)
     pre_while_apart: bool = True  # the pre states also refreshed in frames the pair, not yet near, is not ambiguous (``update``)
     decide_apart: bool = False  # (the estimator's default: on) a pair that has been near is decided lag_s after it is apart on the floor, merged in a view or not (``update``)
     carried: dict = field(default_factory=dict)  # pair -> first_pre of the encounter decided this frame while merged in a view (``decide``)
@@ -221,6 +224,8 @@ class IdentityLag:
     successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
     watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
+    successor_lagged: bool = False  # a watched track's successor must be born while it had a window of its own in fewer than two cameras (``_watched_successor``)
+    watched_own: dict = field(default_factory=dict)  # frame time -> cameras in which the watched track had a window of its own
 
     @property
     def final_s(self) -> float:
@@ -377,12 +382,13 @@ class IdentityLag:
         alone). Its person may have a track of its own by then: one born while this one lagged
         (a successor, as ``_successors`` scores one in multi-person mode). Each confirmed track
         under its own identity that was born at a two-camera crossing while the watched track was
-        recorded, and that shares no merged window with it this frame (the tracker holds both
+        recorded (with ``successor_lagged``, while it had a window of its own in fewer than two
+        cameras), and that shares no merged window with it this frame (the tracker holds both
         people there; a rejection in a merge may be the merge's: a look-alike born beside the
         target and walking past it as it stops), is scored as its successor, its birth state
         against the watched track's state then, N(s_b; s_w(t_b), S_b + S_w(t_b)), against
         someone new; the likeliest above
-        ``EXCHANGE_LOG_ODDS`` takes the watched identity from its birth on (no earlier than the
+        ``successor_log_odds`` takes the watched identity from its birth on (no earlier than the
         output lag allows), and the rejected track is then an ordinary one."""
         g = self.holder(self.watch)
         tg = alive.get(g)
@@ -392,9 +398,12 @@ class IdentityLag:
             self.watched_hist, self.watched_tid = [], g
         self.watched_hist = [h for h in self.watched_hist if t - h[0] <= self.hold_s + 1e-9]
         self.watched_hist.append((t, tg.s.copy(), tg.S.copy()))
+        if self.successor_lagged:
+            self.watched_own = {th: k for th, k in self.watched_own.items() if t - th <= self.hold_s + 1e-9}
+            self.watched_own[round(t, 6)] = sum(1 for st, _, _ in tg.status.values() if st == "tracking")
         if tg.exist >= self.successor_reject or tg.mu >= 0.5 or not self.area:
             return
-        best, best_llr = None, EXCHANGE_LOG_ODDS
+        best, best_llr = None, self.successor_log_odds
         for tid, tr in alive.items():
             if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or tr.born is None or merged_with(tg, tr):
                 continue  # (merged with it now: the two share windows, and the rejection may be the merge's)
@@ -402,6 +411,8 @@ class IdentityLag:
             at = state_at(self.watched_hist, tb)
             if at is None:
                 continue
+            if self.successor_lagged and self.watched_own.get(round(tb, 6), 0) >= 2:
+                continue  # the watched track was on someone, seen in two views, when this one was born beside it
             sw, Sw = at
             llr = self._successor_log_odds(sb, Sb, sw, Sw, self.area)
             self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)

@@ -18,12 +18,17 @@ p_a, and b's, p_b - for a hand-over, the gone track's) and nearest each track at
 - ``kept``: q_a = p_a (track a is still on its own person): they should not;
 - ``same``: p_a = p_b (both on one person: a duplicate), or ``other`` (anything else).
 
+A **successor** decision (single-target mode: the rejected target track a, and a candidate b born
+while a was recorded, scored every frame a stays rejected) is kept once per (a, b), at its
+likeliest frame (``one_per_candidate``), and labelled ``exchanged`` when at that frame b is on
+the person a was on at b's birth (p_a) and a is not, else ``kept`` (``successor_label``).
+
 It prints, per kind and label, the count and the log-odds' spread, and how many decisions each
 threshold on the log-odds gets right (exchange above it): 0 (Bayes' decision at even prior
 odds), Bayes' at the prior measured here (the share of exchanges among the labelled decisions)
 and log 99 (the 1 % level). Run it with the exchanges off (``--param handover=false``; pairs:
 the measurement is of what the tracker does, whatever the threshold) on development seeds only
-(docs/target_planes.md).
+(docs/target_planes.md); successors with ``--param successor_log_odds=1e9`` (none made).
 """
 from __future__ import annotations
 
@@ -47,6 +52,8 @@ def nearest_person(people: pd.DataFrame, t: float, xy) -> str:
 
 
 def label(row, people: pd.DataFrame) -> str:
+    if getattr(row, "kind", None) == "successor":
+        return successor_label(row, people)
     p_a, p_b, q_a, q_b = nearest_people(people, [row.t_pre, row.t_pre, row.t, row.t],
                                         [(row.a_pre_x, row.a_pre_y), (row.b_pre_x, row.b_pre_y),
                                          (row.a_post_x, row.a_post_y), (row.b_post_x, row.b_post_y)])
@@ -57,6 +64,28 @@ def label(row, people: pd.DataFrame) -> str:
     if q_a == p_a:
         return "kept"
     return "other"
+
+
+def successor_label(row, people: pd.DataFrame) -> str:
+    """A watched-successor decision (a: the rejected target track, its state at the candidate's
+    birth a_pre; b: the candidate, born at b_pre): ``exchanged`` when at the decision the candidate
+    is on the person the target track was on at that birth and the target track is not (it lost
+    its person: the identity should pass), ``kept`` otherwise (the candidate is someone else, or
+    the target track is on its person)."""
+    p_a, q_a, q_b = nearest_people(people, [row.t_pre, row.t, row.t],
+                                   [(row.a_pre_x, row.a_pre_y), (row.a_post_x, row.a_post_y), (row.b_post_x, row.b_post_y)])
+    return "exchanged" if q_b == p_a and q_a != p_a else "kept"
+
+
+def one_per_candidate(dec: pd.DataFrame) -> pd.DataFrame:
+    """The watched-successor decisions are scored every frame while the target track stays
+    rejected: keep each (watched, candidate) pair's likeliest frame, the one a threshold first
+    passes if any does (the other kinds are scored once and kept as they are)."""
+    succ = dec["kind"] == "successor"
+    if not succ.any():
+        return dec
+    best = dec[succ].sort_values("log_odds", kind="stable").groupby(["a", "b"], sort=False).tail(1)
+    return pd.concat([dec[~succ], best]).sort_index()
 
 
 def swap_time(row, internal: pd.DataFrame, people: pd.DataFrame) -> float:
@@ -80,6 +109,7 @@ def measure(d: str, params: dict | None = None) -> pd.DataFrame:
     dec = res.decisions
     if not len(dec):
         return pd.DataFrame()
+    dec = one_per_candidate(dec)
     people = rec.truth.tables["people"]
     dec = dec.assign(recording=d, seed=rec.seed)
     dec["label"] = [label(r, people) for r in dec.itertuples()]

@@ -2,7 +2,7 @@
 import numpy as np
 import pandas as pd
 
-from scripts.measure_tp_identity import label, swap_time, thresholds
+from scripts.measure_tp_identity import label, one_per_candidate, swap_time, thresholds
 
 # two people at t = 0 and t = 2: A walks east from (1, 1) to (3, 1), B west from (3, 1.4) to (1, 1.4)
 PEOPLE = pd.DataFrame({"t": [0.0, 0.0, 2.0, 2.0], "person_id": ["A", "B", "A", "B"],
@@ -46,3 +46,30 @@ def test_swap_time_is_the_first_frame_the_track_stays_on_the_other_person():
     internal["x"] = [1.0, 1.5, 2.0, 2.5, 3.0]
     internal["y"] = 1.0
     assert np.isnan(swap_time(r, internal, people))
+
+
+def successor_row(a_pre, b_pre, a_post, b_post, llr=1.0, a=0, b=5, kind="successor"):
+    return pd.Series({**row(a_pre, b_pre, a_post, b_post).to_dict(), "kind": kind, "log_odds": llr, "a": a, "b": b})
+
+
+def test_successor_labels():
+    """A watched successor: the target track (a) was on A when the candidate (b) was born beside
+    it; the identity should pass when b is on A at the decision and a is not."""
+    # a lagged and is left where B now is, b follows A: pass the identity
+    r = successor_row((1, 1), (1.1, 1), (1, 1.4), (3, 1))
+    assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "exchanged"
+    # b went to B: keep
+    r = successor_row((1, 1), (1.1, 1), (1, 1.4), (1.1, 1.4))
+    assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "kept"
+    # a is still on A (and b too: a duplicate): keep
+    r = successor_row((1, 1), (1.1, 1), (3, 1), (3.1, 1))
+    assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "kept"
+
+
+def test_one_successor_decision_per_candidate_at_its_likeliest_frame():
+    rows = [successor_row((1, 1), (1.1, 1), (1, 1.4), (3, 1), llr=v, b=b) for v, b in ((0.5, 5), (2.0, 5), (1.0, 5), (-3.0, 6))]
+    pair = successor_row((1, 1), (3, 1.4), (1, 1.4), (3, 1), llr=7.0, b=1, kind="pair")
+    dec = pd.DataFrame(rows + [pair])
+    out = one_per_candidate(dec)
+    assert sorted(out["log_odds"]) == [-3.0, 2.0, 7.0]
+    assert list(out["kind"]).count("pair") == 1

@@ -285,16 +285,19 @@ def test_an_identity_still_carried_is_not_given_to_a_new_track():
     assert idl.links == [] and idl.identity(2) == 2
 
 
-def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJECT, merged=False):
+def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJECT, merged=False, seen_at_birth=False,
+                          successor_lagged=False, successor_log_odds=EXCHANGE_LOG_ODDS):
     """Single-target mode (``watch`` 0). Person A walks east at 1 m/s along y = 3; the target's
     track 0 follows until t = 1.3 s and then stalls at x = 2.3 (its windows walked on without it);
     a new track 2 is born at a two-camera crossing at t = 1.5 s at (x_A, ``born_at_y``), moving
     east at 1 m/s, and confirmed at 2.0 s. From t = 2.5 s track 0's existence log-odds are below
     the tracker's rejection level (the target's track is never dropped), likelier standing with
     ``rejected_mu`` >= 1/2, and with ``merged`` sharing a merged window with track 2 in one
-    camera. Track 1 (B) stands at (1, 1)."""
+    camera. Track 1 (B) stands at (1, 1). ``seen_at_birth``: track 0 has a window of its own in
+    two cameras in track 2's first frame."""
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=72.0, sigma_v=1.5, hold_s=6.0,
-                      successor_reject=successor_reject)
+                      successor_reject=successor_reject, successor_lagged=successor_lagged,
+                      successor_log_odds=successor_log_odds)
     wide = np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2])  # a new track's spreads
     rows = []
     for t in TIMES:
@@ -302,7 +305,8 @@ def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJ
         late = t >= 2.5 - 1e-9
         trs = [JointTrack(0, np.array([x, 3.0, 1.0 if t < 1.3 else 0.0, 0.0]), S0.copy(), confirmed=True, seen=True,
                           exist=EXIST_REJECT - 1.0 if late else 4.6, mu=rejected_mu if late else 0.0,
-                          status={"north": ("merged", "2", None)} if (late and merged) else {}),
+                          status={"north": ("merged", "2", None)} if (late and merged) else
+                          {"north": ("tracking", "", None), "east": ("tracking", "", None)} if (seen_at_birth and abs(t - 1.5) < 1e-9) else {}),
                JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True)]
         if t >= 1.5 - 1e-9:
             s2 = np.array([1.0 + t, born_at_y, 1.0, 0.0])
@@ -340,6 +344,35 @@ def test_a_rejected_target_track_keeps_the_identity_without_a_successor_when_sta
     idl, t, tid, ident = watched_successor_run(**kw)
     assert idl.holder(0) == 0
     assert set(ident[tid == 0]) == {0} and set(ident[tid == 2]) == {2}
+
+
+@pytest.mark.parametrize("seen_at_birth, lagged, successor", [(False, True, True), (True, True, False), (True, False, True)])
+def test_a_successor_must_be_born_while_the_target_track_lagged(seen_at_birth, lagged, successor):
+    """``successor_lagged``: track 2, born beside the target's track while that one had a window
+    of its own in two cameras (it was on someone), is someone else, not its successor (analytic
+    2472: the look-alike's track, born 0.43 m behind the target and walking with it, took the
+    identity 8 s later when the target's track was rejected). Born while the target's track had
+    none, it is still the successor; off, the birth's views are not read."""
+    idl, t, tid, ident = watched_successor_run(3.0, seen_at_birth=seen_at_birth, successor_lagged=lagged)
+    assert (idl.holder(0) == 2) == successor
+    assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
+
+
+@pytest.mark.parametrize("level, successor", [(EXCHANGE_LOG_ODDS, False), (float(np.log(3 / 2)), True)])
+def test_a_successor_between_the_measured_prior_and_the_one_percent_level(level, successor):
+    """Track 2 born 0.6 m off the stalled target track's line: its successor log-odds (about 3.2)
+    pass Bayes' decision at the measured prior odds (``successor_log_odds``, log(3 / 2)) and not
+    the old 1 % level (log 99), which kept the identity on the track left behind."""
+    idl, t, tid, ident = watched_successor_run(3.6, successor_lagged=True, successor_log_odds=level)
+    made = [d["log_odds"] for d in idl.decisions if d["kind"] == "successor"]
+    assert made and float(np.log(3 / 2)) < max(made) < EXCHANGE_LOG_ODDS
+    assert (idl.holder(0) == 2) == successor
+    assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
+
+
+def test_the_estimator_passes_its_successor_settings_on():
+    cfg = TargetPlanes.Config()
+    assert cfg.successor_lagged and cfg.successor_log_odds == pytest.approx(np.log(3 / 2))
 
 
 def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False,
