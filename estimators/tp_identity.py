@@ -225,7 +225,7 @@ class IdentityLag:
     watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
     successor_lagged: bool = False  # a watched track's successor must be born while it had a window of its own in fewer than two cameras (``_watched_successor``)
-    watched_own: dict = field(default_factory=dict)  # frame time -> cameras in which the watched track had a window of its own
+    watched_own: dict = field(default_factory=dict)  # frame time -> cameras in which the watched track had a window of its own (kept and cleared with ``watched_hist``)
 
     @property
     def final_s(self) -> float:
@@ -395,7 +395,7 @@ class IdentityLag:
         if tg is None:
             return
         if g != self.watched_tid:
-            self.watched_hist, self.watched_tid = [], g
+            self.watched_hist, self.watched_own, self.watched_tid = [], {}, g
         self.watched_hist = [h for h in self.watched_hist if t - h[0] <= self.hold_s + 1e-9]
         self.watched_hist.append((t, tg.s.copy(), tg.S.copy()))
         if self.successor_lagged:
@@ -420,7 +420,7 @@ class IdentityLag:
                 best, best_llr = tid, llr
         if best is not None:
             self._exchange(max(self.born.get(best, t), self._not_before(t, (g, best))), g, best)
-            self.watched_hist = []
+            self.watched_hist, self.watched_own = [], {}
 
     def _link_or_defer(self, t: float, tid: int, ended: int, llr: float, alive: dict) -> None:
         """``_link``, unless ``ended`` ended in an encounter whose other track lives: then the
