@@ -79,8 +79,8 @@ def successor_label(row, people: pd.DataFrame) -> str:
 
 def one_per_candidate(dec: pd.DataFrame) -> pd.DataFrame:
     """The watched-successor decisions are scored every frame while the target track stays
-    rejected: keep each (watched, candidate) pair's likeliest frame, the one a threshold first
-    passes if any does (the other kinds are scored once and kept as they are)."""
+    rejected: keep each (watched, candidate) pair's likeliest frame (a threshold passes some frame
+    of the pair exactly when it passes that one; the other kinds are scored once and kept)."""
     succ = dec["kind"] == "successor"
     if not succ.any():
         return dec

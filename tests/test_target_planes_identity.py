@@ -370,7 +370,7 @@ def test_a_successor_between_the_measured_prior_and_the_one_percent_level(level,
     assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
 
 
-def test_the_estimator_passes_its_successor_settings_on():
+def test_the_successor_rule_defaults_to_the_measured_level_among_lagged_candidates():
     cfg = TargetPlanes.Config()
     assert cfg.successor_lagged and cfg.successor_log_odds == pytest.approx(np.log(3 / 2))
 
