@@ -422,7 +422,7 @@ class TargetPlanes(Estimator):
                                           "(tp_identity.IdentityLag._watched_successor): Bayes' decision at the prior "
                                           "odds, measured as pair_log_odds' on the 520 development recordings' "
                                           "successor candidates (successor_lagged, exchanges off; one decision per "
-                                          "candidate, its likeliest frame; 2 rightful of 5, log(3 / 2) = 0.41; a "
+                                          "candidate, at its first scored frame; 2 rightful of 5, log(3 / 2) = 0.41; a "
                                           "small sample: any level from -1.2 to 2.0, the prior's 95 % interval, "
                                           "decides every development candidate alike). log 99 until the "
                                           "sixty-third session")

@@ -20,7 +20,7 @@ p_a, and b's, p_b - for a hand-over, the gone track's) and nearest each track at
 
 A **successor** decision (single-target mode: the rejected target track a, and a candidate b born
 while a was recorded, scored every frame a stays rejected) is kept once per (a, b), at its
-likeliest frame (``one_per_candidate``), and labelled ``exchanged`` when at that frame b is on
+first frame of largest log-odds (``one_per_candidate``), and labelled ``exchanged`` when at that frame b is on
 the person a was on at b's birth (p_a) and a is not, else ``kept`` (``successor_label``).
 
 It prints, per kind and label, the count and the log-odds' spread, and how many decisions each
@@ -79,12 +79,16 @@ def successor_label(row, people: pd.DataFrame) -> str:
 
 def one_per_candidate(dec: pd.DataFrame) -> pd.DataFrame:
     """The watched-successor decisions are scored every frame while the target track stays
-    rejected: keep each (watched, candidate) pair's likeliest frame (a threshold passes some frame
-    of the pair exactly when it passes that one; the other kinds are scored once and kept)."""
+    rejected: keep each (watched, candidate) pair's first frame at its largest log-odds, where a
+    threshold below them would first act (they are the candidate's birth state against the
+    watched state then, the same every frame; a later frame's label would judge a decision
+    already made). The other kinds are scored once and kept as they are."""
     succ = dec["kind"] == "successor"
     if not succ.any():
         return dec
-    best = dec[succ].sort_values("log_odds", kind="stable").groupby(["a", "b"], sort=False).tail(1)
+    sub = dec[succ]
+    top = sub["log_odds"] >= sub.groupby(["a", "b"])["log_odds"].transform("max")
+    best = sub[top].sort_values("t", kind="stable").groupby(["a", "b"], sort=False).head(1)
     return pd.concat([dec[~succ], best]).sort_index()
 
 

@@ -66,10 +66,17 @@ def test_successor_labels():
     assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "kept"
 
 
-def test_one_successor_decision_per_candidate_at_its_likeliest_frame():
-    rows = [successor_row((1, 1), (1.1, 1), (1, 1.4), (3, 1), llr=v, b=b) for v, b in ((0.5, 5), (2.0, 5), (1.0, 5), (-3.0, 6))]
+def test_one_successor_decision_per_candidate_at_its_first_frame_of_largest_log_odds():
+    """Candidate 5 scored four times (its largest log-odds 2.0 first at t = 1, again at t = 3, on
+    another person by then), candidate 6 once; a pair decision is kept as it is."""
+    rows = []
+    for t, v, b, post in ((0.0, 0.5, 5, (3, 1)), (1.0, 2.0, 5, (3, 1)), (2.0, 1.0, 5, (3, 1)), (3.0, 2.0, 5, (1.1, 1.4)),
+                          (0.0, -3.0, 6, (3, 1))):
+        r = successor_row((1, 1), (1.1, 1), (1, 1.4), post, llr=v, b=b)
+        r["t"] = t
+        rows.append(r)
     pair = successor_row((1, 1), (3, 1.4), (1, 1.4), (3, 1), llr=7.0, b=1, kind="pair")
-    dec = pd.DataFrame(rows + [pair])
-    out = one_per_candidate(dec)
+    out = one_per_candidate(pd.DataFrame(rows + [pair]))
     assert sorted(out["log_odds"]) == [-3.0, 2.0, 7.0]
     assert list(out["kind"]).count("pair") == 1
+    assert float(out[(out["b"] == 5)]["t"].iloc[0]) == 1.0
