@@ -147,9 +147,15 @@ def merged_with(a, b) -> bool:
     return any(st == "merged" and str(b.tid) in str(reason).split(",") for st, reason, _ in a.status.values())
 
 
+def entry_at(history: list, t: float):
+    """The entry (t, s, S, ...) a history recorded at frame time ``t``, or None."""
+    return next((h for h in history if abs(h[0] - t) < 1e-6), None)
+
+
 def state_at(history: list, t: float):
-    """The state (s, S) a history of (t, s, S) recorded at frame time ``t``, or None."""
-    return next(((s, S) for th, s, S in history if abs(th - t) < 1e-6), None)
+    """The state (s, S) a history of (t, s, S, ...) recorded at frame time ``t``, or None."""
+    h = entry_at(history, t)
+    return None if h is None else (h[1], h[2])
 
 
 def gauss_loglik(r: np.ndarray, C: np.ndarray) -> float:
@@ -222,10 +228,9 @@ class IdentityLag:
     output_lag_s: float | None = None  # how far back a decision may relabel the output, s (None or less: lag_s)
     post_path: bool = False  # (the estimator's default: on) a pair's post velocities are its tracks' displacements over the lag (``post_state``)
     successor_reject: float | None = None  # existence log-odds below which the watched track has lost its person (``_watched_successor``; None: off)
-    watched_hist: list = field(default_factory=list)  # [(t, s, S)] of the watched identity's track (``watched_tid``) over the last hold_s
+    watched_hist: list = field(default_factory=list)  # [(t, s, S, own)] of the watched identity's track (``watched_tid``) over the last hold_s; own: the cameras in which it had a window of its own
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
     successor_lagged: bool = False  # a watched track's successor must be born while it had a window of its own in fewer than two cameras (``_watched_successor``)
-    watched_own: dict = field(default_factory=dict)  # frame time -> cameras in which the watched track had a window of its own (kept and cleared with ``watched_hist``)
 
     @property
     def final_s(self) -> float:
@@ -395,12 +400,10 @@ class IdentityLag:
         if tg is None:
             return
         if g != self.watched_tid:
-            self.watched_hist, self.watched_own, self.watched_tid = [], {}, g
+            self.watched_hist, self.watched_tid = [], g
         self.watched_hist = [h for h in self.watched_hist if t - h[0] <= self.hold_s + 1e-9]
-        self.watched_hist.append((t, tg.s.copy(), tg.S.copy()))
-        if self.successor_lagged:
-            self.watched_own = {th: k for th, k in self.watched_own.items() if t - th <= self.hold_s + 1e-9}
-            self.watched_own[round(t, 6)] = sum(1 for st, _, _ in tg.status.values() if st == "tracking")
+        own = sum(1 for st, _, _ in tg.status.values() if st == "tracking")
+        self.watched_hist.append((t, tg.s.copy(), tg.S.copy(), own))
         if tg.exist >= self.successor_reject or tg.mu >= 0.5 or not self.area:
             return
         best, best_llr = None, self.successor_log_odds
@@ -408,19 +411,19 @@ class IdentityLag:
             if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or tr.born is None or merged_with(tg, tr):
                 continue  # (merged with it now: the two share windows, and the rejection may be the merge's)
             tb, sb, Sb = tr.born
-            at = state_at(self.watched_hist, tb)
+            at = entry_at(self.watched_hist, tb)
             if at is None:
                 continue
-            if self.successor_lagged and self.watched_own.get(round(tb, 6), 0) >= 2:
+            _, sw, Sw, own_at_birth = at
+            if self.successor_lagged and own_at_birth >= 2:
                 continue  # the watched track was on someone, seen in two views, when this one was born beside it
-            sw, Sw = at
             llr = self._successor_log_odds(sb, Sb, sw, Sw, self.area)
             self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)
             if llr > best_llr:
                 best, best_llr = tid, llr
         if best is not None:
             self._exchange(max(self.born.get(best, t), self._not_before(t, (g, best))), g, best)
-            self.watched_hist, self.watched_own = [], {}
+            self.watched_hist = []
 
     def _link_or_defer(self, t: float, tid: int, ended: int, llr: float, alive: dict) -> None:
         """``_link``, unless ``ended`` ended in an encounter whose other track lives: then the

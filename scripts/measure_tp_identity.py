@@ -19,9 +19,9 @@ p_a, and b's, p_b - for a hand-over, the gone track's) and nearest each track at
 - ``same``: p_a = p_b (both on one person: a duplicate), or ``other`` (anything else).
 
 A **successor** decision (single-target mode: the rejected target track a, and a candidate b born
-while a was recorded, scored every frame a stays rejected) is kept once per (a, b), at its
-first frame of largest log-odds (``one_per_candidate``), and labelled ``exchanged`` when at that frame b is on
-the person a was on at b's birth (p_a) and a is not, else ``kept`` (``successor_label``).
+while a was recorded, scored every frame a stays rejected) is kept once per (a, b), at its first
+frame of largest log-odds (``one_per_candidate``), and labelled ``exchanged`` when at that frame b
+is on the person a was on at b's birth (p_a) and a is not, else ``kept`` (``successor_label``).
 
 It prints, per kind and label, the count and the log-odds' spread, and how many decisions each
 threshold on the log-odds gets right (exchange above it): 0 (Bayes' decision at even prior
