@@ -388,12 +388,31 @@ class TargetPlanes(Estimator):
                                         "between the click and the first crossing on it; no parameter value). On: "
                                         "analytic evaluation 1830 (seen) 29.4 -> 99.1 %; every output of 520 "
                                         "development recordings unchanged (docs/target_planes.md)")
-        successor_lagged: bool = param(True, "with rejected_successor, a candidate successor must have been born "
+        successor_lagged: bool = param(False, "with rejected_successor, a candidate successor must have been born "
                                        "while the target's track had a window of its own in fewer than two cameras "
                                        "(it lagged behind its person); one born beside it while it was seen in two "
                                        "views is someone else. No parameter value: the rule's own premise (a track born "
                                        "on its person while it lagged). Trial in the fifty-ninth session (analytic 2472, "
-                                       "seen), on since the sixty-third with successor_log_odds (docs/target_planes.md)")
+                                       "seen), on in the sixty-third, off since the sixty-fourth: successor_recent "
+                                       "separates the development candidates without refusing a rightful one "
+                                       "(head-on 101) (docs/target_planes.md)")
+        successor_recent: bool = param(True, "with rejected_successor, a candidate successor must have been born "
+                                       "no earlier before the target's track's rejection began than the existence test "
+                                       "takes to reject a walker lost in one camera's view (tp_joint.JointTracker.reject_s: "
+                                       "2.5 s at the measured p_detect and miss_run, 10 frames a second); one born "
+                                       "earlier was born while the target's track was still on someone. No parameter "
+                                       "value: derived from the existence test's. On since the sixty-fourth session: of "
+                                       "the 13 development candidates (exchanges off) it keeps the 3 rightful, born "
+                                       "0.9-1.8 s before the rejection, and refuses 4 born 8.2-11.4 s before; head-on "
+                                       "101 93.7 -> 99.7 %, no development recording worse (docs/target_planes.md)")
+        successor_found_again: bool = param(True, "with rejected_successor, a candidate successor is scored against "
+                                            "someone new or the person of a confirmed track that ended before its birth "
+                                            "(found again, walked on or stopped: tp_identity._continues_state, as "
+                                            "multi-person relink scores one), at equal odds, not against someone new "
+                                            "alone. No parameter value. On since the sixty-fourth session: head-on 2636 "
+                                            "(seen), the look-alike's track dropped as a duplicate of the target's in the "
+                                            "pass-through and born again scored 4.72 as the successor, -1.02 with it; "
+                                            "the development candidates' decisions unchanged (docs/target_planes.md)")
         rejected_successor: bool = param(True, "single-target mode: the target's track, never dropped, rejected by the "
                                                "existence test while likelier walking passes the target's identity to a "
                                                "track born on its person while it lagged and sharing no merged window with "
@@ -417,15 +436,16 @@ class TargetPlanes(Estimator):
                                          "(tp_identity.IdentityLag._hand_over): Bayes' decision at the prior odds, "
                                          "measured as pair_log_odds' (8 made rightly of 117 hand-overs scored, "
                                          "log(109 / 8) = 2.61; log 99 until the fifty-third session)")
-        successor_log_odds: float = param(float(np.log(3 / 2)), "with rejected_successor, the watched track's successor "
+        successor_log_odds: float = param(float(np.log(2)), "with rejected_successor, the watched track's successor "
                                           "takes its identity when the successor log-odds exceed this "
                                           "(tp_identity.IdentityLag._watched_successor): Bayes' decision at the prior "
                                           "odds, measured as pair_log_odds' on the 520 development recordings' "
-                                          "successor candidates (successor_lagged, exchanges off; one decision per "
-                                          "candidate, at its first scored frame; 2 rightful of 5, log(3 / 2) = 0.41; a "
-                                          "small sample: any level from -1.2 to 2.0, the prior's 95 % interval, "
+                                          "successor candidates (successor_recent and successor_found_again, exchanges "
+                                          "off; one decision per candidate, at its first scored frame; 3 rightful of 9, "
+                                          "log(6 / 3) = 0.69; a "
+                                          "small sample: any level from -0.6 to 2.0, the prior's 95 % interval, "
                                           "decides every development candidate alike). log 99 until the "
-                                          "sixty-third session")
+                                          "sixty-third session, log(3 / 2) with successor_lagged in the sixty-third")
         pre_while_apart: bool = param(True, "an encounter's pre states, when the pair first comes within 4 radius, are those "
                                            "of its last frame before, merged in a view or not (not only of its last merged "
                                            "frame: a pair apart and merged nowhere is not in doubt either); on since the fifty-third "
@@ -569,6 +589,9 @@ class TargetPlanes(Estimator):
             if cfg.rejected_successor and not cfg.multi_person:
                 idl.successor_reject, idl.hold_s = EXIST_REJECT, cfg.hold_s
                 idl.successor_lagged = cfg.successor_lagged
+                idl.successor_found_again = cfg.successor_found_again
+                if cfg.successor_recent and len(times) > 1:
+                    idl.successor_recent_s = jt.reject_s(float(np.median(np.diff(times))))
         if idl is not None and cfg.multi_person and cfg.relink and floor_area > 0:
             idl.relink_area, idl.hold_s, idl.walk_s = floor_area, cfg.hold_s, cfg.walk_s
         st = _RunState(tracks, keep, next_id, idl, float(times[0]) if len(times) else 0.0)

@@ -117,9 +117,11 @@ of the pair's states before and after it, with both assignments kept until then:
   walking (it lost its person), a track born at a two-camera crossing while it was recorded, and
   sharing no merged window with it now, is scored as its successor in the same way (its birth
   state against the watched track's state then) and takes the identity from its birth on above
-  ``successor_log_odds`` (``_watched_successor``). With ``successor_lagged`` only a track born
-  while the watched track had a window of its own in fewer than two cameras is a candidate (born
-  beside it while it was seen in two views, it is someone else).
+  ``successor_log_odds`` (``_watched_successor``). With ``successor_recent_s`` only a track born
+  no earlier than that before the rejection began is a candidate (the existence test rejects a
+  walker's track that lost its person within that time, so one born earlier was born while the
+  watched track was still on someone: someone else); with ``successor_lagged`` only a track born
+  while the watched track had a window of its own in fewer than two cameras.
 
 - **An encounter's ended track waits for its hand-over**: a confirmed track that ended while
   its encounter's other track lives is not found again, nor succeeded, at once: the link is
@@ -231,6 +233,10 @@ class IdentityLag:
     watched_hist: list = field(default_factory=list)  # [(t, s, S, own)] of the watched identity's track (``watched_tid``) over the last hold_s; own: the cameras in which it had a window of its own
     watched_tid: int | None = None  # the internal id whose states ``watched_hist`` holds
     successor_lagged: bool = False  # a watched track's successor must be born while it had a window of its own in fewer than two cameras (``_watched_successor``)
+    successor_recent_s: float | None = None  # a watched track's successor must be born no earlier than this before its rejection began, s (``_watched_successor``; None: any)
+    rejected_from: float | None = None  # the first frame of the watched track's current rejection (``_watched_successor``)
+    successor_found_again: bool = False  # a candidate may also be a confirmed track's person found again, one that ended before its birth (``_watched_successor``)
+    dropped: dict = field(default_factory=dict)  # internal id -> (s, S, t, mu, (x_w, S_w)) of a confirmed track that ended in the last hold_s (``successor_found_again``)
 
     @property
     def final_s(self) -> float:
@@ -329,6 +335,8 @@ class IdentityLag:
         self.carried = {}
         self._close(t, alive)
         if self.successor_reject is not None and self.watch is not None:
+            if self.successor_found_again:
+                self._remember_dropped(t, alive)
             self._watched_successor(t, alive)
         self.last = {tr.tid: (tr.s.copy(), tr.S.copy(), t) for tr in tracks}
         self.last_mu = {tr.tid: float(tr.mu) for tr in tracks}
@@ -380,6 +388,26 @@ class IdentityLag:
             if best is not None:
                 self._link_or_defer(t, tr.tid, best, best_llr, alive)
 
+    def _remember_dropped(self, t: float, alive: dict) -> None:
+        """``successor_found_again``: the confirmed tracks that ended since the last frame, their
+        last states kept for ``hold_s`` (``_watched_successor``'s alternatives)."""
+        for tid, (s, S, t_last) in self.last.items():
+            if tid not in alive and tid in self.conf_t and tid not in self.dropped:
+                self.dropped[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
+        for tid in [k for k, e in self.dropped.items() if t - e[2] > self.hold_s + 1e-9]:
+            del self.dropped[tid]
+
+    def _found_again_log_odds(self, tb: float, sb: np.ndarray, Sb: np.ndarray, area: float) -> float:
+        """log of the summed likelihood ratios, against someone new, of a track born at tb in
+        state ``sb``, ``Sb`` being the person of a confirmed track that ended before tb (within
+        ``hold_s``: ``dropped``), walked on or stopped and set off again (``_continues_state``);
+        -inf when there is none."""
+        out = -np.inf
+        for s, S, t_last, mu, stop_at in self.dropped.values():
+            if t_last <= tb + 1e-9:
+                out = float(np.logaddexp(out, self._continues_state(tb, sb, Sb, 0.0, (s, S, t_last), mu, stop_at, area)))
+        return out
+
     def _watched_successor(self, t: float, alive: dict) -> None:
         """Single-target mode: the watched identity's track, which is never dropped, rejected by
         the existence test (log-odds below ``successor_reject``) while likelier walking has lost
@@ -387,8 +415,9 @@ class IdentityLag:
         alone). Its person may have a track of its own by then: one born while this one lagged
         (a successor, as ``_successors`` scores one in multi-person mode). Each confirmed track
         under its own identity that was born at a two-camera crossing while the watched track was
-        recorded (with ``successor_lagged``, while it had a window of its own in fewer than two
-        cameras), and that shares no merged window with it this frame (the tracker holds both
+        recorded (with ``successor_recent_s``, no earlier than that before the first frame of
+        this rejection; with ``successor_lagged``, while it had a window of its own in fewer than
+        two cameras), and that shares no merged window with it this frame (the tracker holds both
         people there; a rejection in a merge may be the merge's: a look-alike born beside the
         target and walking past it as it stops), is scored as its successor, its birth state
         against the watched track's state then, N(s_b; s_w(t_b), S_b + S_w(t_b)), against
@@ -400,12 +429,15 @@ class IdentityLag:
         if tg is None:
             return
         if g != self.watched_tid:
-            self.watched_hist, self.watched_tid = [], g
+            self.watched_hist, self.watched_tid, self.rejected_from = [], g, None
         self.watched_hist = [h for h in self.watched_hist if t - h[0] <= self.hold_s + 1e-9]
         own = sum(1 for st, _, _ in tg.status.values() if st == "tracking")
         self.watched_hist.append((t, tg.s.copy(), tg.S.copy(), own))
         if tg.exist >= self.successor_reject or tg.mu >= 0.5 or not self.area:
+            self.rejected_from = None
             return
+        if self.rejected_from is None:
+            self.rejected_from = t
         best, best_llr = None, self.successor_log_odds
         for tid, tr in alive.items():
             if tid == g or not tr.confirmed or self.ident.get(tid, tid) != tid or tr.born is None or merged_with(tg, tr):
@@ -417,7 +449,12 @@ class IdentityLag:
             _, sw, Sw, own_at_birth = at
             if self.successor_lagged and own_at_birth >= 2:
                 continue  # the watched track was on someone, seen in two views, when this one was born beside it
+            if self.successor_recent_s is not None and tb < self.rejected_from - self.successor_recent_s - 1e-9:
+                continue  # born before the watched track can have lost its person: someone else
             llr = self._successor_log_odds(sb, Sb, sw, Sw, self.area)
+            if self.successor_found_again:
+                # someone else: someone new, or a person whose track ended before (equal odds)
+                llr -= float(np.logaddexp(0.0, self._found_again_log_odds(tb, sb, Sb, self.area)))
             self.record(t, "successor", g, tid, llr, (sw, Sw, tb), (sb, Sb, tb), tg, tr, gone=g)
             if llr > best_llr:
                 best, best_llr = tid, llr

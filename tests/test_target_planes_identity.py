@@ -286,7 +286,8 @@ def test_an_identity_still_carried_is_not_given_to_a_new_track():
 
 
 def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJECT, merged=False, seen_at_birth=False,
-                          successor_lagged=False, successor_log_odds=EXCHANGE_LOG_ODDS):
+                          successor_lagged=False, successor_log_odds=EXCHANGE_LOG_ODDS, successor_recent_s=None,
+                          early_reject=False, found_again=False, ended_before=False):
     """Single-target mode (``watch`` 0). Person A walks east at 1 m/s along y = 3; the target's
     track 0 follows until t = 1.3 s and then stalls at x = 2.3 (its windows walked on without it);
     a new track 2 is born at a two-camera crossing at t = 1.5 s at (x_A, ``born_at_y``), moving
@@ -294,20 +295,26 @@ def watched_successor_run(born_at_y, rejected_mu=0.0, successor_reject=EXIST_REJ
     the tracker's rejection level (the target's track is never dropped), likelier standing with
     ``rejected_mu`` >= 1/2, and with ``merged`` sharing a merged window with track 2 in one
     camera. Track 1 (B) stands at (1, 1). ``seen_at_birth``: track 0 has a window of its own in
-    two cameras in track 2's first frame."""
+    two cameras in track 2's first frame. ``early_reject``: track 0 is also rejected at 0.5-0.6 s
+    (walking on its person, before track 2 exists), and accepted again. ``ended_before``: a
+    confirmed track 5 walks where track 2 is then born (east at 1 m/s on y = ``born_at_y``) until
+    1.4 s and ends; ``found_again``: ``successor_found_again``."""
     idl = IdentityLag(1.0, accel_sigma=1.0, radius=0.2, watch=0, area=72.0, sigma_v=1.5, hold_s=6.0,
                       successor_reject=successor_reject, successor_lagged=successor_lagged,
-                      successor_log_odds=successor_log_odds)
+                      successor_log_odds=successor_log_odds, successor_recent_s=successor_recent_s,
+                      successor_found_again=found_again)
     wide = np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2])  # a new track's spreads
     rows = []
     for t in TIMES:
         x = 1.0 + min(t, 1.3)
-        late = t >= 2.5 - 1e-9
+        late = t >= 2.5 - 1e-9 or (early_reject and 0.5 - 1e-9 <= t <= 0.6 + 1e-9)
         trs = [JointTrack(0, np.array([x, 3.0, 1.0 if t < 1.3 else 0.0, 0.0]), S0.copy(), confirmed=True, seen=True,
                           exist=EXIST_REJECT - 1.0 if late else 4.6, mu=rejected_mu if late else 0.0,
                           status={"north": ("merged", "2", None)} if (late and merged) else
                           {"north": ("tracking", "", None), "east": ("tracking", "", None)} if (seen_at_birth and abs(t - 1.5) < 1e-9) else {}),
                JointTrack(1, np.array([1.0, 1.0, 0.0, 0.0]), S0.copy(), confirmed=True, seen=True)]
+        if ended_before and t <= 1.4 + 1e-9:
+            trs.append(JointTrack(5, np.array([1.0 + t, born_at_y, 1.0, 0.0]), S0.copy(), confirmed=True, seen=True))
         if t >= 1.5 - 1e-9:
             s2 = np.array([1.0 + t, born_at_y, 1.0, 0.0])
             trs.append(JointTrack(2, s2, (S0 if t >= 2.0 - 1e-9 else wide).copy(), confirmed=t >= 2.0 - 1e-9, seen=True,
@@ -358,6 +365,20 @@ def test_a_successor_must_be_born_while_the_target_track_lagged(seen_at_birth, l
     assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
 
 
+@pytest.mark.parametrize("recent_s, early_reject, successor", [(None, False, True), (1.2, False, True), (0.5, False, False),
+                                                             (0.5, True, False)])
+def test_a_successor_must_be_born_no_earlier_than_the_existence_test_takes_to_reject(recent_s, early_reject, successor):
+    """``successor_recent_s``: track 2 is born at 1.5 s, the target's track is rejected from
+    2.5 s. Born within 1.2 s of the rejection's first frame it may be the successor; with 0.5 s
+    it was born before the target's track can have lost its person (the existence test would
+    have rejected it sooner), and is someone else. The window counts back from the first frame
+    of the current rejection: an earlier one, ended (``early_reject``: 0.5-0.6 s, which would
+    admit every track born since), does not count."""
+    idl, t, tid, ident = watched_successor_run(3.0, successor_recent_s=recent_s, early_reject=early_reject)
+    assert (idl.holder(0) == 2) == successor
+    assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
+
+
 @pytest.mark.parametrize("level, successor", [(EXCHANGE_LOG_ODDS, False), (float(np.log(3 / 2)), True)])
 def test_a_successor_between_the_measured_prior_and_the_one_percent_level(level, successor):
     """Track 2 born 0.6 m off the stalled target track's line: its successor log-odds (about 3.2)
@@ -370,9 +391,24 @@ def test_a_successor_between_the_measured_prior_and_the_one_percent_level(level,
     assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
 
 
-def test_the_successor_rule_defaults_to_the_measured_level_among_lagged_candidates():
+@pytest.mark.parametrize("ended_before, found_again, successor", [(True, True, False), (True, False, True), (False, True, True)])
+def test_a_track_born_where_another_ended_is_that_persons_not_the_successor(ended_before, found_again, successor):
+    """``successor_found_again``: track 2 is born 0.6 m off the stalled target track's line, where
+    a confirmed track 5 walked until 0.1 s before and ended (head-on 2636: the look-alike's
+    track, dropped as a duplicate of the target's in the pass-through, and born again). Its
+    birth state is likelier track 5's person found again than the target's track's, so it is
+    not the successor; scored against someone new alone (off), it is; with no track ended there,
+    it still is."""
+    idl, t, tid, ident = watched_successor_run(3.6, successor_log_odds=float(np.log(2)), ended_before=ended_before,
+                                               found_again=found_again)
+    assert (idl.holder(0) == 2) == successor
+    assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
+
+
+def test_the_successor_rule_defaults_to_the_measured_level_among_recent_candidates():
     cfg = TargetPlanes.Config()
-    assert cfg.successor_lagged and cfg.successor_log_odds == pytest.approx(np.log(3 / 2))
+    assert cfg.successor_recent and cfg.successor_found_again and not cfg.successor_lagged
+    assert cfg.successor_log_odds == pytest.approx(np.log(2))
 
 
 def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False,

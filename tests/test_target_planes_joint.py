@@ -330,6 +330,24 @@ def test_a_ghost_track_without_windows_in_cameras_that_should_see_it_is_rejected
         assert (jt.prune([tr], None, lambda xy: np.ones(len(xy), bool)) == []) == rejected
 
 
+def test_reject_s_is_how_long_one_cameras_misses_take_to_reject_a_walker():
+    """``reject_s``: a walking track at the acceptance level, missed every frame by one camera in
+    whose image it moves, falls below the rejection level in exactly that many frames (2.5 s at
+    10 frames a second with the measured flow tracker: p_detect 0.91, mean miss run 5)."""
+    cams = four_cameras()
+    cfg, jt, tr = _standing_track(cams, [3.0, 2.5], mu=0.0)
+    c = cams[0].name
+    p = jt.project(c, tr)
+    assert float(np.linalg.norm(p.flow)) >= cfg.mover_flow_px  # it moves in that image
+    n = 0
+    while tr.exist >= EXIST_REJECT:
+        tr.exist += jt.walk_evidence(tr, c, p, None, False)
+        n += 1
+    assert n * 0.1 == pytest.approx(jt.reject_s(0.1))
+    assert jt.reject_s(0.1) == pytest.approx(2.5)
+    assert jt.reject_s(0.2) == pytest.approx(5.0)
+
+
 def test_a_standing_target_no_camera_can_see_through_flow_is_kept():
     """The same track, but standing (the standing mode's probability near 1): a flow tracker
     makes no window for someone still, so four cameras' misses are no evidence against it; it
