@@ -956,8 +956,8 @@ class JointTracker:
                         tr.xs, tr.Ps = tr.xs + k * nu, tr.Ps - np.outer(k, Pa)
 
     def reject_s(self, dt: float) -> float:
-        """How long the existence test takes, at most, to reject a walking track that lost its
-        person in the view of one camera that should see it, s: from ``EXIST_ACCEPT`` to
+        """How long the existence test takes to reject a walking track that lost its person in the
+        view of one camera that should see it, s: from ``EXIST_ACCEPT`` to
         ``EXIST_REJECT`` on that camera's misses alone (``walk_evidence``: the first miss after a
         frame with a window, then misses after a miss), at frame interval ``dt``. With the
         measured flow tracker (``p_detect`` 0.91, ``miss_run`` 5 frames) and 10 frames a second,
