@@ -359,6 +359,13 @@ class TargetPlanes(Estimator):
                                 "the filter's velocity, which lags a walker whose windows were merged (no parameter "
                                 "value; on: development identity 503 -> 504 of 520, head-on 180 gained, none lost; "
                                 "docs/target_planes.md, fifty-eighth session)")
+        dup_prior: bool = param(True, "two tracks alike now (nearer than 2 radius, states alike at the 99 % level: "
+                                "DUPLICATE) are one person seen twice only if their predicted states, before this "
+                                "frame's updates, pass the same test: two people pulled together by one frame's "
+                                "updates (a window given to the wrong track) are two, and the younger is not "
+                                "dropped. No parameter value (the duplicate test's own, on the predictions). On "
+                                "since the sixty-fourth session: rendered 2635 (seen) 34.9 -> 100 %; no "
+                                "development count changed (docs/target_planes.md)")
         border_edges: bool = param(True, "a window ending at an image border, of a track predicted across it, is the "
                                    "visible part of someone cut by it (rendered: 21 % of windows end at a border; "
                                    "their centroids lie a median 7 px inwards of the axis, their inner edges within "

@@ -75,7 +75,8 @@ Per frame:
    ``confirm_frames`` frames with a window; an unconfirmed track without a window is dropped,
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
    of two tracks nearer than 2 ``radius`` with states alike the younger is dropped (one person
-   seen twice); a track off the floor plan is dropped, except the hand-chosen target's, which
+   seen twice; with ``dup_prior`` only if their predicted states, before the frame's updates,
+   were alike too: two people pulled together by one frame's updates are two); a track off the floor plan is dropped, except the hand-chosen target's, which
    is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
    largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
@@ -173,6 +174,7 @@ class JointTrack:
     mode: str = ""
     status: dict = field(default_factory=dict)  # camera -> (status, reason, window id)
     exist: float = 0.0  # log-odds that the track is a person (the existence test, ``JointTracker.existence``)
+    prior: tuple | None = None  # (s, S) predicted for this frame, before its updates (``dup_prior``)
     missed: set = field(default_factory=set)  # cameras that should have seen it last frame and had no window of it
     mu: float = 0.0  # probability that the person stands (the standing mode), given the windows so far
     xs: np.ndarray | None = None  # the standing mode's floor position (m) and its covariance Ps (2, 2)
@@ -462,6 +464,7 @@ class JointTracker:
                 k = np.ones(4)
                 k[sl] = cap / sd
                 tr.S = tr.S * np.outer(k, k)
+        tr.prior = (tr.s.copy(), tr.S.copy())
 
     def project(self, c: str, tr: JointTrack) -> Projection | None:
         P = self.Ps[c]
@@ -1677,7 +1680,8 @@ class JointTracker:
     def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
         """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
         for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
-        ``radius`` (two bodies cannot be: one person seen twice); never the track ``keep`` (the
+        ``radius`` with states alike (two bodies cannot be: one person seen twice; with
+        ``dup_prior``, alike as predicted for this frame too); never the track ``keep`` (the
         hand-chosen target), which is put back on the floor plan when it left it (``onto_floor``)."""
         cfg = self.cfg
         out = []
@@ -1702,6 +1706,10 @@ class JointTracker:
                 continue
             ds = a.s - b.s
             if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
+                if cfg.dup_prior and a.prior is not None and b.prior is not None:
+                    dp = a.prior[0] - b.prior[0]
+                    if float(np.linalg.norm(dp[:2])) >= 2 * cfg.radius or float(dp @ np.linalg.solve(a.prior[1] + b.prior[1], dp)) >= DUPLICATE:
+                        continue  # apart as predicted: two people brought together by this frame's updates
                 young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
                 if young.tid != keep:
                     other = a if young is b else b
