@@ -363,12 +363,9 @@ class IdentityLag:
     def _relink(self, t: float, tracks, alive: dict) -> None:
         """Remember confirmed tracks that ended since the last frame; give a newly confirmed track
         the identity of the ended one it likelier continues (module docstring)."""
-        fresh = []
-        for tid, (s, S, t_last) in self.last.items():
-            if tid not in alive and tid in self.conf_t:
-                self.ended[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
-                fresh.append(tid)
-        self._successors(t, tracks, fresh)
+        fresh = self._just_ended(alive)
+        self.ended.update(fresh)
+        self._successors(t, tracks, list(fresh))
         for tid in [k for k, e in self.ended.items() if t - e[2] > self.hold_s + 1e-9]:
             del self.ended[tid]
         for tid in [k for k in self.last_seen if k not in alive]:
@@ -388,12 +385,18 @@ class IdentityLag:
             if best is not None:
                 self._link_or_defer(t, tr.tid, best, best_llr, alive)
 
+    def _just_ended(self, alive: dict) -> dict:
+        """The confirmed tracks of the last frame that ended since (not in ``alive``): internal id
+        -> (s, S, t, mu, (x_w, S_w)), their last state and time, standing probability and last
+        position seen (``ended``, ``dropped``)."""
+        return {tid: (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
+                for tid, (s, S, t_last) in self.last.items() if tid not in alive and tid in self.conf_t}
+
     def _remember_dropped(self, t: float, alive: dict) -> None:
         """``successor_found_again``: the confirmed tracks that ended since the last frame, their
         last states kept for ``hold_s`` (``_watched_successor``'s alternatives)."""
-        for tid, (s, S, t_last) in self.last.items():
-            if tid not in alive and tid in self.conf_t and tid not in self.dropped:
-                self.dropped[tid] = (s, S, t_last, self.last_mu.get(tid, 0.0), self.last_seen.get(tid, (s[:2], S[:2, :2])))
+        for tid, e in self._just_ended(alive).items():
+            self.dropped.setdefault(tid, e)
         for tid in [k for k, e in self.dropped.items() if t - e[2] > self.hold_s + 1e-9]:
             del self.dropped[tid]
 

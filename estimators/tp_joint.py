@@ -76,8 +76,8 @@ Per frame:
    a confirmed one after ``hold_s`` without any, or when the existence test (below) rejects it;
    of two tracks nearer than 2 ``radius`` with states alike the younger is dropped (one person
    seen twice; with ``dup_prior`` only if their predicted states, before the frame's updates,
-   were alike too: two people pulled together by one frame's updates are two); a track off the floor plan is dropped, except the hand-chosen target's, which
-   is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
+   were alike too: two people pulled together by one frame's updates are two); a track off the
+   floor plan is dropped, except the hand-chosen target's, which is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
    largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
    or (when ``adopt``, off by default) takes the confirmed track that started on it when none
@@ -156,6 +156,13 @@ def mixture_moments(w: float, m1: np.ndarray, C1: np.ndarray, m2: np.ndarray, C2
     m = (1.0 - w) * m1 + w * m2
     d1, d2 = m1 - m, m2 - m
     return m, (1.0 - w) * (C1 + np.outer(d1, d1)) + w * (C2 + np.outer(d2, d2))
+
+
+def alike(sa: np.ndarray, Sa: np.ndarray, sb: np.ndarray, Sb: np.ndarray, radius: float) -> bool:
+    """Whether two track states (s, S) are one person's: nearer than 2 ``radius`` and alike at
+    the 99 % level (``DUPLICATE``; ``JointTracker.prune``)."""
+    d = sa - sb
+    return float(np.linalg.norm(d[:2])) < 2 * radius and float(d @ np.linalg.solve(Sa + Sb, d)) < DUPLICATE
 
 
 @dataclass
@@ -1704,16 +1711,14 @@ class JointTracker:
         for a, b in itertools.combinations(out, 2):
             if a.tid in drop or b.tid in drop:
                 continue
-            ds = a.s - b.s
-            if float(np.linalg.norm(ds[:2])) < 2 * cfg.radius and float(ds @ np.linalg.solve(a.S + b.S, ds)) < DUPLICATE:
-                if cfg.dup_prior and a.prior is not None and b.prior is not None:
-                    dp = a.prior[0] - b.prior[0]
-                    if float(np.linalg.norm(dp[:2])) >= 2 * cfg.radius or float(dp @ np.linalg.solve(a.prior[1] + b.prior[1], dp)) >= DUPLICATE:
-                        continue  # apart as predicted: two people brought together by this frame's updates
-                young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
-                if young.tid != keep:
-                    other = a if young is b else b
-                    drop.add(young.tid)
-                    self.ends.append((young, "duplicate", other.tid))
+            if not alike(a.s, a.S, b.s, b.S, cfg.radius):
+                continue
+            if cfg.dup_prior and a.prior is not None and b.prior is not None and not alike(*a.prior, *b.prior, cfg.radius):
+                continue  # apart as predicted: two people brought together by this frame's updates
+            young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
+            if young.tid != keep:
+                other = a if young is b else b
+                drop.add(young.tid)
+                self.ends.append((young, "duplicate", other.tid))
         self.ends = [e for e in self.ends if e[0].confirmed]
         return [tr for tr in out if tr.tid not in drop]
