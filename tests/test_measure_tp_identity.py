@@ -64,6 +64,11 @@ def test_successor_labels():
     # a is still on A (and b too: a duplicate): keep
     r = successor_row((1, 1), (1.1, 1), (3, 1), (3.1, 1))
     assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "kept"
+    # at b's birth a was between A (1, 1) and B (3, 1.4), nearly as near each: not told
+    r = successor_row((2.0, 1.25), (2.1, 1.2), (1, 1.4), (3, 1))
+    assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "ambiguous"
+    r = successor_row((1.6, 1.1), (1.7, 1.1), (1, 1.4), (3, 1))  # 0.61 m from A, 1.43 m from B: told
+    assert label(next(pd.DataFrame([r]).itertuples()), PEOPLE) == "exchanged"
 
 
 def test_one_successor_decision_per_candidate_at_its_first_frame_of_largest_log_odds():

@@ -408,7 +408,7 @@ def test_a_track_born_where_another_ended_is_that_persons_not_the_successor(ende
 def test_the_successor_rule_defaults_to_the_measured_level_among_recent_candidates():
     cfg = TargetPlanes.Config()
     assert cfg.successor_recent and cfg.successor_found_again and not cfg.successor_lagged
-    assert cfg.successor_log_odds == pytest.approx(np.log(2))
+    assert cfg.successor_log_odds == pytest.approx(np.log(3))
 
 
 def run_gone(paths, swap_at, end_at, new_from, new_on, handover=True, gone_confirmed=True, area=48.0, gone_swaps=False,
