@@ -357,6 +357,8 @@ class IdentityLag:
                 self.stand_from.setdefault(tr.tid, t)
             else:
                 self.stand_from.pop(tr.tid, None)
+        for tid in [k for k in self.last_seen if k not in alive]:
+            del self.last_seen[tid]  # read by _just_ended in the frame a track ends, and no later
         if self.behind:
             self._still_behind(t, alive)
 
@@ -368,8 +370,6 @@ class IdentityLag:
         self._successors(t, tracks, list(fresh))
         for tid in [k for k, e in self.ended.items() if t - e[2] > self.hold_s + 1e-9]:
             del self.ended[tid]
-        for tid in [k for k in self.last_seen if k not in alive]:
-            del self.last_seen[tid]
         for tr in tracks:
             if self.conf_t.get(tr.tid) != t:
                 continue  # not confirmed first in this frame

@@ -405,6 +405,15 @@ def test_a_track_born_where_another_ended_is_that_persons_not_the_successor(ende
     assert set(ident[(tid == 2) & (t >= 1.5 - 1e-9)]) == ({0} if successor else {2})
 
 
+def test_an_ended_tracks_last_seen_position_is_kept_only_until_its_end_is_read():
+    """Single-target mode too: track 5 ends at 1.4 s; its last position with a window is read in
+    the next frame (``successor_found_again``'s dropped tracks) and then forgotten, so the
+    identity bookkeeping holds entries for the living tracks only."""
+    idl, t, tid, ident = watched_successor_run(3.6, successor_log_odds=float(np.log(2)), ended_before=True, found_again=True)
+    assert 5 in idl.dropped and idl.dropped[5][4][0][0] == pytest.approx(2.4)
+    assert set(idl.last_seen) == {0, 1, 2}
+
+
 def test_the_successor_rule_defaults_to_the_measured_level_among_recent_candidates():
     cfg = TargetPlanes.Config()
     assert cfg.successor_recent and cfg.successor_found_again and not cfg.successor_lagged
