@@ -40,7 +40,7 @@ from scripts.experiment_tsutsui import distances_at, recordings_and_params, run_
 from trackroom.dataset import read_recording
 
 
-TIE_M = 0.2  # one body radius (the estimator's ``radius``): a track nearer the second-nearest person than this more than the nearest is between them
+TIE_M = 0.2  # one body radius (the estimator's ``radius``): a track whose two nearest people are this near alike is between them
 
 
 def nearest_people(people: pd.DataFrame, times, xys) -> np.ndarray:
@@ -83,8 +83,8 @@ def successor_label(row, people: pd.DataFrame) -> str:
     d = np.sort(D[0])
     if len(d) > 1 and d[1] - d[0] < TIE_M:
         return "ambiguous"
-    p_a, q_a, q_b = nearest_people(people, [row.t_pre, row.t, row.t],
-                                   [(row.a_pre_x, row.a_pre_y), (row.a_post_x, row.a_post_y), (row.b_post_x, row.b_post_y)])
+    p_a = names[int(D[0].argmin())]
+    q_a, q_b = nearest_people(people, [row.t, row.t], [(row.a_post_x, row.a_post_y), (row.b_post_x, row.b_post_y)])
     return "exchanged" if q_b == p_a and q_a != p_a else "kept"
 
 
