@@ -77,8 +77,8 @@ Per frame:
    of two tracks nearer than 2 ``radius`` with states alike the younger is dropped (one person
    seen twice; with ``dup_prior`` only if their predicted states, before the frame's updates,
    were alike too: two people pulled together by one frame's updates are two); a track off the
-   floor plan is dropped, except the hand-chosen target's, which is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
-   largest spreads).
+   floor plan is dropped, except the hand-chosen target's, which is put back on it
+   (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
    or (when ``adopt``, off by default) takes the confirmed track that started on it when none
    came near enough.

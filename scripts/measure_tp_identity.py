@@ -38,9 +38,10 @@ import pandas as pd
 
 from scripts.experiment_tsutsui import distances_at, recordings_and_params, run_target
 from trackroom.dataset import read_recording
+from trackroom.estimators.target_planes import TargetPlanes
 
 
-TIE_M = 0.2  # one body radius (the estimator's ``radius``): a track whose two nearest people are this near alike is between them
+TIE_M = TargetPlanes.Config.radius  # one body radius (the tracker's person model, m): a track whose two nearest people are this near alike is between them
 
 
 def nearest_people(people: pd.DataFrame, times, xys) -> np.ndarray:
@@ -76,9 +77,9 @@ def successor_label(row, people: pd.DataFrame) -> str:
     is on the person the target track was on at that birth and the target track is not (it lost
     its person: the identity should pass), ``kept`` otherwise (the candidate is someone else, or
     the target track is on its person); ``ambiguous`` when at the candidate's birth the target
-    track was as near one person as another (nearer the second than ``TIE_M`` more than the
-    first: whom it was on is not told by the truth, as in the seen head-on 2636, 0.47 against
-    0.50 m), left out of the thresholds as ``same`` and ``other`` are."""
+    track was as near one person as another (the two distances within ``TIE_M``: whom it was on
+    is not told by the truth, as in the seen head-on 2636, 0.47 against 0.50 m), left out of the
+    thresholds as ``same`` and ``other`` are."""
     names, D = distances_at(people, [row.t_pre], [(row.a_pre_x, row.a_pre_y)])
     d = np.sort(D[0])
     if len(d) > 1 and d[1] - d[0] < TIE_M:
