@@ -192,6 +192,13 @@ class TargetPlanes(Estimator):
                                                  "model's height")
         flow_window: int = param(5, "frames of a camera track over which its flow is averaged (the rendered flows' "
                                     "tails are heavy)")
+        locate_slow: bool = param(True, "single-target mode: while the target is not located, a crossing of a "
+                                        "window slower than mover_flow_px (one whole person's image, not a fragment "
+                                        "or a merge) with a mover's window, nearer the click than every movers' "
+                                        "crossing and more than 2 radius from the nearest, keeps the target from "
+                                        "being located that frame and that mover's window from starting a track "
+                                        "(the movers' crossing may be a ghost of the target's window and someone "
+                                        "else's; no parameter value)")
         mover_flow_px: float = param(8.0, "a window with less mean flow starts no track, and a track predicted "
                                           "slower in an image may have no window there, px/s")
         flow_lag: bool = param(True, "a window's flow, the mean over the camera track's last flow_window frames, "
@@ -620,7 +627,7 @@ class TargetPlanes(Estimator):
             locating = target is not None and not target.located
             prefer = functools.partial(jt.locate_distance, target, accept) if locating else None
             ghost = (lambda c, xy: jt.sees_no_one(c, xy, frame[c])) if cfg.ghost_test else None
-            proposals = propose(cfg, jt.margin_px, Ps, frame, free, free_floor, prefer, ghost)
+            proposals = propose(cfg, jt.margin_px, Ps, frame, free, free_floor, prefer, ghost, jt.not_one_person)
             taken = jt.locate(target, proposals, frame, accept) if locating else set()
             for k, (xy, support) in enumerate(proposals):
                 if k in taken or any(jt.covers(tr, xy) for tr in st.tracks if tr.located):

@@ -1517,6 +1517,17 @@ class JointTracker:
             seen &= self.occluders.visible_many(c, xys)
         return seen
 
+    def not_one_person(self, c: str, xy: np.ndarray, width: float) -> bool:
+        """A window ``width`` px wide is not one whole person at floor point xy in camera c: a
+        fragment, narrower than half the projected cylinder's width inside the image
+        (``fragment_var``'s test), or wider than one person (eq. 8's ratio above
+        ``width_ratio_threshold``, as ``wide_clutter``'s), the image border taken off both."""
+        w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
+        if not np.isfinite(w).all():
+            return True
+        seen = min(float(w[1]), self.widths[c]) - max(float(w[0]), 0.0)
+        return seen <= 0.0 or width < 0.5 * seen or (width - seen) / seen > self.cfg.width_ratio_threshold
+
     def sees_no_one(self, c: str, xy: np.ndarray, boxes: CameraBoxes) -> bool:
         """Camera c would see a person at floor point xy whole (the projected cylinder's columns
         inside its image, not hidden by the floor plan's boxes) and has no window, of any flow,
