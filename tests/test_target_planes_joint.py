@@ -1224,14 +1224,14 @@ def test_a_slow_window_of_the_clicked_target_keeps_a_ghost_from_locating_it():
     locates nothing) and someone farther off whose target plane crosses south's plane of the target
     0.6 m beyond it, within ``locate``'s disc about the click. Among movers' windows that ghost is
     the only crossing. The target's own slow window crosses south's nearer the click, and more than
-    a person's width (2 ``radius``) from it: the ghost may
-    be a crossing of the target's window and someone else's, so the target is not located that
-    frame, nor is anyone started on its mover window; once west's window moves (0.5 s) the target's own
-    crossing locates it. A slow window that
-    is no one whole person's image (a speck) holds nothing back, and births are unchanged (analytic
-    evaluation seed 2712: the target stood at the start with one camera's window above
-    ``mover_flow_px``; a ghost of that window and the look-alike's, 0.8 m off, located it, and the
-    target was lost for the whole recording)."""
+    a person's width (2 ``radius``) from it: the ghost may be a crossing of the target's window and
+    someone else's, so the target is not located that frame, nor is anyone started on its mover
+    window. Once west's window's mean flow (over ``flow_window`` frames) passes ``mover_flow_px``
+    (0.6 s), the target's own crossing locates it. A slow window that is no one whole person's
+    image (a speck) holds nothing back, and births are unchanged (analytic evaluation seed 2712:
+    the target stood at the start with one camera's window above ``mover_flow_px``; a ghost of
+    that window and the look-alike's, 0.8 m off, located it, and the target was lost for the whole
+    recording)."""
     south, west = right_angle_pair()
     times, tgt, ghost, other = _ghost_pair(south, west)
     rows = []
@@ -1263,7 +1263,7 @@ def test_a_slow_window_of_the_clicked_target_keeps_a_ghost_from_locating_it():
     assert jt.not_one_person("west", tgt[0], 2.0) and jt.not_one_person("west", tgt[0], 2.0 * width) and not jt.not_one_person("west", tgt[0], width)
     (xy, _), = propose(cfg, jt.margin_px, jt.Ps, specked, free, everywhere, prefer=near, not_one=jt.not_one_person)
     assert np.linalg.norm(xy - ghost[0]) < 0.05
-    late = times >= 0.6  # located at 0.5 s, its first output there the click
+    late = times >= 0.6  # located at 0.6 s (before: the click)
     for slow in (True, False):
         tr = TargetPlanes(initial_xy=click, locate_slow=slow).run(Observations({"boxes": boxes}, 3.0), calib(cams)).tracks
         at_ghost = np.hypot(tr.x - ghost[:, 0], tr.y - ghost[:, 1]) < 0.1
