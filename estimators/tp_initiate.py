@@ -58,7 +58,7 @@ def propose(cfg, margin_px: float, Ps: dict[str, np.ndarray], frame: dict[str, C
             planes[(c, j)] = (a_, b_)
             areas[(c, j)] = geo.target_area(Ps[c], b.box(j), cfg.height, cfg.radius, margin=cfg.area_margin, margin_px=margin_px)
     cands = []
-    near_slow = []  # crossings with a slow window: locate's distance, the mover's window
+    near_slow = []  # crossings with a slow window: (locate's distance, the crossing, its mover's window)
     keys = list(planes)
     for k1, k2 in itertools.combinations(keys, 2):
         if k1[0] == k2[0]:
