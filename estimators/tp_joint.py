@@ -362,6 +362,12 @@ def partly_in_image(win: np.ndarray, width: float) -> np.ndarray:
     return np.isfinite(win).all(-1) & (win[..., 1] >= 0.0) & (win[..., 0] <= width)
 
 
+def span_in_image(lo: float, hi: float, width: float) -> float:
+    """Width (px) of the column span [lo, hi] inside an image ``width`` px wide; zero or less
+    when the span lies beyond a border."""
+    return min(float(hi), width) - max(float(lo), 0.0)
+
+
 def wholly_in_image(win: np.ndarray, width: float) -> bool:
     """Whether a projected cylinder's window [u_l, u_r, ...] (px) lies wholly inside an image
     ``width`` px wide."""
@@ -387,7 +393,7 @@ def detector_sees(win: np.ndarray, width: float, n_clear: int, n_rays: int, part
         return True
     if not partial or not np.isfinite(win).all() or win[1] <= win[0]:
         return False
-    share = (min(float(win[1]), width) - max(float(win[0]), 0.0)) / float(win[1] - win[0])
+    share = span_in_image(win[0], win[1], width) / float(win[1] - win[0])
     return (inside and n_clear >= PARTIAL_RAYS) or (share >= PARTIAL_SHARE and n_clear >= n_rays)
 
 
@@ -403,7 +409,7 @@ def coincidence_chance(gate: float, width: float, n: int, u: float | None = None
     is), the detections spread over an image ``width`` px wide: 1 - (1 - 2 gate / W)^n; with the
     point's column ``u``, only the gate's span inside the image counts (a point near or beyond
     the border)."""
-    span = 2.0 * gate if u is None else max(min(u + gate, width) - max(u - gate, 0.0), 0.0)
+    span = 2.0 * gate if u is None else max(span_in_image(u - gate, u + gate, width), 0.0)
     return 1.0 - (1.0 - min(span / width, 1.0)) ** n
 
 
@@ -1540,7 +1546,7 @@ class JointTracker:
         w = geo.cylinder_window(self.Ps[c], xy, self.cfg.height, self.cfg.radius)
         if not np.isfinite(w).all():
             return True
-        seen = min(float(w[1]), self.widths[c]) - max(float(w[0]), 0.0)
+        seen = span_in_image(w[0], w[1], self.widths[c])
         return seen <= 0.0 or width < 0.5 * seen or (width - seen) / seen > self.cfg.width_ratio_threshold
 
     def sees_no_one(self, c: str, xy: np.ndarray, boxes: CameraBoxes) -> bool:
