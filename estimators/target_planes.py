@@ -373,6 +373,12 @@ class TargetPlanes(Estimator):
                                 "dropped. No parameter value (the duplicate test's own, on the predictions). On "
                                 "since the sixty-fourth session: rendered 2635 (seen) 34.9 -> 100 %; no "
                                 "development count changed (docs/target_planes.md)")
+        wall_stops: bool = param(True, "a track no window explained this frame, predicted closer than radius to a wall of "
+                                 "the floor plan or through it, is moved onto the line radius inside the wall along "
+                                 "its own uncertainty (the constraint as an exact measurement; velocity corrected "
+                                 "through its correlation, spreads kept) instead of being dropped off the floor "
+                                 "plan: a walker unseen stops or turns at a wall. No parameter value (radius, the "
+                                 "floor plan). On since the sixty-eighth session (docs/target_planes.md)")
         dup_velocity: bool = param(True, "two tracks alike (the duplicate test, and dup_prior's) are one person seen twice "
                                    "only if their velocity difference is at least as likely for one person (the sum "
                                    "of their velocity covariances) as for two walking independently (each with the "

@@ -78,9 +78,12 @@ Per frame:
    seen twice; with ``dup_prior`` only if their predicted states, before the frame's updates,
    were alike too: two people pulled together by one frame's updates are two; with
    ``dup_velocity`` only if their velocity difference is likelier for one person than for two:
-   ``one_velocity``); a track off the
-   floor plan is dropped, except the hand-chosen target's, which is put back on it
-   (``onto_floor``: the outline's nearest point, ``radius`` inside, standing, largest spreads).
+   ``one_velocity``); with ``wall_stops`` a track no window explained this frame and predicted
+   closer than ``radius`` to a wall, or through it, stopped or turned there: it is moved onto the
+   line ``radius`` inside the wall along its own uncertainty (``against_wall``); a track still
+   off the floor plan (windows put it there) is dropped, except the hand-chosen target's, which
+   is put back on it (``onto_floor``: the outline's nearest point, ``radius`` inside, standing,
+   largest spreads).
    The hand-chosen target is located by the two-camera crossing nearest the click (``locate``),
    or (when ``adopt``, off by default) takes the confirmed track that started on it when none
    came near enough.
@@ -1682,6 +1685,35 @@ class JointTracker:
         d = np.asarray(xy, float) - tr.xy
         return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
 
+    def inside_wall(self, xy, inside_room) -> tuple[np.ndarray, np.ndarray] | None:
+        """The floor point ``radius`` inside the floor plan's outline nearest to xy (off the floor
+        plan) and the outline's inward unit normal there; None without an outline."""
+        cfg = self.cfg
+        if self.outline is None or len(self.outline) < 3:
+            return None
+        best = None
+        for a, b in zip(self.outline, np.roll(self.outline, -1, axis=0)):
+            e = b - a
+            L2 = float(e @ e)
+            if L2 <= 0.0:
+                continue
+            q = nearest_on_segment(xy, a, b)
+            d = float(np.linalg.norm(xy - q))
+            if best is None or d < best[0]:
+                n = np.array([-e[1], e[0]]) / np.sqrt(L2)  # a normal of the edge; inwards below
+                best = (d, q, n)
+        if best is None:
+            return None
+        _, q, n = best
+        if not on_floor(inside_room, q + 1e-3 * n):
+            n = -n
+        xy = q + cfg.radius * n
+        if not on_floor(inside_room, xy):  # by a corner: towards the middle
+            m = self.outline.mean(axis=0) - q
+            n = m / max(float(np.linalg.norm(m)), 1e-9)
+            xy = q + cfg.radius * n
+        return xy, n
+
     def onto_floor(self, tr: JointTrack, inside_room) -> bool:
         """A person is on the floor plan. A track that left it - the hand-chosen target, which is
         never dropped, after running on along one camera's line of sight where one view cannot
@@ -1689,32 +1721,39 @@ class JointTracker:
         no velocity and the largest spreads (``sigma_max``, ``max_speed`` / 2; its standing
         position the same), for the windows to find it again. Returns whether it was moved."""
         cfg = self.cfg
-        if self.outline is None or len(self.outline) < 3 or on_floor(inside_room, tr.xy):
+        if on_floor(inside_room, tr.xy):
             return False
-        best = None
-        for a, b in zip(self.outline, np.roll(self.outline, -1, axis=0)):
-            e = b - a
-            L2 = float(e @ e)
-            if L2 <= 0.0:
-                continue
-            q = nearest_on_segment(tr.xy, a, b)
-            d = float(np.linalg.norm(tr.xy - q))
-            if best is None or d < best[0]:
-                n = np.array([-e[1], e[0]]) / np.sqrt(L2)  # a normal of the edge; inwards below
-                best = (d, q, n)
-        if best is None:
+        inside = self.inside_wall(tr.xy, inside_room)
+        if inside is None:
             return False
-        _, q, n = best
-        if not on_floor(inside_room, q + 1e-3 * n):
-            n = -n
-        xy = q + cfg.radius * n
-        if not on_floor(inside_room, xy):  # by a corner: towards the middle
-            m = self.outline.mean(axis=0) - q
-            xy = q + cfg.radius * m / max(float(np.linalg.norm(m)), 1e-9)
-        tr.s = np.r_[xy, 0.0, 0.0]
+        tr.s = np.r_[inside[0], 0.0, 0.0]
         tr.S = np.diag([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
         tr.xs, tr.Ps = tr.s[:2].copy(), tr.S[:2, :2].copy()
         return True
+
+    def against_wall(self, tr: JointTrack, inside_room) -> None:
+        """``wall_stops``: a person's centre stays ``radius`` inside the floor plan's walls. A
+        track predicted closer to (or through) the nearest wall is moved onto the line ``radius``
+        inside it along its own uncertainty - the constraint taken as an exact measurement of the
+        distance from the wall, its velocity corrected through their correlation, the spreads
+        kept (estimate projection; up to three walls, for a corner). The standing position the
+        same."""
+        def project(x, C, dims):
+            for _ in range(3):
+                inside = self.inside_wall(x[:2], inside_room)
+                if inside is None:
+                    return x
+                xy, n = inside
+                if on_floor(inside_room, x[:2]) and float(n @ (x[:2] - xy)) >= 0.0:
+                    return x
+                h = np.zeros(dims)
+                h[:2] = n
+                Ch = C @ h
+                x = x + Ch * float(n @ xy - h @ x) / float(h @ Ch)
+            return x
+        tr.s = project(tr.s, tr.S, 4)
+        if tr.xs is not None:
+            tr.xs = project(tr.xs, tr.Ps, 2)
 
     def prune(self, tracks: list[JointTrack], keep: int | None, inside_room) -> list[JointTrack]:
         """Drops unconfirmed tracks without a window that is theirs alone, confirmed ones unseen
@@ -1723,7 +1762,8 @@ class JointTracker:
         ``dup_prior``, alike as predicted for this frame too; with ``dup_velocity``, their
         velocity difference likelier for one person than for two, ``one_velocity``); never the
         track ``keep`` (the hand-chosen target), which is put back on the floor plan when it left
-        it (``onto_floor``)."""
+        it (``onto_floor``). With ``wall_stops`` a track no window explained this frame is first
+        held ``radius`` inside the walls (``against_wall``)."""
         cfg = self.cfg
         out = []
         self.ends = []  # this frame's confirmed tracks dropped: (track, why, the track it duplicated or None)
@@ -1735,10 +1775,14 @@ class JointTracker:
                 if tr.exist < EXIST_REJECT:  # the existence test rejects it: not a person
                     self.ends.append((tr, "existence", None))
                     continue
+                if cfg.wall_stops and not tr.seen:
+                    self.against_wall(tr, inside_room)
                 if not on_floor(inside_room, tr.xy):
                     self.ends.append((tr, "off floor", None))
                     continue
             else:
+                if cfg.wall_stops and not tr.seen:
+                    self.against_wall(tr, inside_room)
                 self.onto_floor(tr, inside_room)  # the target is kept, on the floor plan
             out.append(tr)
         drop = set()

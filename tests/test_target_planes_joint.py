@@ -392,19 +392,53 @@ def test_the_target_track_that_left_the_floor_plan_is_put_back_on_it():
     cal = calib(cams)  # an 8 m x 7 m room
     jt.outline = np.asarray(cal.floorplan.outline, float)
     S = np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2])
-    tgt = JointTrack(0, np.array([3.0, 9.5, 0.3, 1.8]), S.copy(), confirmed=True, hits=50)
-    other = JointTrack(1, np.array([5.0, 9.0, 0.0, 1.0]), S.copy(), confirmed=True, hits=50)
+    tgt = JointTrack(0, np.array([3.0, 9.5, 0.3, 1.8]), S.copy(), confirmed=True, hits=50, seen=True)
+    other = JointTrack(1, np.array([5.0, 9.0, 0.0, 1.0]), S.copy(), confirmed=True, hits=50, seen=True)
     out = jt.prune([tgt, other], 0, cal.floorplan.inside)
     assert [t.tid for t in out] == [0]
     assert tgt.xy == pytest.approx([3.0, 7.0 - cfg.radius])
     assert (tgt.s[2:] == 0.0).all()
     assert np.diag(tgt.S) == pytest.approx([cfg.sigma_max**2] * 2 + [(0.5 * cfg.max_speed) ** 2] * 2)
-    corner = JointTrack(2, np.array([-1.0, -2.0, 0.0, 0.0]), S.copy(), confirmed=True, hits=50)
+    corner = JointTrack(2, np.array([-1.0, -2.0, 0.0, 0.0]), S.copy(), confirmed=True, hits=50, seen=True)
     jt.prune([corner], 2, cal.floorplan.inside)
     assert cal.floorplan.inside(corner.xy[None])[0] and np.linalg.norm(corner.xy) < 0.3  # by the nearest corner
     on = JointTrack(3, np.array([3.0, 6.0, 0.3, 1.8]), S.copy(), confirmed=True, hits=50)
     jt.prune([on], 3, cal.floorplan.inside)
     assert on.s == pytest.approx([3.0, 6.0, 0.3, 1.8]) and on.S == pytest.approx(S)
+
+
+def test_a_walker_no_window_explains_stops_at_the_wall_instead_of_leaving_the_floor_plan():
+    """``wall_stops``: a track no window explains this frame, predicted to within ``radius`` of a
+    wall or through it (a walker who turned or stopped there unseen: analytic evaluation 2772's
+    look-alike, dropped off the floor plan before), is moved onto the line ``radius`` inside the
+    wall along its own uncertainty; its velocity changes only through its correlation with the
+    position. With the option off it is dropped as before; a track that windows placed off the
+    floor plan is dropped either way."""
+    cams = four_cameras()
+    cfg, jt = _tracker(cams)
+    cal = calib(cams)  # an 8 m x 7 m room
+    jt.outline = np.asarray(cal.floorplan.outline, float)
+    S = np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2])
+    S[1, 3] = S[3, 1] = 0.5 * 0.3 * 0.5  # y and vy correlated
+    walker = JointTrack(1, np.array([4.0, 7.05, 0.2, 0.8]), S.copy(), confirmed=True, hits=50)
+    near = JointTrack(2, np.array([2.0, 6.9, 0.5, 0.0]), S.copy(), confirmed=True, hits=50)
+    placed = JointTrack(3, np.array([6.0, 7.1, 0.0, 0.8]), S.copy(), confirmed=True, hits=50, seen=True)
+    inside = JointTrack(4, np.array([3.0, 5.0, 0.3, 0.8]), S.copy(), confirmed=True, hits=50)
+    out = jt.prune([walker, near, placed, inside], None, cal.floorplan.inside)
+    assert sorted(t.tid for t in out) == [1, 2, 4]
+    assert walker.xy == pytest.approx([4.0, 7.0 - cfg.radius])
+    # the position moved 0.25 m back along y; vy by the correlation: 0.25 * S[3, 1] / S[1, 1]
+    assert walker.s[2:] == pytest.approx([0.2, 0.8 - 0.25 * (0.5 * 0.3 * 0.5) / 0.3**2])
+    assert walker.S == pytest.approx(S)
+    assert near.s == pytest.approx([2.0, 7.0 - cfg.radius, 0.5, 0.0 - 0.1 * (0.5 * 0.3 * 0.5) / 0.3**2])
+    assert inside.s == pytest.approx([3.0, 5.0, 0.3, 0.8])
+    corner = JointTrack(5, np.array([8.05, 7.05, 0.5, 0.5]), np.diag([0.3**2, 0.3**2, 0.5**2, 0.5**2]), confirmed=True, hits=50)
+    jt.prune([corner], None, cal.floorplan.inside)
+    assert corner.xy == pytest.approx([8.0 - cfg.radius, 7.0 - cfg.radius])
+    cfg_off, jt_off = _tracker(cams, wall_stops=False)
+    jt_off.outline = jt.outline
+    off = JointTrack(1, np.array([4.0, 7.05, 0.2, 0.8]), S.copy(), confirmed=True, hits=50)
+    assert jt_off.prune([off], None, cal.floorplan.inside) == []
 
 
 def test_a_window_cut_by_the_image_border_is_compared_with_the_projection_inside_the_image():
@@ -503,7 +537,7 @@ def test_prune_records_why_each_confirmed_track_ended():
         return JointTrack(tid, np.asarray(s, float), S.copy(), confirmed=kw.pop("confirmed", True), hits=kw.pop("hits", 50), **kw)
 
     tracks = [track(0, [2.0, 2.0, 0.5, 0.0]), track(1, [2.1, 2.0, 0.5, 0.0], hits=60),  # 1 duplicates the target
-              track(2, [4.0, 9.0, 0.0, 0.0]), track(3, [5.0, 3.0, 0.0, 0.0], unseen_s=cfg.hold_s + 0.1),
+              track(2, [4.0, 9.0, 0.0, 0.0], seen=True), track(3, [5.0, 3.0, 0.0, 0.0], unseen_s=cfg.hold_s + 0.1),
               track(4, [6.0, 5.0, 0.0, 0.0], exist=EXIST_REJECT - 1.0), track(5, [3.0, 5.0, 0.0, 0.0], confirmed=False),
               track(6, [6.0, 2.0, 0.0, 0.0], hits=10), track(7, [6.05, 2.0, 0.0, 0.0], hits=30)]
     out = jt.prune(tracks, 0, cal.floorplan.inside)
