@@ -1686,8 +1686,9 @@ class JointTracker:
         return float(np.linalg.norm(d)) < 2 * self.cfg.radius or float(d @ np.linalg.solve(tr.S[:2, :2], d)) < BIRTH_GATE
 
     def inside_wall(self, xy, inside_room) -> tuple[np.ndarray, np.ndarray] | None:
-        """The floor point ``radius`` inside the floor plan's outline nearest to xy (off the floor
-        plan) and the outline's inward unit normal there; None without an outline."""
+        """The point ``radius`` inside the floor plan's outline at the outline's point nearest to
+        xy (on the floor plan or off it), and the outline's inward unit normal there (by a corner,
+        the direction towards the outline's middle); None without an outline."""
         cfg = self.cfg
         if self.outline is None or len(self.outline) < 3:
             return None
