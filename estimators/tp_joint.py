@@ -702,6 +702,13 @@ class JointTracker:
         (a standing person makes no window; one who starts to walk is the walking mode)."""
         return float(-np.log(max(1.0 - mu, 1e-12)))
 
+    def gated_windows(self, p: Projection, boxes: CameraBoxes) -> list[int]:
+        """The windows a track projected as p may explain (``explain_camera``): those whose
+        columns reach its centroid column within 3 standard deviations of its spread and the
+        centroid noise."""
+        m = 3.0 * np.sqrt(p.var_u + self.u_sigma**2)
+        return [j for j in range(len(boxes)) if boxes.win[j, 0] - m <= p.u <= boxes.win[j, 1] + m]
+
     def explain_camera(self, c: str, tracks: list[JointTrack], boxes: CameraBoxes, probe: int | None = None,
                        force: tuple[int, int | None] | None = None) -> tuple[dict[int, tuple[int, ...]], dict[int, Projection]]:
         """The best joint explanation of camera c's windows: window index -> indices (into
@@ -719,10 +726,7 @@ class JointTracker:
         if not projs or not n:
             self.cost = float(sum(self.miss_cost(p) for p in projs.values())) + C_CLUTTER * n
             return {}, projs
-        gate = {}
-        for i, p in projs.items():
-            m = 3.0 * np.sqrt(p.var_u + self.u_sigma**2)
-            gate[i] = [j for j in range(n) if boxes.win[j, 0] - m <= p.u <= boxes.win[j, 1] + m]
+        gate = {i: self.gated_windows(p, boxes) for i, p in projs.items()}
         # connected components of the gating graph (tracks and windows)
         comp_of: dict = {}
 

@@ -1,6 +1,6 @@
 """Frame trace of one target_planes track: what each camera showed it and how it moved.
 
-    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--param KEY=VALUE ...]
+    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--costs] [--param KEY=VALUE ...]
 
 Runs target_planes on one occlusion_lab recording (single-target with the experiment's click,
 ``experiment_tsutsui.run_target``, or every mover with ``--multi``) and prints, for each frame in
@@ -20,6 +20,12 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   velocity
   (issue 12's fifty-fifth session: rendered 2341, 6.0-7.0 s, where a merged window's edge
   carries the stopping target's track off);
+- with ``--costs``, after each camera's line, what the joint explanation weighed for the track
+  there: its miss cost (``JointTracker.miss_cost``), its walking mode's chance of being too slow
+  for a window (``p_slow``) and its standing probability, its cost alone in each window it gates
+  (``explain_cost``), and what the camera's best explanation costs more when the track is made
+  to hold no window or each of those windows (``explain_camera``'s ``force``: +0.00 is the
+  explanation chosen; issue 12's sixty-ninth session: analytic 2812 at 28.2 s in ``obl_ne``);
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
   camera whose image it falls in.
@@ -59,7 +65,7 @@ class Tracer:
     with the run's result); with ``updates`` also each Kalman update of the track (``UPDATES``)
     and how far it moved the state; ``close`` puts the tracker back."""
 
-    def __init__(self, tid: int, updates: bool = False):
+    def __init__(self, tid: int, updates: bool = False, costs: bool = False):
         self.tid = tid
         self.k = -1  # the frame index: one step per frame
         self.frames: list[tuple[int, list[str]]] = []  # (frame index, its lines: before, cameras, after)
@@ -91,6 +97,8 @@ class Tracer:
                 tracer.frames[-1][1].append(
                     f"    {c}: projection u {p.u:.0f} (sd {np.sqrt(p.var_u):.0f}) cols {p.win[0]:.0f}-{p.win[1]:.0f} "
                     f"flow {p.flow[0]:+.0f},{p.flow[1]:+.0f}; windows {_windows(boxes)}; explained {who}")
+                if costs:
+                    tracer.frames[-1][1].append(tracer.costs(jt, c, tracks, boxes, i, p))
             return expl, projs
 
         JT.step, JT.explain_camera = step, explain_camera
@@ -98,6 +106,22 @@ class Tracer:
         self.orig_updates = {name: getattr(JT, name) for name in UPDATES} if updates else {}
         for name, orig in self.orig_updates.items():
             setattr(JT, name, self._update(name, orig))
+
+    def costs(self, jt, c: str, tracks: list, boxes, i: int, p) -> str:
+        """``--costs``' line for track ``tracks[i]`` (projection p) in camera c: its miss cost,
+        P(slow) and standing probability, its cost alone in each window it gates, and the extra
+        cost of the camera's best explanation with the track forced to no window or to each of
+        them; the tracker's own result of the frame (``cost``, ``alternative``) is put back."""
+        base, alt = jt.cost, jt.alternative
+        gated = jt.gated_windows(p, boxes)
+        alone = " ".join(f"{j}: {jt.explain_cost(c, [p], boxes, j):.2f}" for j in gated) or "none gated"
+        forced = []
+        for opt in [None, *gated]:
+            self.orig[1](jt, c, tracks, boxes, force=(i, opt))
+            forced.append(f"{'none' if opt is None else opt} {jt.cost - base:+.2f}")
+        jt.cost, jt.alternative = base, alt
+        return (f"      {c} costs: miss {jt.miss_cost(p):.2f} (P(slow) {jt.p_slow(p):.2f}, standing {tracks[i].mu:.3f}); "
+                f"alone in window {alone}; forced to window {', '.join(forced)}")
 
     def _update(self, name: str, orig):
         """``orig`` (a JointTracker update of one track in camera c) with a trace line of the
@@ -130,14 +154,14 @@ class Tracer:
 
 
 def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None,
-          updates: bool = False) -> list[str]:
+          updates: bool = False, costs: bool = False) -> list[str]:
     """The trace lines of track ``tid`` over [t0, t1] s of the recording in folder ``d``, each
     frame's true positions after it (``updates``: each Kalman update's change of the state too)."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
     ts.refuse_lookahead("trace_tp_track", params, "trace")
     rec = read_recording(d)
-    tracer = Tracer(tid, updates)
+    tracer = Tracer(tid, updates, costs)
     try:
         if multi:
             res = ts.multi_estimator(rec, params).run(rec.observations, rec.calibration)
@@ -171,8 +195,10 @@ def main(argv=None) -> int:
     ap.add_argument("--multi", action="store_true", help="track every mover (multi_person=true) instead of the clicked target")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
     ap.add_argument("--updates", action="store_true", help="also each Kalman update of the track and how far it moved the state")
+    ap.add_argument("--costs", action="store_true", help="also, per camera, the joint explanation's costs for the track: its miss, "
+                    "alone in each window it gates, and the explanation forced to each option")
     a = ap.parse_args(argv)
-    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates)
+    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates, a.costs)
     if not lines:
         print(f"track {a.track} does not exist between {a.t0:g} and {a.t1:g} s")
         return 1

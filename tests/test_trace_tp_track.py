@@ -99,3 +99,25 @@ def test_an_update_made_inside_another_is_traced_once(rec_dir):
     for k in edges:
         change = lines[k].split(":", 1)[1]
         assert not ("update_plane" in lines[k - 1] and lines[k - 1].split(":", 1)[1] == change)
+
+
+def test_costs_give_each_cameras_weighing_and_leave_the_run_alone(rec_dir):
+    """``--costs``: after every camera line of the track, its miss cost, P(slow), standing
+    probability, its cost alone in each window it gates, and the best explanation's extra cost
+    with the track forced to each option. The chosen explanation is one of them (+0.00, every
+    other one no cheaper); the run is the same as without the option, and the tracker's methods
+    are put back."""
+    import re
+
+    before = (tp_joint.JointTracker.step, tp_joint.JointTracker.explain_camera)
+    lines = tt.trace(rec_dir, 0, 2.0, 2.3, costs=True)
+    assert (tp_joint.JointTracker.step, tp_joint.JointTracker.explain_camera) == before
+    cams = [ln for ln in lines if ln.startswith("    obl_")]
+    costs = [ln for ln in lines if " costs: miss " in ln]
+    assert cams and len(costs) == len(cams)
+    for cam, cost in zip(cams, costs):
+        assert cost.split()[0] == cam.split(":")[0].strip()  # the same camera, right after its line
+        extra = [float(x) for x in re.findall(r"(?:none|\d+) ([+-]\d+\.\d+)", cost.split("forced to window")[1])]
+        assert len(extra) >= 1 and min(extra) == 0.0 and all(x >= 0.0 for x in extra)
+        assert "none" in cost.split("forced to window")[1]
+    assert tt.trace(rec_dir, 0, 2.0, 2.3) == [ln for ln in lines if " costs: miss " not in ln]
