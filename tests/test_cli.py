@@ -25,6 +25,9 @@ def run_cli(*args):
         (["generate", "bearing_hall", "--sensing", "rendered", "--render-workers", "-1", "--out", "x"],
          "--render-workers must be a whole number >= 0"),
         (["generate", "bearing_hall", "--render-workers", "2", "--out", "x"], "--render-workers needs --sensing rendered"),
+        (["generate", "bearing_hall", "--perception-draw", "-1", "--out", "x"], "--perception-draw must be a whole number >= 0"),
+        (["generate", "bearing_hall", "--sensing", "rendered", "--perception-draw", "1", "--out", "x"],
+         "--perception-draw needs --sensing analytic"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line(args, needle):
@@ -186,3 +189,29 @@ def test_summary_line_shows_speeds_below_real_time():
                           duration=30.0, scene="s", seed=1, sensing="rendered")
     assert "(0.29x real time)" in summary_line(rec, 104.5, "out")
     assert "(150x real time)" in summary_line(rec, 0.2, "out")
+
+
+def test_generate_perception_draw_writes_the_redrawn_camera_tables(tmp_path):
+    """``--perception-draw K``: the recording ``simulate(..., perception_draw=K)`` gives (what
+    ``experiment_tsutsui --draw K`` runs): the same walkers and phones as the seed's own recording,
+    other camera tables; the command line is in the manifest."""
+    import json
+
+    from trackroom.dataset import read_recording
+    from trackroom.scenes import load_scene
+    from trackroom.sim.simulate import simulate
+
+    out0, out1 = tmp_path / "d0", tmp_path / "d1"
+    for out, draw in ((out0, "0"), (out1, "1")):
+        r = run_cli("generate", "occlusion_lab", "--seed", "5", "--duration", "3", "--perception-draw", draw,
+                    "--out", str(out), "--quiet")
+        assert r.returncode == 0, r.stderr
+    d0, d1 = read_recording(out0), read_recording(out1)
+    direct = simulate(load_scene("occlusion_lab"), 5, 3.0, perception_draw=1)
+    pd.testing.assert_frame_equal(d1.observations.tables["boxes"].reset_index(drop=True),
+                                  direct.observations.tables["boxes"].reset_index(drop=True), check_dtype=False)
+    pd.testing.assert_frame_equal(d0.truth.people, d1.truth.people)
+    pd.testing.assert_frame_equal(d0.observations.tables["imu"], d1.observations.tables["imu"])
+    assert not d0.observations.tables["boxes"].equals(d1.observations.tables["boxes"])
+    assert "--perception-draw" in json.dumps(json.load(open(out1 / "manifest.json")))
+

@@ -27,6 +27,9 @@ def add_arguments(p) -> None:
     p.add_argument("--render-workers", type=int, default=None, metavar="N",
                    help="rendered mode: threads for perception, labels and video (default: $TRACKROOM_RENDER_WORKERS, "
                         "else the available cores; 0: none; the recording does not depend on it)")
+    p.add_argument("--perception-draw", type=int, default=0, metavar="K",
+                   help="analytic mode: K > 0 redraws only the camera tables' random streams (the same walkers, "
+                        "phones and click; simulate's perception_draw, as experiment_tsutsui --draw K); 0: the seed's own")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -55,11 +58,16 @@ def run(args) -> int:
                 raise CommandError(str(e)) from None
         elif args.render_workers is not None:
             raise CommandError("--render-workers needs --sensing rendered")
+        draw = getattr(args, "perception_draw", 0)
+        if draw < 0:
+            raise CommandError(f"--perception-draw must be a whole number >= 0, got {draw}")
+        if draw and args.sensing != "analytic":
+            raise CommandError("--perception-draw needs --sensing analytic (it redraws the analytic camera tables)")
         scene = load_scene(args.scene, args.overrides)
         import trackroom.dataset, trackroom.sim.simulate  # noqa: E401,F401  (imported here, with the collector off)
     rec, seconds, out = generate_to(scene, args.seed, args.duration, args.sensing, args.out,
                                     save_frames=args.save_frames, force=args.force, progress=not args.quiet,
-                                    command=getattr(args, "_command", None), render_workers=workers)
+                                    command=getattr(args, "_command", None), render_workers=workers, perception_draw=draw)
     print(summary_line(rec, seconds, out))
     # and whatever the run left, out of the collections the interpreter runs on its way out: with
     # the libraries' objects unfrozen those took ~1 s of wall time (0.3-0.5 s of CPU) after the
@@ -114,10 +122,11 @@ def check_duration(duration: float, option: str = "--duration") -> None:
 
 
 def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=False, progress=False, command=None,
-                render_workers=None):
+                render_workers=None, perception_draw=0):
     """Simulate and write; returns (recording, wall seconds, folder). Refuses, before simulating, a
     folder that exists (without ``force``) and a simulation that would exhaust memory.
-    ``render_workers``: the rendered mode's worker threads (``sim.rendered.worker_count``)."""
+    ``render_workers``: the rendered mode's worker threads (``sim.rendered.worker_count``);
+    ``perception_draw``: ``simulate``'s (analytic camera tables redrawn; 0: the seed's own)."""
     import shutil
     import tempfile
     from pathlib import Path
@@ -136,7 +145,7 @@ def generate_to(scene, seed, duration, sensing, out, save_frames=False, force=Fa
     frames_dir = Path(tempfile.mkdtemp(prefix="trackroom-frames-")) if save_frames else None
     try:
         rec = simulate(scene, seed=seed, duration=duration, sensing=sensing, progress=progress, save_frames=frames_dir,
-                       render_workers=render_workers)
+                       render_workers=render_workers, perception_draw=perception_draw)
         folder = write_recording(rec, out, overwrite=force, extra_dirs={"frames": frames_dir}, command=command)
     finally:
         if frames_dir is not None and frames_dir.exists():
