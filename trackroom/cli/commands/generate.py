@@ -58,7 +58,7 @@ def run(args) -> int:
                 raise CommandError(str(e)) from None
         elif args.render_workers is not None:
             raise CommandError("--render-workers needs --sensing rendered")
-        draw = getattr(args, "perception_draw", 0)
+        draw = args.perception_draw
         if draw < 0:
             raise CommandError(f"--perception-draw must be a whole number >= 0, got {draw}")
         if draw and args.sensing != "analytic":
