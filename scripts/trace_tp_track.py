@@ -9,7 +9,8 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
 - its state before the frame (after the previous frame's updates): floor position and velocity
   with their standard deviations (m, m/s), and its standing probability mu;
 - per camera that could see it: its projection (centroid column u and its sd, columns of the
-  projected cylinder, predicted image flow, px and px/s), every window the camera reported
+  projected cylinder, predicted image flow, px and px/s; "hidden by the floor plan" when the
+  tracker's ``Occluders`` say that camera cannot see a person there), every window the camera reported
   (columns, rows, flow) and the joint explanation (window index -> the ids of the tracks that
   window was explained by; a window absent is clutter);
 - its state after the frame's updates, its mode (planes / area / merged / predicted) and each
@@ -28,7 +29,10 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   explanation chosen; issue 12's sixty-ninth session: analytic 2812 at 28.2 s in ``obl_ne``);
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
-  camera whose image it falls in.
+  camera whose image it falls in, "(unseen)" after a person the recording's truth says that
+  camera could not see (``truth_visibility``: behind the floor plan's boxes or other people;
+  issue 12's seventieth session: rendered 2839 at 31.3 s, where ``obl_se``'s one window is the
+  look-alike's head over the shelf).
 
 The frame traces in docs/target_planes.md can be re-made with it (e.g. rendered development
 137, 21.5-22.4 s). Frame times are the estimator's own (``TargetPlanesResult.times``).
@@ -94,9 +98,11 @@ class Tracer:
             if i is not None and i in projs:
                 p = projs[i]
                 who = {j: [tracks[i].tid for i in mem] for j, mem in sorted(expl.items())}
+                hidden = jt.occluders is not None and not jt.occluders.visible(c, tracks[i].xy)
                 tracer.frames[-1][1].append(
                     f"    {c}: projection u {p.u:.0f} (sd {np.sqrt(p.var_u):.0f}) cols {p.win[0]:.0f}-{p.win[1]:.0f} "
-                    f"flow {p.flow[0]:+.0f},{p.flow[1]:+.0f}; windows {_windows(boxes)}; explained {who}")
+                    f"flow {p.flow[0]:+.0f},{p.flow[1]:+.0f}{' hidden by the floor plan' if hidden else ''}; "
+                    f"windows {_windows(boxes)}; explained {who}")
                 if costs:
                     tracer.frames[-1][1].append(tracer.costs(jt, c, tracks, boxes, i, p))
             return expl, projs
@@ -174,13 +180,19 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
     truth = ts.people_at(rec.truth.people, np.array([t for t, _ in frames]))
     cfg = TargetPlanes(**{**ts.estimator_config(rec), **(params or {})}).resolved_config(rec.calibration)
     cams = {c: (np.asarray(cam.P, float), float(cam.width)) for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
+    vis = rec.truth.visibility
     out = []
     for t, (before, *rest) in frames:
         now = truth[np.isclose(truth["t"], t)]
         out += [f"t {t:.2f} {before}", *rest, "        truth:  " + " ".join(f"{r.person_id} {r.x:.2f},{r.y:.2f}" for r in now.itertuples())]
+        unseen = set()  # (camera, person) the simulator says that camera could not see this frame
+        if vis is not None and len(vis):
+            v = vis[np.isclose(vis["t"].to_numpy(float), t) & ~vis["visible"].to_numpy(bool)]
+            unseen = set(zip(v["camera"], v["person_id"]))
         for c, (P, width) in sorted(cams.items()):
             cols = [(r.person_id, geo.cylinder_window(P, (r.x, r.y), cfg.height, cfg.radius)) for r in now.itertuples()]
-            seen = " ".join(f"{who} {w[0]:.0f}-{w[1]:.0f}" for who, w in cols if np.isfinite(w).all() and w[1] >= 0 and w[0] <= width)
+            seen = " ".join(f"{who} {w[0]:.0f}-{w[1]:.0f}{' (unseen)' if (c, who) in unseen else ''}"
+                            for who, w in cols if np.isfinite(w).all() and w[1] >= 0 and w[0] <= width)
             if seen:
                 out.append(f"        truth in {c}: {seen}")
     return out

@@ -121,3 +121,36 @@ def test_costs_give_each_cameras_weighing_and_leave_the_run_alone(rec_dir):
         assert len(extra) >= 1 and min(extra) == 0.0 and all(x >= 0.0 for x in extra)
         assert "none" in cost.split("forced to window")[1]
     assert tt.trace(rec_dir, 0, 2.0, 2.3) == [ln for ln in lines if " costs: miss " not in ln]
+
+
+def test_the_trace_marks_who_the_cameras_could_not_see(rec_dir, monkeypatch):
+    """A person the recording's truth says a camera could not see (``truth_visibility``) is
+    marked "(unseen)" in that camera's truth line, and only they; a track the tracker's floor
+    plan (``Occluders``) hides from a camera is marked "hidden by the floor plan" on that
+    camera's line."""
+    import numpy as np
+
+    from trackroom.dataset import read_recording
+
+    lines = tt.trace(rec_dir, 0, 2.0, 4.0)
+    vis = read_recording(rec_dir).truth.visibility
+    t, marked = None, 0
+    for ln in lines:
+        if ln.startswith("t "):
+            t = float(ln.split()[1])
+        elif ln.lstrip().startswith("truth in "):
+            cam = ln.split(":")[0].split()[-1]
+            now = vis[np.isclose(vis.t, t) & (vis.camera == cam)].set_index("person_id").visible
+            words = ln.split(":", 1)[1].split()
+            for k, w in enumerate(words):
+                if w in now.index:
+                    unseen = k + 2 < len(words) and words[k + 2] == "(unseen)"
+                    assert unseen == (not now[w]), (t, cam, w)
+                    marked += unseen
+    assert marked > 0  # the seed-3 recording has people behind the shelf and the desk then
+    assert not any("hidden by the floor plan" in ln for ln in lines if ln.startswith("    obl_nw"))
+    monkeypatch.setattr(tp_joint.Occluders, "visible", lambda self, c, xy: c != "obl_nw")
+    lines = tt.trace(rec_dir, 0, 2.0, 2.3)
+    cams = [ln for ln in lines if ln.startswith("    obl_") and "projection u" in ln]
+    assert any(ln.startswith("    obl_nw") for ln in cams)
+    assert all(("hidden by the floor plan" in ln) == ln.startswith("    obl_nw") for ln in cams)
