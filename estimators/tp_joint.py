@@ -337,14 +337,16 @@ class Occluders:
         n = self.clear_rays(c, xys)
         return n == len(self.z) if whole else n > 0
 
-    def clear_rays(self, c: str, xys: np.ndarray) -> np.ndarray:
+    def clear_rays(self, c: str, xys: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
         """How many of the rays from camera c to a person at each floor point of xys (N, 2) - to
-        the body centre, chest and head - meet none of the boxes: (N,) int, 0 to len(VIS_FRACTIONS)."""
+        the body centre, chest and head, or to the heights ``z`` (m) on its axis - meet none of
+        the boxes: (N,) int, 0 to the number of rays."""
         xys = np.asarray(xys, float).reshape(-1, 2)
+        z = self.z if z is None else np.asarray(z, float)
         if not len(self.boxes):
-            return np.full(len(xys), len(self.z), int)
-        V = len(self.z)
-        pts = np.c_[np.repeat(xys, V, axis=0), np.tile(self.z, len(xys))]  # (N V, 3)
+            return np.full(len(xys), len(z), int)
+        V = len(z)
+        pts = np.c_[np.repeat(xys, V, axis=0), np.tile(z, len(xys))]  # (N V, 3)
         a = self.centres_local[c]
         d = self.local(pts) - a
         lo, hi = self.lo, self.hi
@@ -696,6 +698,29 @@ class JointTracker:
         misses free for a walker hidden two frames and lowered analytic seed 105 to 77.7 %.)"""
         return C_CLUTTER if float(np.linalg.norm(p.flow)) >= self.cfg.mover_flow_px else 0.0
 
+    def miss_costs(self, c: str, tracks: list[JointTrack], projs: dict[int, Projection]) -> dict[int, float]:
+        """Each projected track's cost (``projs``: index into ``tracks`` -> projection) for having
+        no window in camera c: ``miss_cost``, or nothing for a track the floor plan hides wholly
+        from c (``hidden_miss``: ``hidden_from``)."""
+        hidden = self.hidden_from(c, tracks, projs) if self.cfg.hidden_miss else set()
+        return {i: 0.0 if i in hidden else self.miss_cost(p) for i, p in projs.items()}
+
+    def hidden_from(self, c: str, tracks: list[JointTrack], projs: dict[int, Projection]) -> set[int]:
+        """The projected tracks (indices, keys of ``projs``) whose person camera c cannot see at
+        all for the floor plan's boxes: none of the rays to the body centre, chest, head and top
+        of the head clear (``Occluders.clear_rays``; the top of the head too, as the simulator's
+        strip window of a head seen over a shelf). Only confirmed tracks located by two or more
+        views last frame (mode planes, as ``slow_misses``): a track lagging in one view or in
+        merged windows may have its mean in a shadow its person has left."""
+        if self.occluders is None:
+            return set()
+        ids = [i for i in projs if tracks[i].confirmed and tracks[i].mode == "planes"]
+        if not ids:
+            return set()
+        z = np.r_[self.occluders.z, self.cfg.height]
+        n = self.occluders.clear_rays(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2), z)
+        return {i for i, k in zip(ids, n) if k == 0}
+
     @staticmethod
     def walk_cost(mu: float) -> float:
         """-log P(walking): what explaining a window adds for a track of standing probability mu
@@ -723,8 +748,9 @@ class JointTracker:
         n = len(boxes)
         cfg = self.cfg
         self.cost, self.alternative = 0.0, None
+        miss = self.miss_costs(c, tracks, projs)
         if not projs or not n:
-            self.cost = float(sum(self.miss_cost(p) for p in projs.values())) + C_CLUTTER * n
+            self.cost = float(sum(miss.values())) + C_CLUTTER * n
             return {}, projs
         gate = {i: self.gated_windows(p, boxes) for i, p in projs.items()}
         # connected components of the gating graph (tracks and windows)
@@ -745,7 +771,6 @@ class JointTracker:
             comps[find(("t", i))][1].update(js)
         result: dict[int, tuple[int, ...]] = {}
         cache: dict = {}
-        miss = {i: self.miss_cost(p) for i, p in projs.items()}
         walk = {i: self.walk_cost(tracks[i].mu) * self.wake_share.get(id(tracks[i]), 1.0) for i in projs}
 
         rv = {i: self.row_vars(c, tracks[i]) for i in projs} if cfg.rows_explain else {}  # once per track, not per window

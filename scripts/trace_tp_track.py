@@ -22,7 +22,7 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   (issue 12's fifty-fifth session: rendered 2341, 6.0-7.0 s, where a merged window's edge
   carries the stopping target's track off);
 - with ``--costs``, after each camera's line, what the joint explanation weighed for the track
-  there: its miss cost (``JointTracker.miss_cost``), its walking mode's chance of being too slow
+  there: its miss cost (``JointTracker.miss_costs``), its walking mode's chance of being too slow
   for a window (``p_slow``) and its standing probability, its cost alone in each window it gates
   (``explain_cost``), and what the camera's best explanation costs more when the track is made
   to hold no window or each of those windows (``explain_camera``'s ``force``: +0.00 is the
@@ -126,7 +126,7 @@ class Tracer:
             self.orig[1](jt, c, tracks, boxes, force=(i, opt))
             forced.append(f"{'none' if opt is None else opt} {jt.cost - base:+.2f}")
         jt.cost, jt.alternative = base, alt
-        return (f"      {c} costs: miss {jt.miss_cost(p):.2f} (P(slow) {jt.p_slow(p):.2f}, standing {tracks[i].mu:.3f}); "
+        return (f"      {c} costs: miss {jt.miss_costs(c, tracks, {i: p})[i]:.2f} (P(slow) {jt.p_slow(p):.2f}, standing {tracks[i].mu:.3f}); "
                 f"alone in window {alone}; forced to window {', '.join(forced)}")
 
     def _update(self, name: str, orig):

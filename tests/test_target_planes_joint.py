@@ -1503,3 +1503,26 @@ def test_two_uncertain_tracks_passing_head_on_are_two_people(dup_velocity, dv, d
     kept = jt.prune([a, b], None, lambda xy: np.ones(len(xy), bool))
     assert (len(kept) == 1) == dropped
     assert [e[1] for e in jt.ends] == (["duplicate"] if dropped else [])
+
+
+def test_a_walker_the_floor_plan_hides_misses_for_free_in_the_explanation():
+    """``hidden_miss``: a confirmed walking track located by two or more views (mode planes),
+    behind a box taller than a person, pays nothing in the joint explanation for having no window
+    (it makes none); off, or without the box, it pays a clutter window's cost, as does the same
+    track hidden but located by one view only (its mean may lie in a shadow its person has
+    left)."""
+    from types import SimpleNamespace
+    from trackroom.estimators.tp_joint import C_CLUTTER, Occluders
+    cams = four_cameras()
+    c = cams[0].name
+    box = SimpleNamespace(center=(3.0, 2.5), size=(1.0, 1.0, 2.5), yaw=0.0)
+    for on in (False, True):
+        for boxes, mode, cost in (((box,), "planes", 0.0 if on else C_CLUTTER), ((), "planes", C_CLUTTER),
+                                  ((box,), "area", C_CLUTTER)):
+            cfg, jt, tr = _standing_track(cams, [3.0, 2.5], mu=0.0)
+            tr.xs, tr.mode = None, mode
+            jt.cfg.hidden_miss = on
+            jt.occluders = Occluders(SimpleNamespace(obstacles=boxes, walls=()), {k.name: k.P for k in cams}, cfg.height)
+            assert float(np.linalg.norm(jt.project(c, tr).flow)) >= cfg.mover_flow_px  # a walker in that image
+            jt.explain_camera(c, [tr], CameraBoxes.empty())
+            assert jt.cost == pytest.approx(cost), (on, boxes, mode)
