@@ -341,10 +341,14 @@ class Occluders:
         """How many of the rays from camera c to a person at each floor point of xys (N, 2) - to
         the body centre, chest and head, or to the heights ``z`` (m) on its axis - meet none of
         the boxes: (N,) int, 0 to the number of rays."""
+        return self.clear_heights(c, xys, z).sum(1)
+
+    def clear_heights(self, c: str, xys: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
+        """Which of the rays of ``clear_rays`` meet none of the boxes: (N, len(z)) bool."""
         xys = np.asarray(xys, float).reshape(-1, 2)
         z = self.z if z is None else np.asarray(z, float)
         if not len(self.boxes):
-            return np.full(len(xys), len(z), int)
+            return np.ones((len(xys), len(z)), bool)
         V = len(z)
         pts = np.c_[np.repeat(xys, V, axis=0), np.tile(z, len(xys))]  # (N V, 3)
         a = self.centres_local[c]
@@ -357,7 +361,7 @@ class Occluders:
         tmin = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
         tmax = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
         hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, N V): the segment camera -> point meets the box
-        return (~hidden.any(0)).reshape(len(xys), V).sum(1)
+        return (~hidden.any(0)).reshape(len(xys), V)
 
 
 def partly_in_image(win: np.ndarray, width: float) -> np.ndarray:
