@@ -6,8 +6,9 @@ rendered against analytic.
 For each frame of each oblique camera and each mover (the scene's target and distractor) that the
 floor plan's boxes hide from the camera below some height on its axis while a higher part is
 seen (behind a shelf or a low wall; ``tp_joint.Occluders.clear_heights`` at 21 heights from the
-floor to the top of the head, at the true position and height), the seen part's bottom row: the
-row of the highest hidden axis point below the lowest clear one. Every window of the ``boxes``
+floor to the top of the head on 5 vertical lines across its cylinder, at the true position and
+height), the seen part's bottom row: the row, on the axis, of the highest hidden height below the
+lowest clear one on any line. Every window of the ``boxes``
 table that overlaps that person's projected columns and no other person's (a window of that
 person alone) is compared with it: its bottom row minus the seen part's (px; positive: the
 window reaches below where the camera can see the person), also as a share of the person's
@@ -28,7 +29,18 @@ from trackroom.estimators.tp_joint import Occluders
 
 RADIUS = TargetPlanes.Config.radius  # the tracker's person model, m
 STEPS = 21  # heights on the axis, floor to the top of the head
+LINES = 5  # vertical lines across the person's cylinder, edge to edge
 MOVERS = ("target", "distractor")
+
+
+def lines(occ: Occluders, c: str, x: float, y: float) -> np.ndarray:
+    """Floor points (LINES, 2) of the vertical lines a person at (x, y) is taken as: its axis and
+    lines across camera c's view out to the cylinder's radius either side (a person at a box's
+    end is seen beside it down to the floor)."""
+    xy = np.array([x, y])
+    along = xy - occ.centres[c][:2]
+    along /= max(float(np.hypot(*along)), 1e-9)
+    return xy + np.outer(np.linspace(-RADIUS, RADIUS, LINES), [-along[1], along[0]])
 
 
 def hidden_rows(rec, name: str = "") -> pd.DataFrame:
@@ -55,7 +67,7 @@ def hidden_rows(rec, name: str = "") -> pd.DataFrame:
                     continue
                 h = 2.0 * r.z  # the person's height (the body centre is half-way up)
                 z = h * np.linspace(0.0, 1.0, STEPS)
-                clear = occ.clear_heights(c, np.array([[r.x, r.y]]), z)[0]
+                clear = occ.clear_heights(c, lines(occ, c, r.x, r.y), z).any(0)
                 if clear[0] or not clear.any():
                     continue  # the feet seen, or wholly hidden
                 k = int(np.argmax(clear))

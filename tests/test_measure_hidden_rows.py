@@ -55,3 +55,13 @@ def test_a_person_seen_at_the_feet_is_not_measured():
     rec = _recording([[140.0, 180.0, 92.0, 268.0]])
     rec.calibration.floorplan = SimpleNamespace(obstacles=[], walls=[])
     assert hidden_rows(rec).empty
+
+
+def test_a_person_seen_beside_the_boxs_end_down_to_the_floor_is_not_measured():
+    # the box ends at x = 0.05: the axis is hidden below 0.548 m, the line at the cylinder's edge
+    # (x = 0.2 at y = 4, the tracker's radius) passes it at x = 0.095-0.105 and is seen down to the floor
+    rec = _recording([[140.0, 180.0, 92.0, 268.0]])
+    rec.calibration.floorplan = SimpleNamespace(obstacles=[SimpleNamespace(center=(-0.275, 2.0), size=(0.65, 0.2, 1.0), yaw=0.0)], walls=[])
+    occ = Occluders(rec.calibration.floorplan, {"obl_a": P_ALONG_Y}, 1.0)
+    assert not occ.clear_heights("obl_a", np.array([[0.0, 4.0]]), np.array([0.0]))[0, 0]
+    assert hidden_rows(rec).empty
