@@ -4,18 +4,18 @@ rendered against analytic.
     python scripts/measure_hidden_rows.py DIR [DIR ...]     # occlusion_lab recordings, either mode
 
 For each frame of each oblique camera and each mover (the scene's target and distractor) that the
-floor plan's boxes hide from the camera below some height on its axis while a higher part is
-seen (behind a shelf or a low wall; ``tp_joint.Occluders.clear_heights`` at 21 heights from the
-floor to the top of the head on 5 vertical lines across its cylinder, at the true position and
-height), the seen part's bottom row: the row, on the axis, of the highest hidden height below the
-lowest clear one on any line. Every window of the ``boxes``
-table that overlaps that person's projected columns and no other person's (a window of that
-person alone) is compared with it: its bottom row minus the seen part's (px; positive: the
-window reaches below where the camera can see the person), also as a share of the person's
-projected height. A flow tracker's window is made of moving pixels, so a window of that person
-alone cannot reach far below the box's edge; ``target_planes``' trial ``occluded_rows`` (issue
-12's seventy-second session, docs/trials/72_occluded_rows.diff) relied on it. The truth is
-read here, by the experimenter.
+floor plan's boxes hide from the camera below some height on its axis while a higher part is seen
+(behind a shelf or a low wall; ``tp_joint.Occluders.clear_heights`` at 21 heights from the floor
+to the top of the head on 5 vertical lines across its cylinder, at the true position and height),
+the seen part's bottom row: the row, on the axis, of the highest hidden height below the lowest
+clear one on any line. Every window of the ``boxes`` table that overlaps that person's projected
+columns and no other person's (a window of that person alone) is compared with it: its bottom row
+minus the seen part's (px; positive: the window reaches below where the camera can see the
+person), also as a share of the person's projected height. A flow tracker's window is made of
+moving pixels, so a window of that person alone cannot reach far below the box's edge;
+``target_planes``' trial ``occluded_rows`` (issue 12's seventy-second session,
+docs/trials/72_occluded_rows.diff) relied on it (rendered windows stop at the edge; the analytic
+ones do not yet: docs/sensing.md). The truth is read here, by the experimenter.
 """
 import sys
 
