@@ -49,7 +49,7 @@ def hidden_rows(rec, name: str = "") -> pd.DataFrame:
     bottom row, their difference ``below`` (px) and the person's projected height (px)."""
     people, boxes = rec.truth.people, rec.observations["boxes"]
     cols_out = ["rec", "t", "camera", "person", "seen_bottom", "window_bottom", "below", "height_px"]
-    if boxes is None or not len(boxes):
+    if not len(boxes):  # a kind the recording lacks reads as an empty table
         return pd.DataFrame(columns=cols_out)
     cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
@@ -87,7 +87,7 @@ def hidden_rows(rec, name: str = "") -> pd.DataFrame:
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    """Per recording mode (rendered / analytic, from the manifest's sensing): how many windows,
+    """Of the measured windows ``df`` (``main`` gives it one recording mode at a time): how many,
     and the share reaching below the seen part by more than 5 px, 15 px and a quarter of the
     person's projected height, with the median reach (px)."""
     share = df.below / df.height_px
