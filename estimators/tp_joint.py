@@ -129,7 +129,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.special import chndtr
 from scipy.stats import chi2
 
-from trackroom.scenes.spec import nearest_on_segment
+from trackroom.scenes.spec import nearest_on_segment, occluding_boxes
 
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes, mean_lag_s
@@ -308,14 +308,7 @@ class Occluders:
     meets none of the boxes."""
 
     def __init__(self, floorplan, Ps: dict[str, np.ndarray], height: float):
-        boxes = []
-        for o in getattr(floorplan, "obstacles", ()):
-            boxes.append((o.center[0], o.center[1], 0.5 * o.size[0], 0.5 * o.size[1], o.size[2], o.yaw))
-        for w in getattr(floorplan, "walls", ()):
-            a, b = np.asarray(w.start, float), np.asarray(w.end, float)
-            d = b - a
-            boxes.append((*(0.5 * (a + b)), 0.5 * float(np.hypot(*d)), 0.5 * w.thickness, w.height, float(np.arctan2(d[1], d[0]))))
-        self.boxes = bx = np.array(boxes, float).reshape(-1, 6)
+        self.boxes = bx = occluding_boxes(floorplan)
         self.z = height * np.asarray(VIS_FRACTIONS)
         self.cy, self.sy = np.cos(bx[:, 5])[:, None], np.sin(bx[:, 5])[:, None]
         self.lo = np.stack([-bx[:, 2], -bx[:, 3], np.zeros(len(bx))], -1)[:, None, :]

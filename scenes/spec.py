@@ -84,6 +84,56 @@ def point_in_polygon(xy, polygon) -> np.ndarray:
     return inside
 
 
+def occluding_boxes(floorplan) -> np.ndarray:
+    """The boxes of a floor plan that hide people from cameras: its obstacles and interior walls
+    (the outline walls bound the room and stand behind everyone), (B, 6) rows of centre x, y, half
+    sizes along the box's own axes, height and yaw (radians). ``floorplan``: a ``Floorplan`` or
+    anything with ``obstacles`` and ``walls``."""
+    boxes = []
+    for o in getattr(floorplan, "obstacles", ()):
+        boxes.append((o.center[0], o.center[1], 0.5 * o.size[0], 0.5 * o.size[1], o.size[2], o.yaw))
+    for w in getattr(floorplan, "walls", ()):
+        a, b = np.asarray(w.start, float), np.asarray(w.end, float)
+        d = b - a
+        boxes.append((*(0.5 * (a + b)), 0.5 * float(np.hypot(*d)), 0.5 * w.thickness, w.height, float(np.arctan2(d[1], d[0]))))
+    return np.array(boxes, float).reshape(-1, 6)
+
+
+def hidden_heights(boxes: np.ndarray, eye, xy) -> np.ndarray:
+    """How high up the vertical lines standing at floor points xy (..., 2) the boxes (B, 6; as
+    ``occluding_boxes``) hide them from an eye at ``eye`` (3,): (...,) the highest hidden height
+    (m; every point of the line below it is hidden too), -inf where no box is in the way, +inf
+    where a box taller than the eye is. The sight line to (x, y, z) crosses a box's footprint over
+    the part [t_in, t_out] of its length (a slab test in the floor plane; z plays no part); it
+    descends from the eye, so it is lowest at min(t_out, 1), where its height is
+    E_z + min(t_out, 1) (z - E_z): at most the box's height h for every z up to
+    E_z - (E_z - h) / min(t_out, 1)."""
+    boxes = np.asarray(boxes, float).reshape(-1, 6)
+    xy = np.asarray(xy, float)
+    E = np.asarray(eye, float)
+    out = np.full(xy.shape[:-1], -np.inf)
+    for cx, cy, hx, hy, h, yaw in boxes:
+        c, s = np.cos(yaw), np.sin(yaw)
+        rot = np.array([[c, -s], [s, c]])  # world -> box frame, applied on the right
+        a = (E[:2] - (cx, cy)) @ rot
+        d = (xy - (cx, cy)) @ rot - a
+        half = np.array([hx, hy])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1, t2 = (-half - a) / d, (half - a) / d
+        par = d == 0.0  # parallel to a slab: inside it for every t, or never
+        inside = np.abs(a) <= half
+        t_in = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
+        t_out = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
+        meets = (t_in <= t_out) & (t_out > 0.0) & (t_in < 1.0)
+        if E[2] <= h:
+            z = np.where(meets, np.inf, -np.inf)
+        else:
+            with np.errstate(divide="ignore"):
+                z = np.where(meets, E[2] - (E[2] - h) / np.minimum(t_out, 1.0), -np.inf)
+        out = np.maximum(out, z)
+    return out
+
+
 @dataclass(frozen=True)
 class Floorplan:
     """The room outline (polygon, walls along it), interior walls and box obstacles."""

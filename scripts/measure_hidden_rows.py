@@ -14,9 +14,10 @@ minus the seen part's (px; positive: the window reaches below where the camera c
 person), also as a share of the person's projected height. A flow tracker's window is made of
 moving pixels, so a window of that person alone cannot reach far below the box's edge;
 ``target_planes``' trial ``occluded_rows`` (issue 12's seventy-second session,
-docs/trials/72_occluded_rows.diff) relied on it (rendered windows stop at the edge; the analytic
-ones do not yet: docs/sensing.md). The truth is read here, by the experimenter.
-"""
+docs/trials/72_occluded_rows.diff) relied on it (rendered windows stop at the edge; analytic ones
+did not before the twelfth fit of the perception model, which cuts them at the boxes:
+docs/sensing.md). The truth is read here, by the experimenter, with a ray test of its own
+(``Occluders``), not the simulator's cut (``sim.analytic.box_cut_rows``)."""
 import sys
 
 import numpy as np

@@ -20,7 +20,9 @@ Observations of visible people (noise from ``sim.noise``):
 - horizontal and oblique cameras -> ``bearings``: u of the projected body centre, label = the
   walker's colour name (an appearance class, not an id);
 - oblique cameras -> ``boxes``: the window of the projected cylinder (its top and bottom circles,
-  clipped to the image), u of the body centre, and the image velocity of the body centre
+  clipped to the image) cut at the bottom where the floor plan's boxes hide the person's lower
+  part (``box_cut_rows``: a flow tracker's window is made of the person's moving pixels, and a
+  box's are still), u of the body centre, and the image velocity of the body centre
   d(u, v)/dt = f / Z (Xdot - X Zdot / Z, Ydot - Y Zdot / Z) (px/s; X, Y, Z camera coordinates,
   dots their rates R v). Only where that image speed is at least ``sensors.flow_min_px_s``:
   an optical-flow tracker finds no moving region for a person standing still (the rendered
@@ -39,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from trackroom.scenes.camera import Camera
-from trackroom.scenes.spec import Scene
+from trackroom.scenes.spec import Scene, hidden_heights, occluding_boxes
 
 from . import noise
 from .walkers import Trajectories
@@ -51,6 +53,7 @@ VIS_FRACTIONS = (0.5, 0.75, 0.95)  # of the person's height, floor = 0
 # shelf or a standing person, the rendered flow tracker still reports a strip window on the head
 HEAD_TOP = 1.0
 CIRCLE_SAMPLES = 16  # points on each rim of the cylinder for its window
+CUT_LINES = 5  # vertical lines across the cylinder, edge to edge, on which a box's cut is found
 PROGRESS_EVERY = 100  # camera frames between progress reports of ``Occlusion.finish``
 
 
@@ -75,10 +78,13 @@ class CameraGeometry:
     uv: np.ndarray  # (F, P, 2) projected body centre
     depth: np.ndarray  # (F, P)
     in_fov: np.ndarray  # (F, P) bool
-    edges: np.ndarray | None = None  # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique), clipped to the image
+    # (F, P, 4) u_left, u_right, v_top, v_bottom (oblique), clipped to the image; from
+    # ``camera_geometry``, v_bottom is cut where the floor plan's boxes hide the lower part
+    edges: np.ndarray | None = None
     span: np.ndarray | None = None  # (F, P, 2) u extent of the projected cylinder, not clipped (horizontal, oblique)
     near: np.ndarray | None = None  # (F, P) bool: some of the person's image lies in the image (in_fov for overhead)
     flow: np.ndarray | None = None  # (F, P, 2) px/s (oblique)
+    cut_px: np.ndarray | None = None  # (F, P) px of the window's bottom the floor plan's boxes hide (oblique; 0: none)
     axis: np.ndarray | None = None  # (F, P, 2, 2) image points of the feet and the top of the head (overhead)
     width_px: np.ndarray | None = None  # (F, P) projected body diameter at the body centre, px (overhead)
     # (F, P) overhead: how far out (m, along the camera's radial direction) the rendered detector
@@ -291,9 +297,45 @@ class Occlusion:
 
 
 def camera_geometry(scene: Scene, traj: Trajectories) -> dict[str, CameraGeometry]:
+    """Every camera's projections of every person at its frames; oblique windows cut at the
+    floor plan's boxes (``box_cut_rows``)."""
     heights = np.array([w.height for w in scene.walkers])
     radii = np.array([w.radius for w in scene.walkers])
-    return {c.name: project_people(c, traj, heights, radii, frame_steps(c, traj)) for c in scene.cameras}
+    out = {}
+    boxes = occluding_boxes(scene.floorplan)
+    for c in scene.cameras:
+        g = out[c.name] = project_people(c, traj, heights, radii, frame_steps(c, traj))
+        if c.kind == "oblique" and len(boxes):
+            cut = box_cut_rows(c, traj, heights, radii, g.steps, boxes)
+            bottom = np.minimum(g.edges[..., 3], np.maximum(cut, g.edges[..., 2] + 1.0))
+            g.cut_px = g.edges[..., 3] - bottom
+            g.edges[..., 3] = bottom
+    return out
+
+
+def box_cut_rows(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np.ndarray, steps: np.ndarray,
+                 boxes: np.ndarray) -> np.ndarray:
+    """(F, P) the lowest image row of each person that the boxes (``occluding_boxes``) leave seen
+    from oblique camera ``cam`` at ``steps``; +inf where some of the person is seen down to the
+    floor (no cut). The person is taken as CUT_LINES vertical lines across its cylinder, square
+    to the camera's view; on each, ``hidden_heights`` gives how high the boxes hide it; the row
+    is the lowest of the lines' seen bottoms (the top of the head's row where every line is
+    hidden). Other people are not cut out: they move, and a flow tracker merges them in."""
+    c = traj.pos[:, steps].transpose(1, 0, 2)  # (F, P, 3)
+    F, P = c.shape[:2]
+    eye = np.asarray(cam.position, float)
+    along = c[..., :2] - eye[:2]
+    along /= np.maximum(np.hypot(along[..., 0], along[..., 1]), 1e-9)[..., None]
+    across = np.stack([-along[..., 1], along[..., 0]], -1)
+    offs = np.linspace(-1.0, 1.0, CUT_LINES)[None, None, :, None] * radii[None, :, None, None]
+    xy = c[..., None, :2] + offs * across[..., None, :]  # (F, P, L, 2)
+    feet = (c[..., 2] - 0.5 * heights)[..., None]  # (F, P, 1)
+    z = hidden_heights(boxes, eye, xy)  # (F, P, L)
+    top = feet + heights[None, :, None]
+    pts = np.concatenate([xy, np.clip(z, feet, top)[..., None]], -1)
+    v = cam.project(pts)[0][..., 1]  # (F, P, L): each line's seen bottom
+    rows = np.nanmax(v, axis=-1)
+    return np.where((z < feet).any(-1), np.inf, rows)
 
 
 def _sorted(df: pd.DataFrame, value: str) -> pd.DataFrame:

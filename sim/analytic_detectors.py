@@ -302,6 +302,22 @@ def has_flow_frame(m) -> bool:
 # edge errors are mostly there: a neighbour's flow joins the region, an occluder cuts it; someone
 # standing still beside a walker makes no flow and leaves the window alone)
 CROWDED_PX = 10.0
+# a window with a member the floor plan's boxes cut by more than this (px; about the rendered
+# edges' spread, 3-5 px) is "cut": its edge errors come from the ``*_cut`` tables where a model
+# has them (fitted on the rendered windows of people seen over a box: a short strip whose
+# edges the box and the head fix, not the errors of a whole person's window)
+CUT_PX = 5.0
+
+
+def edge_tables(m: DetectorModel, g, e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int]) -> str:
+    """Which edge-error tables a window of ``members`` at frame f draws from: ``"_cut"`` (a member
+    cut by a box, ``CUT_PX``) or ``"_crowded"`` (``crowded``) where the model has those tables,
+    else ``""`` (the plain tables)."""
+    if "u_left_cut" in m.errors and g.cut_px is not None and (g.cut_px[f, members] > CUT_PX).any():
+        return "_cut"
+    if "u_left_crowded" in m.errors and crowded(e, frac, moving, f, members):
+        return "_crowded"
+    return ""
 
 
 def crowded(e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int]) -> bool:
@@ -326,7 +342,14 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     e = g.edges
     _, speed, cand = window_candidates(g, cam.width)
     frac = seen_share(frac, m.seen_frames)
-    det = detected(rng, cand, m.detect(frac, speed), m)
+    head = None if head is None else seen_share(head, m.seen_frames)
+    if len(m.detect.edges) == 3:  # by the head ray too (windows cut at the boxes)
+        if head is None:
+            raise ValueError("this model's windows are detected by the head ray too: give head")
+        p_detect = m.detect(frac, head, speed)
+    else:
+        p_detect = m.detect(frac, speed)
+    det = detected(rng, cand, p_detect, m)
     o, ok = span_pairs(e[..., 0], e[..., 1])
     vo, vok = span_pairs(e[..., 2], e[..., 3])
     root = merge_roots(rng, det, o, ok & vok, m)
@@ -336,7 +359,6 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
         grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
     out_f, out_p, out_e, out_fl, out_id, out_c, out_cut = [], [], [], [], [], [], []
-    split_errors = "u_left_crowded" in m.errors  # models without crowded tables (the bundled fits): one table
     moving = cand & (speed >= MOVING_PX_S)
     for f in range(F):
         groups = {}
@@ -351,7 +373,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
-            out_c.append(split_errors and crowded(e, frac, moving, f, mem))
+            out_c.append(edge_tables(m, g, e, frac, moving, f, mem))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)
@@ -359,11 +381,13 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     flow = np.asarray(out_fl, float).reshape(n, 2)
     tid = np.asarray(out_id, np.int64)
     pp = np.asarray(out_p, int)
-    busy = np.asarray(out_c, bool)
+    tables = np.asarray(out_c, dtype=object)
     for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
         e_j = m.error(name).at(grids[j][f, pp])
-        if busy.any():
-            e_j[busy] = m.error(name + "_crowded").at(grids[j][f[busy], pp[busy]])
+        for tag in ("_crowded", "_cut"):
+            on = tables == tag
+            if on.any():
+                e_j[on] = m.error(name + tag).at(grids[j][f[on], pp[on]])
         edges[:, j] += e_j
     # an edge cut by the image border stays on it, as the rendered flow tracker's does
     # (``perception_flow.current_box``): the image clips the person, its edge has no error
@@ -384,7 +408,6 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     cf, ce, cfl, cid = ids.clutter(F, cam)
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     # drawn last: a model without partial windows samples the same stream as before
-    head = None if head is None else seen_share(head, m.seen_frames)
     pf, pe, pfl, pid = ids.partials(moving & ~det, frac, e, g.flow, head)
     f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff, pf), (edges, ce, fe, pe), (flow, cfl, ffl, pfl), (tid, cid, fid, pid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)

@@ -299,8 +299,9 @@ class DetectorModel:
 
     @property
     def uses_head(self) -> bool:
-        """(windows) whether partial windows depend on the head ray (a table over two features)."""
-        return self.partial is not None and len(self.partial.edges) == 2
+        """(windows) whether detection or partial windows depend on the head ray (a detection
+        table over three features, a partial one over two)."""
+        return len(self.detect.edges) == 3 or (self.partial is not None and len(self.partial.edges) == 2)
 
     def to_dict(self) -> dict:
         return {

@@ -261,7 +261,7 @@ def test_fitting_by_simulation_scales_counted_rates_towards_the_rendered_ones():
     rendered, analytic = pf.DetectorStats(), pf.DetectorStats()
     for s, restarts, frags in ((rendered, 20, 40), (analytic, 40, 20)):
         s.continuing, s.restarts = 1000, restarts
-        s.feats = [(1.0, 1.0)] * 1000
+        s.feats = [(1.0,) * len(pf.DETECT_EDGES["windows"])] * 1000  # seen, head seen, speed
         s.hit = [True] * 1000
         s.fragments = frags
         s.frames = 500
@@ -801,7 +801,8 @@ def test_partial_windows_by_the_head_ray_are_drawn_where_the_head_is_seen_and_fi
     scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}", "walkers.count=1"])
     assert load_model(scene.sensors.perception).uses_head
     one_feature = load_model("fitted")
-    one_feature["windows"].partial = constant(0.3)  # a table over the axis rays only: no head rays cast
+    # a partial table over the axis rays only, and a detection table without the head: no head rays cast
+    one_feature["windows"].partial, one_feature["windows"].detect = constant(0.3), constant(0.3)
     assert not one_feature.uses_head and not load_model("ideal").uses_head
     s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
     X, hit = np.asarray(s.partial_feat, float), np.asarray(s.partial_hit, bool)
@@ -863,6 +864,52 @@ def test_window_edge_errors_are_drawn_and_fitted_by_crowding(tmp_path):
     assert np.median(s.errors["u_left_crowded"]) == pytest.approx(12.0, abs=1.5)
     fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
     assert fitted.error("u_right_crowded").bias == pytest.approx(12.0, abs=1.5) and abs(fitted.error("u_right").bias) < 1.0
+
+
+def test_windows_of_people_a_box_cuts_take_their_own_edge_tables_and_the_fit_finds_them(tmp_path):
+    """Windows are cut where the floor plan's boxes hide the lower body (``analytic.box_cut_rows``);
+    a model with ``*_cut`` edge tables draws a cut window's edge errors from them (here its bottom
+    8 px low, the other windows' unbiased), and the fit measures them apart again, with the cut
+    windows' edges measured from the cut, not from the whole cylinder."""
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        w = m["windows"]
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+        for c in ("u_left", "u_right", "v_top", "v_bottom"):
+            w.errors[c] = w.errors[c + "_cut"] = Quantiles.gaussian(0.5)
+        w.errors["v_bottom_cut"] = Quantiles.gaussian(0.5, 8.0)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    assert len(s.errors["v_bottom"]) > 300 and len(s.errors["v_bottom_cut"]) > 50
+    assert abs(np.median(s.errors["v_bottom"])) < 1.0 and abs(np.median(s.errors["v_top_cut"])) < 1.0
+    assert np.median(s.errors["v_bottom_cut"]) == pytest.approx(8.0, abs=1.5)
+    fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
+    assert fitted.error("v_bottom_cut").bias == pytest.approx(8.0, abs=1.5) and abs(fitted.error("v_bottom").bias) < 1.0
+
+
+def test_windows_are_detected_by_the_head_ray_too_and_the_fit_finds_it(tmp_path):
+    """A windows detection table over the axis rays' seen share, the head ray's and the image
+    speed (fits from the twelfth on): here walkers are detected at 0.8 where the top of the head
+    is seen and never where it is hidden, whatever the axis rays; the measured rates and the
+    fitted table say so again."""
+    def edit(m):
+        w = m["windows"]
+        p = np.zeros([len(e) - 1 for e in pf.DETECT_EDGES["windows"]])
+        p[:, 1, :] = 0.8
+        w.detect, w.rho, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = Table(pf.DETECT_EDGES["windows"], p), 0.0, 0.0, constant(0.0), 0.0, 0.0, None
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    X, hit = s.arrays(3)
+    seen = X[:, 1] > 0.5
+    assert seen.sum() > 300 and (~seen).sum() > 100
+    assert hit[seen].mean() == pytest.approx(0.8, abs=0.05) and hit[~seen].mean() < 0.02
+    fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"]
+    # walkers' bins (above 0.5 px/s) with enough candidates to stand apart from the pooled rate
+    # that the fit shrinks every bin towards by 4 trials
+    p, n = fitted.detect.p[..., 1:], fitted.detect.n[..., 1:]
+    assert (n[:, 0] >= 40).sum() >= 2 and (n[:, 1] >= 100).sum() >= 5
+    assert (p[:, 0][n[:, 0] >= 40] < 0.1).all() and np.allclose(p[:, 1][n[:, 1] >= 100], 0.8, atol=0.1)
 
 
 def test_window_flow_errors_are_drawn_along_the_motion_by_speed_and_fitted_back(tmp_path):
