@@ -322,7 +322,6 @@ def box_cut_rows(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np
     is the lowest of the lines' seen bottoms (the top of the head's row where every line is
     hidden). Other people are not cut out: they move, and a flow tracker merges them in."""
     c = traj.pos[:, steps].transpose(1, 0, 2)  # (F, P, 3)
-    F, P = c.shape[:2]
     eye = np.asarray(cam.position, float)
     along = c[..., :2] - eye[:2]
     along /= np.maximum(np.hypot(along[..., 0], along[..., 1]), 1e-9)[..., None]
@@ -334,8 +333,9 @@ def box_cut_rows(cam: Camera, traj: Trajectories, heights: np.ndarray, radii: np
     top = feet + heights[None, :, None]
     pts = np.concatenate([xy, np.clip(z, feet, top)[..., None]], -1)
     v = cam.project(pts)[0][..., 1]  # (F, P, L): each line's seen bottom
-    rows = np.nanmax(v, axis=-1)
-    return np.where((z < feet).any(-1), np.inf, rows)
+    rows = np.where(np.isnan(v), -np.inf, v).max(-1)
+    # no cut where some line is seen at the floor, or no row is defined (a point in the camera's plane)
+    return np.where((z < feet).any(-1) | ~np.isfinite(rows), np.inf, rows)
 
 
 def _sorted(df: pd.DataFrame, value: str) -> pd.DataFrame:
