@@ -129,7 +129,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.special import chndtr
 from scipy.stats import chi2
 
-from trackroom.scenes.spec import nearest_on_segment, occluding_boxes
+from trackroom.scenes.spec import nearest_on_segment, occluding_boxes, segment_meets_box
 
 from . import tp_geometry as geo
 from .tp_frames import CameraBoxes, mean_lag_s
@@ -345,15 +345,7 @@ class Occluders:
         V = len(z)
         pts = np.c_[np.repeat(xys, V, axis=0), np.tile(z, len(xys))]  # (N V, 3)
         a = self.centres_local[c]
-        d = self.local(pts) - a
-        lo, hi = self.lo, self.hi
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t1, t2 = (lo - a) / d, (hi - a) / d
-        par = d == 0.0  # a ray parallel to a slab: inside it or never
-        inside = (a >= lo) & (a <= hi)
-        tmin = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
-        tmax = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
-        hidden = (tmin <= tmax) & (tmax > 0.0) & (tmin < 1.0)  # (B, N V): the segment camera -> point meets the box
+        hidden, _ = segment_meets_box(a, self.local(pts) - a, self.lo, self.hi)  # (B, N V): the segment camera -> point meets the box
         return (~hidden.any(0)).reshape(len(xys), V)
 
 

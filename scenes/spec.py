@@ -99,6 +99,19 @@ def occluding_boxes(floorplan) -> np.ndarray:
     return np.array(boxes, float).reshape(-1, 6)
 
 
+def segment_meets_box(a: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whether the segments a + t d, t in [0, 1], meet the axis-aligned box [lo, hi] (a slab test
+    over the last axis; the arrays broadcast; a segment parallel to a slab lies in it for every t
+    or for none), and the t at which each line leaves the box: (meets, t_out)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - a) / d, (hi - a) / d
+    par = d == 0.0
+    inside = (a >= lo) & (a <= hi)
+    t_in = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
+    t_out = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
+    return (t_in <= t_out) & (t_out > 0.0) & (t_in < 1.0), t_out
+
+
 def hidden_heights(boxes: np.ndarray, eye, xy) -> np.ndarray:
     """How high up the vertical lines standing at floor points xy (..., 2) the boxes (B, 6; as
     ``occluding_boxes``) hide them from an eye at ``eye`` (3,): (...,) the highest hidden height
@@ -116,15 +129,8 @@ def hidden_heights(boxes: np.ndarray, eye, xy) -> np.ndarray:
         c, s = np.cos(yaw), np.sin(yaw)
         rot = np.array([[c, -s], [s, c]])  # world -> box frame, applied on the right
         a = (E[:2] - (cx, cy)) @ rot
-        d = (xy - (cx, cy)) @ rot - a
         half = np.array([hx, hy])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t1, t2 = (-half - a) / d, (half - a) / d
-        par = d == 0.0  # parallel to a slab: inside it for every t, or never
-        inside = np.abs(a) <= half
-        t_in = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(-1)
-        t_out = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(-1)
-        meets = (t_in <= t_out) & (t_out > 0.0) & (t_in < 1.0)
+        meets, t_out = segment_meets_box(a, (xy - (cx, cy)) @ rot - a, -half, half)
         if E[2] <= h:
             z = np.where(meets, np.inf, -np.inf)
         else:

@@ -309,13 +309,14 @@ CROWDED_PX = 10.0
 CUT_PX = 5.0
 
 
-def edge_tables(m: DetectorModel, g, e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int]) -> str:
-    """Which edge-error tables a window of ``members`` at frame f draws from: ``"_cut"`` (a member
-    cut by a box, ``CUT_PX``) or ``"_crowded"`` (``crowded``) where the model has those tables,
-    else ``""`` (the plain tables)."""
-    if "u_left_cut" in m.errors and g.cut_px is not None and (g.cut_px[f, members] > CUT_PX).any():
+def edge_tables(g, e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int],
+                cut: bool = True, crowd: bool = True) -> str:
+    """Which edge-error tables a window of ``members`` at frame f takes: ``"_cut"`` (a member cut
+    by a box, ``CUT_PX``), else ``"_crowded"`` (``crowded``), else ``""`` (the plain tables);
+    ``cut`` / ``crowd`` False: a model without those tables (the fit measures into both)."""
+    if cut and g.cut_px is not None and (g.cut_px[f, members] > CUT_PX).any():
         return "_cut"
-    if "u_left_crowded" in m.errors and crowded(e, frac, moving, f, members):
+    if crowd and crowded(e, frac, moving, f, members):
         return "_crowded"
     return ""
 
@@ -343,7 +344,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     _, speed, cand = window_candidates(g, cam.width)
     frac = seen_share(frac, m.seen_frames)
     head = None if head is None else seen_share(head, m.seen_frames)
-    if len(m.detect.edges) == 3:  # by the head ray too (windows cut at the boxes)
+    if m.detects_by_head:
         if head is None:
             raise ValueError("this model's windows are detected by the head ray too: give head")
         p_detect = m.detect(frac, head, speed)
@@ -373,7 +374,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
-            out_c.append(edge_tables(m, g, e, frac, moving, f, mem))
+            out_c.append(edge_tables(g, e, frac, moving, f, mem, "u_left_cut" in m.errors, "u_left_crowded" in m.errors))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)

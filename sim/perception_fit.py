@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (WHOLE, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, CUT_PX, crowded, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (WHOLE, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -314,10 +314,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
             window_of[f, p] = window_of[f, q]
         for p, rr in match.items():
             if own[f, p]:
-                if g.cut_px is not None and g.cut_px[f, p] > CUT_PX:
-                    tag = "_cut"
-                else:
-                    tag = "_crowded" if crowded(e, frac, moving, f, [p]) else ""
+                tag = edge_tables(g, e, frac, moving, f, [p])
                 for j, c in enumerate(cols):
                     s.errors[c + tag].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))

@@ -298,10 +298,16 @@ class DetectorModel:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
 
     @property
+    def detects_by_head(self) -> bool:
+        """(windows) whether detection depends on the head ray (a table over the axis rays' seen
+        share, the head ray's and the image speed: the twelfth fit on)."""
+        return len(self.detect.edges) == 3
+
+    @property
     def uses_head(self) -> bool:
-        """(windows) whether detection or partial windows depend on the head ray (a detection
-        table over three features, a partial one over two)."""
-        return len(self.detect.edges) == 3 or (self.partial is not None and len(self.partial.edges) == 2)
+        """(windows) whether detection or partial windows depend on the head ray (a partial table
+        over two features)."""
+        return self.detects_by_head or (self.partial is not None and len(self.partial.edges) == 2)
 
     def to_dict(self) -> dict:
         return {
