@@ -30,7 +30,11 @@ Per frame:
    below the projected feet: people on one line of sight differ in depth, so in their rows)
    relative to the gating track they fit best and to the track's own best window
    (``rows_relative``), and holds no track, alone or merged, whose projected rows its own do not
-   reach (``rows_reach``). Solved exactly by enumeration over each connected component of the
+   reach (``rows_reach``). With ``occluded_rows`` (the default) a window of one confirmed track
+   alone (mode planes) reaching below the lowest row at which the floor plan's boxes let the
+   camera see its person adds 0.5 min(d^2, chi^2_2(0.99)), d the reach in edge-noise sd
+   (``seen_bottoms``, ``occluded_rows_cost``): someone in front of the box likelier made it.
+   Solved exactly by enumeration over each connected component of the
    gating graph (a track gates a window whose extent, widened by 3 sigma, holds its predicted axis), with
    ``scipy.optimize.linear_sum_assignment`` on single-person explanations where a component
    has more than ``MAX_HYPOTHESES`` hypotheses.
@@ -138,6 +142,8 @@ from .tp_identity import gauss_loglik
 BORDER_PX = 0.5  # a window edge this close to the image's edge is cut by it, px (a window reaching beyond the image was not cut)
 MAX_HYPOTHESES = 4096  # exact enumeration up to this many hypotheses per component (a few ms)
 C_CLUTTER = 0.5 * float(chi2.ppf(0.99, 4))  # 0.5 chi^2_4(0.99): a window left as clutter
+OCCLUDED_ROWS_STEPS = 21  # heights on a person's axis, floor to head, for ``seen_bottoms``
+OCCLUDED_ROWS_SPREAD = 2.0  # standard deviations of a track's position ``seen_bottoms`` looks over
 FLOW_OUTLIER = float(chi2.ppf(0.999, 2))  # a flow innovation beyond this is not used
 PLANE_OUTLIER = float(chi2.ppf(0.999, 1))  # nor a plane's or depth bound's
 EDGE_SHARE_MIN = 0.01  # a member's share of a merged window's edge below 1 % updates it not at all (``edge_owners``)
@@ -710,6 +716,60 @@ class JointTracker:
         n = self.occluders.clear_rays(c, np.array([tracks[i].xy for i in ids]).reshape(-1, 2), z)
         return {i for i, k in zip(ids, n) if k == 0}
 
+    def seen_bottoms(self, c: str, tracks: list[JointTrack], projs: dict[int, Projection]) -> dict[int, float]:
+        """``occluded_rows``: for each projected track (index -> its projection) whose person the
+        floor plan's boxes hide from camera c below some height while a higher part is seen
+        (behind a shelf or a low wall), the lowest image row a window of it alone can reach.
+        Conservative: the person is taken as every vertical line of its cylinder (the axis and
+        a radius either side across the camera's view) at every place within 2 standard
+        deviations of the track's position across and along the view (OCCLUDED_ROWS_SPREAD);
+        the lowest clear height on any of them (``Occluders.clear_heights`` at
+        OCCLUDED_ROWS_STEPS heights, floor to head) gives, through the hidden height below it
+        (the boundary lies between them), the row. None where any of those lines is seen at the
+        floor, or none is seen at all (``hidden_from``). Only confirmed tracks located by two or
+        more views last frame (mode planes, as ``hidden_from``): a track lagging in one view may
+        have its mean behind a box its person has left."""
+        if self.occluders is None:
+            return {}
+        ids = [i for i in projs if tracks[i].confirmed and tracks[i].mode == "planes"]
+        if not ids:
+            return {}
+        cfg = self.cfg
+        z = cfg.height * np.linspace(0.0, 1.0, OCCLUDED_ROWS_STEPS)
+        C = self.occluders.centres[c][:2]
+        out = {}
+        for i in ids:
+            tr = tracks[i]
+            xy = np.asarray(tr.xy, float)
+            along = xy - C
+            along /= max(float(np.hypot(*along)), 1e-9)
+            across = np.array([-along[1], along[0]])
+            sa = float(np.sqrt(along @ tr.S[:2, :2] @ along))
+            sc = float(np.sqrt(across @ tr.S[:2, :2] @ across))
+            reach = cfg.radius + OCCLUDED_ROWS_SPREAD * sc
+            pts = np.array([xy + a * along + b * across for a in (-OCCLUDED_ROWS_SPREAD * sa, 0.0, OCCLUDED_ROWS_SPREAD * sa)
+                            for b in np.linspace(-reach, reach, 5)])
+            clear = self.occluders.clear_heights(c, pts, z).any(0)
+            if clear[0] or not clear.any():
+                continue  # seen at the floor (no bound), or wholly hidden (``hidden_from``)
+            k = int(np.argmax(clear))  # the lowest clear height; k - 1 is hidden
+            (_, v), _ = geo.project(self.Ps[c], np.array([xy[0], xy[1], z[k - 1]]))
+            out[i] = float(v)
+        return out
+
+    def occluded_rows_cost(self, bottom: float, win: np.ndarray) -> float:
+        """``occluded_rows``: what a window ``win`` [u_l, u_r, v_t, v_b] of one track alone adds
+        when its bottom row lies below ``bottom``, the lowest row at which the floor plan lets
+        the camera see the track's person (``seen_bottoms``): 0.5 d^2 of the reach past it in
+        window-edge noise standard deviations, capped at 0.5 chi^2_2(0.99) as ``rows_cost``
+        (someone in front of the box likelier made it; a soft cost, not a refusal, for the
+        track's spread and the edge's heavy tails; with noise-free edges, the cap)."""
+        reach = float(win[3]) - bottom
+        if reach <= 0.0:
+            return 0.0
+        d = reach / self.box_sigma if self.box_sigma > 0 else np.inf
+        return 0.5 * min(d * d, FLOW_CAP)
+
     @staticmethod
     def walk_cost(mu: float) -> float:
         """-log P(walking): what explaining a window adds for a track of standing probability mu
@@ -762,6 +822,7 @@ class JointTracker:
         cache: dict = {}
         walk = {i: self.walk_cost(tracks[i].mu) * self.wake_share.get(id(tracks[i]), 1.0) for i in projs}
 
+        bottom = self.seen_bottoms(c, tracks, projs) if cfg.occluded_rows else {}
         rv = {i: self.row_vars(c, tracks[i]) for i in projs} if cfg.rows_explain else {}  # once per track, not per window
         relative = self.rows_relative(c, tracks, projs, boxes, gate, rv) if cfg.rows_explain else {}
 
@@ -774,6 +835,8 @@ class JointTracker:
                         cache[key] = np.inf  # a person whose projected rows the window's do not reach is not in it
                     elif len(members) == 1 and (members[0], j) in relative:
                         cache[key] += relative[(members[0], j)]
+                if len(members) == 1 and members[0] in bottom:
+                    cache[key] += self.occluded_rows_cost(bottom[members[0]], boxes.win[j])
             return cache[key]
 
         gated = {j for js in gate.values() for j in js}

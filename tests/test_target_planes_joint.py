@@ -1526,3 +1526,51 @@ def test_a_walker_the_floor_plan_hides_misses_for_free_in_the_explanation():
             assert float(np.linalg.norm(jt.project(c, tr).flow)) >= cfg.mover_flow_px  # a walker in that image
             jt.explain_camera(c, [tr], CameraBoxes.empty())
             assert jt.cost == pytest.approx(cost), (on, boxes, mode)
+
+
+def test_a_window_reaching_below_a_shelf_costs_the_track_behind_it_not_the_one_in_front():
+    """``occluded_rows``: a low shelf hides the legs of a confirmed walking track behind it from
+    camera sw. A window of that track alone whose bottom reaches its feet row, which the shelf
+    hides, costs 0.5 min(d^2, chi^2_2(0.99)) more (d the reach below the lowest seen row in
+    window-edge sd: capped there, quadratic for a window 1.5 sd past the row); the window cut at
+    the shelf's top costs nothing more; a track in front of the shelf, and the track behind it
+    located by one view only (mode area), pay nothing more for their own full windows."""
+    from types import SimpleNamespace
+    from trackroom.estimators.tp_joint import FLOW_CAP, Occluders
+    cams = four_cameras()
+    c = cams[0]  # sw, at (0.1, 0.1, 2.6)
+    shelf = SimpleNamespace(center=(2.83, 2.48), size=(1.5, 1.5, 1.0), yaw=0.0)  # on the sight line to (4.0, 3.5)
+    behind, front = [4.0, 3.5], [1.5, 1.3]
+
+    def added(xy, mode, win=None):
+        """The explanation's cost of track at xy holding its window, occluded_rows on minus off."""
+        win = window_row(c, xy, (0.6, 0.0))[1:5] if win is None else win
+        frame = CameraBoxes(np.array([1], object), np.array([0.5 * (win[0] + win[1])]), win[None, :],
+                            (geo.flow_jacobian(c.P, np.r_[xy, 0.5 * H]) @ np.array([0.6, 0.0, 0.0]))[None, :])
+        costs, held, bottoms = [], [], []
+        for on in (False, True):
+            cfg, jt, tr = _standing_track(cams, xy, mu=0.0)
+            tr.xs, tr.mode = None, mode
+            jt.cfg.occluded_rows = on
+            jt.occluders = Occluders(SimpleNamespace(obstacles=(shelf,), walls=()), {k.name: k.P for k in cams}, cfg.height)
+            result, projs = jt.explain_camera(c.name, [tr], frame)
+            costs.append(jt.cost)
+            held.append(result)
+            bottoms.append(jt.seen_bottoms(c.name, [tr], projs))
+        assert held == [{0: (0,)}] * 2  # held either way
+        return costs[1] - costs[0], bottoms[1], jt.box_sigma
+
+    extra, bottom, sigma = added(behind, "planes")
+    full = window_row(c, behind, (0.6, 0.0))[1:5]
+    assert full[2] < bottom[0] < full[3]  # the shelf's edge lies between the head's and the feet's rows
+    d = (full[3] - bottom[0]) / sigma
+    assert d > 3 and extra == pytest.approx(0.5 * FLOW_CAP)  # far past the edge: capped
+    cut = full.copy()
+    cut[3] = bottom[0]
+    assert added(behind, "planes", cut)[0] == 0.0
+    near = full.copy()
+    near[3] = bottom[0] + 1.5 * sigma  # below the cap: quadratic in the reach
+    assert added(behind, "planes", near)[0] == pytest.approx(0.5 * 1.5**2)
+    assert added(behind, "area")[0] == 0.0
+    extra_front, bottom_front, _ = added(front, "planes")
+    assert extra_front == 0.0 and bottom_front == {}
