@@ -737,7 +737,7 @@ class JointTracker:
         cfg = self.cfg
         z = cfg.height * np.linspace(0.0, 1.0, OCCLUDED_ROWS_STEPS)
         C = self.occluders.centres[c][:2]
-        out = {}
+        pts = []
         for i in ids:
             tr = tracks[i]
             xy = np.asarray(tr.xy, float)
@@ -747,12 +747,15 @@ class JointTracker:
             sa = float(np.sqrt(along @ tr.S[:2, :2] @ along))
             sc = float(np.sqrt(across @ tr.S[:2, :2] @ across))
             reach = cfg.radius + OCCLUDED_ROWS_SPREAD * sc
-            pts = np.array([xy + a * along + b * across for a in (-OCCLUDED_ROWS_SPREAD * sa, 0.0, OCCLUDED_ROWS_SPREAD * sa)
-                            for b in np.linspace(-reach, reach, 5)])
-            clear = self.occluders.clear_heights(c, pts, z).any(0)
-            if clear[0] or not clear.any():
+            pts += [xy + a * along + b * across for a in (-OCCLUDED_ROWS_SPREAD * sa, 0.0, OCCLUDED_ROWS_SPREAD * sa)
+                    for b in np.linspace(-reach, reach, 5)]
+        clear = self.occluders.clear_heights(c, np.array(pts), z).reshape(len(ids), -1, len(z)).any(1)  # one call for all
+        out = {}
+        for i, cl in zip(ids, clear):
+            if cl[0] or not cl.any():
                 continue  # seen at the floor (no bound), or wholly hidden (``hidden_from``)
-            k = int(np.argmax(clear))  # the lowest clear height; k - 1 is hidden
+            k = int(np.argmax(cl))  # the lowest clear height; k - 1 is hidden
+            xy = tracks[i].xy
             (_, v), _ = geo.project(self.Ps[c], np.array([xy[0], xy[1], z[k - 1]]))
             out[i] = float(v)
         return out
