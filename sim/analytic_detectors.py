@@ -360,6 +360,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
         grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
     out_f, out_p, out_e, out_fl, out_id, out_c, out_cut = [], [], [], [], [], [], []
+    has_cut, has_crowded = "u_left_cut" in m.errors, "u_left_crowded" in m.errors  # the model's edge tables (older fits: fewer)
     moving = cand & (speed >= MOVING_PX_S)
     for f in range(F):
         groups = {}
@@ -374,7 +375,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_e.append([ee[:, 0].min(), ee[:, 1].max(), ee[:, 2].min(), ee[:, 3].max()])
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
-            out_c.append(edge_tables(g, e, frac, moving, f, mem, "u_left_cut" in m.errors, "u_left_crowded" in m.errors))
+            out_c.append(edge_tables(g, e, frac, moving, f, mem, has_cut, has_crowded))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)

@@ -1544,9 +1544,8 @@ def test_a_window_reaching_below_a_shelf_costs_the_track_behind_it_not_the_one_i
 
     def added(xy, mode, win=None):
         """The explanation's cost of track at xy holding its window, occluded_rows on minus off."""
-        win = window_row(c, xy, (0.6, 0.0))[1:5] if win is None else win
-        frame = CameraBoxes(np.array([1], object), np.array([0.5 * (win[0] + win[1])]), win[None, :],
-                            (geo.flow_jacobian(c.P, np.r_[xy, 0.5 * H]) @ np.array([0.6, 0.0, 0.0]))[None, :])
+        row = window_row(c, xy, (0.6, 0.0))
+        frame, _ = CameraBoxes.empty().with_box(1, row[1:5] if win is None else win, row[5:7])
         costs, held, bottoms = [], [], []
         for on in (False, True):
             cfg, jt, tr = _standing_track(cams, xy, mu=0.0)
