@@ -307,6 +307,22 @@ CROWDED_PX = 10.0
 # has them (fitted on the rendered windows of people seen over a box: a short strip whose
 # edges the box and the head fix, not the errors of a whole person's window)
 CUT_PX = 5.0
+# a model fitted with edge tables by the person's image height (``DetectorModel.edge_heights``;
+# the thirteenth fit, not bundled) draws a window's edge errors from the tables of its height
+# bin: the rendered edges' errors grow with the image (development 100-109, plain windows: the
+# top edge's 95th percentile +7 px under 60 px of height, +20 px at 60-100, +36 px above), and
+# one table for every size draws a near person's tail errors on a far one (docs/sensing.md)
+EDGE_HEIGHT_PX = (60.0, 100.0)
+
+
+def height_bin(height: np.ndarray | float, edges=EDGE_HEIGHT_PX) -> np.ndarray:
+    """The height bin (0 .. len(edges)) of windows ``height`` px high; the bins' table names end
+    in ``_h<bin>`` (``height_table``)."""
+    return np.searchsorted(np.asarray(edges, float), height, side="right")
+
+
+def height_table(name: str, k: int) -> str:
+    return f"{name}_h{int(k)}"
 
 
 def edge_tables(g, e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int],
@@ -384,12 +400,17 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     tid = np.asarray(out_id, np.int64)
     pp = np.asarray(out_p, int)
     tables = np.asarray(out_c, dtype=object)
+    hbin = None if m.edge_heights is None else height_bin(edges[:, 3] - edges[:, 2], m.edge_heights)
     for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
         e_j = m.error(name).at(grids[j][f, pp])
-        for tag in ("_crowded", "_cut"):
+        for tag in ("", "_crowded", "_cut"):
             on = tables == tag
-            if on.any():
+            if tag and on.any():
                 e_j[on] = m.error(name + tag).at(grids[j][f[on], pp[on]])
+            for k in () if hbin is None else range(len(m.edge_heights) + 1):
+                on_k = on & (hbin == k)
+                if on_k.any() and height_table(name + tag, k) in m.errors:
+                    e_j[on_k] = m.error(height_table(name + tag, k)).at(grids[j][f[on_k], pp[on_k]])
         edges[:, j] += e_j
     # an edge cut by the image border stays on it, as the rendered flow tracker's does
     # (``perception_flow.current_box``): the image clips the person, its edge has no error

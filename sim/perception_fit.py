@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (WHOLE, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (WHOLE, EDGE_HEIGHT_PX, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, height_bin, height_table, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
 from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
@@ -315,8 +315,11 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
         for p, rr in match.items():
             if own[f, p]:
                 tag = edge_tables(g, e, frac, moving, f, [p])
+                hk = height_bin(e[f, p, 3] - e[f, p, 2])
                 for j, c in enumerate(cols):
                     s.errors[c + tag].append(W[rr, j] - e[f, p, j])
+                    if tag != "_cut":  # (a cut window's strip is fixed by the box and the head, not by its size)
+                        s.errors[height_table(c + tag, hk)].append(W[rr, j] - e[f, p, j])
                 s.errors["u"].append(0.5 * (W[rr, 0] + W[rr, 1]) - 0.5 * (e[f, p, 0] + e[f, p, 1]))
                 s.err_seq.append((cam.name, p, f, s.errors["u"][-1]))
                 ef = fl[rr] - g.flow[f, p]
@@ -796,11 +799,25 @@ def tail_share(s: DetectorStats) -> float:
     return float(np.mean(np.asarray(s.floor_abs) > TAIL_M)) if s.floor_abs else np.nan
 
 
-def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True, flow_persist: bool = False) -> PerceptionModel:
+EDGE_NAMES = ("u_left", "u_right", "v_top", "v_bottom")  # the windows' edge-error tables (and their _crowded, _cut, _h<bin>)
+
+
+def height_of(name: str) -> tuple[str, int] | None:
+    """(the edge table over every height, the bin) of a per-height edge table's ``name``
+    (``analytic_detectors.height_table``); None for any other table."""
+    base, _, k = name.rpartition("_h")
+    return (base, int(k)) if base.startswith(EDGE_NAMES) and k.isdigit() else None
+
+
+def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True, flow_persist: bool = False,
+        by_height: bool = False) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings);
     ``crowded`` False: the windows' edge errors in one table each, crowded or not (no
     ``*_crowded`` tables, as the bundled eighth and tenth fits); ``flow_persist``: the windows'
-    flow errors persist on two time scales (``fit_flow_persist``; the eleventh fit, not bundled)."""
+    flow errors persist on two time scales (``fit_flow_persist``; the eleventh fit, not bundled);
+    ``by_height``: the windows' edge errors (plain and crowded) also in tables per bin of the
+    person's image height (``analytic_detectors.EDGE_HEIGHT_PX``; a bin with under 30 windows
+    takes its edge's table over every height; the thirteenth fit, not bundled)."""
     from .perception_flow import FlowParams
 
     out = {}
@@ -822,14 +839,26 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
                 head_gain[name] = float(r @ h / (h @ h)) if h @ h > 0 else 0.0
                 errors[name + "_r"] = Quantiles.fit(r - head_gain[name] * h)
         samples = dict(s.errors)
+        by_h = {}  # the edge tables per height bin: name -> its table over every height
+        for name, (base, hk) in [(n, height_of(n)) for n in list(samples) if height_of(n)]:
+            if not by_height:
+                samples.pop(name)
+            elif crowded or not base.endswith("_crowded"):
+                by_h[name] = base
+            else:  # pooled: a crowded bin's windows join the plain bin's
+                base = base[: -len("_crowded")]
+                samples[height_table(base, hk)] = list(samples.get(height_table(base, hk), ())) + list(samples.pop(name))
+                by_h[height_table(base, hk)] = base
         if not crowded:
             for name in [n for n in samples if n.endswith("_crowded")]:
                 plain = name[: -len("_crowded")]
                 samples[plain] = list(samples.get(plain, ())) + list(samples.pop(name))
         for name, v in samples.items():
-            if name in errors or name in {t + "_h" for t in FLOOR_TABLES.values()}:  # (not the windows' frag_h, clutter_h)
+            if name in errors or name in by_h or name in {t + "_h" for t in FLOOR_TABLES.values()}:  # (not the windows' frag_h, clutter_h)
                 continue
             errors[name] = Quantiles.fit(np.asarray(v, float), fallback=errors.get("u"))
+        for name, base in by_h.items():
+            errors[name] = Quantiles.fit(np.asarray(samples[name], float), fallback=errors.get(base))
         if "flow_along_s0" in errors:  # a speed bin with too few windows takes the next slower bin's tables
             for b in range(1, len(FLOW_SPEED_EDGES) + 1):
                 for axis in ("along", "across"):
@@ -862,6 +891,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
             swap=(s.swaps + 1) / (s.splits + 2),
             max_gap=FlowParams().max_missed if k == "windows" else 0,
             tail=fit_tail(s) if k in ("overhead", "privacy") else None,
+            edge_heights=list(EDGE_HEIGHT_PX) if k == "windows" and by_h else None,
         )
     return PerceptionModel(out, list(fitted_on))
 

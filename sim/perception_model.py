@@ -293,6 +293,10 @@ class DetectorModel:
     # (windows) the flow errors' persistence (w, a_slow, a_fast): their copula is the two-timescale
     # Gaussian ``two_timescale_normals``; None: err_rho's AR(1), as the other errors (models before it)
     flow_persist: tuple[float, float, float] | None = None
+    # (windows) the person's image heights (px) between the edge tables' height bins: a window's
+    # edge errors come from ``<edge>_h<bin>`` where the model has it (``analytic_detectors.
+    # height_bin``; the thirteenth fit, not bundled); None: one table for every height
+    edge_heights: list[float] | None = None
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -325,6 +329,7 @@ class DetectorModel:
             **({"head_gain": {k: round(v, 4) for k, v in self.head_gain.items()}} if self.head_gain else {}),
             **({"tail": self.tail.to_dict()} if self.tail is not None else {}),
             **({"flow_persist": [round(x, 4) for x in self.flow_persist]} if self.flow_persist is not None else {}),
+            **({"edge_heights": [float(x) for x in self.edge_heights]} if self.edge_heights is not None else {}),
         }
 
     @classmethod
@@ -343,7 +348,11 @@ class DetectorModel:
                 seen_frames=int(d.get("seen_frames", 1)),
                 head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()},
                 tail=Tail.from_dict(d["tail"]) if "tail" in d else None,
-                flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None)
+                flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None,
+                edge_heights=[float(x) for x in d["edge_heights"]] if "edge_heights" in d else None)
+        if m.edge_heights is not None and (not m.edge_heights or not all(np.isfinite(m.edge_heights))
+                                           or np.any(np.diff(m.edge_heights) <= 0) or m.edge_heights[0] <= 0):
+            raise ValueError(f"edge_heights must be positive, increasing image heights (px), got {m.edge_heights}")
         if m.flow_persist is not None and (len(m.flow_persist) != 3 or not all(0.0 <= x <= 1.0 for x in m.flow_persist)
                                            or max(m.flow_persist[1:]) >= 1.0):
             raise ValueError(f"flow_persist must be (w, a_slow, a_fast), w in [0, 1] and both a in [0, 1), got {m.flow_persist}")

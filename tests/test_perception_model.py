@@ -888,6 +888,38 @@ def test_windows_of_people_a_box_cuts_take_their_own_edge_tables_and_the_fit_fin
     assert fitted.error("v_bottom_cut").bias == pytest.approx(8.0, abs=1.5) and abs(fitted.error("v_bottom").bias) < 1.0
 
 
+def test_window_edge_errors_are_drawn_by_the_persons_image_height_and_the_fit_finds_them(tmp_path):
+    """A windows model with ``edge_heights`` draws a window's edge errors from the tables of its
+    height bin (here the top edge 8 px high on people under 60 px, 8 px low above 100 px,
+    unbiased between); the fit with ``by_height`` measures the bins apart again (crowded windows
+    pooled into the plain bins, as the bundled fit does), and without it writes no bin tables."""
+    from trackroom.sim.analytic_detectors import EDGE_HEIGHT_PX
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        w = m["windows"]
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+        w.errors = {k: v for k, v in w.errors.items() if not k.startswith(pf.EDGE_NAMES)}
+        for c in pf.EDGE_NAMES:
+            w.errors[c] = w.errors[c + "_cut"] = Quantiles.gaussian(0.5)
+        w.errors["v_top_h0"], w.errors["v_top_h2"] = Quantiles.gaussian(0.5, 8.0), Quantiles.gaussian(0.5, -8.0)
+        w.edge_heights = list(EDGE_HEIGHT_PX)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    for k, bias in enumerate((8.0, 0.0, -8.0)):
+        v = np.r_[s.errors[f"v_top_h{k}"], s.errors[f"v_top_crowded_h{k}"]]
+        assert len(v) > 100 and np.median(v) == pytest.approx(bias, abs=1.5), k
+        assert abs(np.median(np.r_[s.errors[f"u_left_h{k}"], s.errors[f"u_left_crowded_h{k}"]])) < 1.0
+    stats = {k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}
+    fitted = pf.fit(stats, ["test"], crowded=False, by_height=True)["windows"]
+    assert fitted.edge_heights == list(EDGE_HEIGHT_PX) and "v_top_crowded_h0" not in fitted.errors
+    assert [round(fitted.error(f"v_top_h{k}").bias) for k in range(3)] == pytest.approx([8, 0, -8], abs=1.5)
+    plain = pf.fit(stats, ["test"], crowded=False)["windows"]
+    assert plain.edge_heights is None and not [k for k in plain.errors if k[-3:-1] == "_h"]
+    back = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
+    assert back.edge_heights == fitted.edge_heights and back.error("v_top_h2").bias == pytest.approx(fitted.error("v_top_h2").bias, abs=1e-3)
+
+
 def test_windows_are_detected_by_the_head_ray_too_and_the_fit_finds_it(tmp_path):
     """A windows detection table over the axis rays' seen share, the head ray's and the image
     speed (fits from the twelfth on): here walkers are detected at 0.8 where the top of the head

@@ -42,6 +42,9 @@ def add_arguments(p) -> None:
     p.add_argument("--pooled-edges", action="store_true",
                    help="fit the flow windows' edge errors in one table each, crowded or not (no *_crowded tables; "
                         "the bundled model is fitted so)")
+    p.add_argument("--by-height", action="store_true",
+                   help="fit the flow windows' edge errors by the person's image height too: tables per height bin "
+                        "(sim.analytic_detectors.EDGE_HEIGHT_PX; the thirteenth fit, not bundled)")
     p.add_argument("--flow-persist", action="store_true",
                    help="fit the flow windows' flow errors as persisting on two time scales (a slow and a fast part: "
                         "the rendered flow detector's long shortfalls; the eleventh fit, not bundled)")
@@ -122,7 +125,7 @@ def run(args) -> int:
         names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
-    model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist)
+    model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist, by_height=args.by_height)
     if args.only:
         from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
 
