@@ -14,7 +14,7 @@ from trackroom.dataset import expand_recordings, recording_folders, write_record
 WITH_MAIN = ["measure_encounters", "measure_own_windows", "measure_window_widths", "explain_tp_mota", "explain_tp_ends",
              "explain_tp_losses", "measure_tp_identity", "measure_flow_errors", "measure_ghost_crossings",
              "measure_tp_detection", "measure_tp_duplicates", "measure_person_detections", "measure_tp_consistency",
-             "measure_tp_lag", "explain_tp_errors", "measure_hidden_rows", "measure_edge_heights"]
+             "measure_tp_lag", "explain_tp_errors", "measure_hidden_rows", "measure_edge_heights", "check_rendered"]
 AS_MAIN = ["measure_stop_lengths", "measure_window_stops"]  # run as scripts only (no main())
 
 

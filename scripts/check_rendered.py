@@ -1,0 +1,89 @@
+"""Do re-rendered recordings equal the ones the figures were measured on?
+
+    python -m scripts.check_rendered DIR [DIR ...]            # compare with docs/rendered_digests.json
+    python -m scripts.check_rendered DIR [DIR ...] --record   # record (or replace) their digests
+
+Recordings do not survive a new machine: issue 12's development and evaluation recordings are
+rendered again from their seeds (``trackroom generate occlusion_lab --seed N --duration 35
+--sensing rendered``). For one set of versions, rendering on the CPU gives the same files byte for
+byte (occlusion_lab 3220 rendered twice, issue 12's seventy-fifth session: every file of the
+manifest the same). This script checks a re-render against the record: each folder's files
+against its own manifest first (as ``read_recording`` verifies), then the digests of its tables
+(``TABLES``, the first 16 hex digits of the manifest's sha256) against those recorded for the
+same scene, seed, duration, overrides and sensing in ``--digests``. One line per recording:
+``same``, ``differs`` (naming the tables, and the versions where they differ from the recorded
+ones) or ``not recorded``; the exit status is 1 when any differs."""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+from trackroom.dataset import read_manifest, recording_folders
+
+DIGESTS = Path(__file__).resolve().parents[1] / "docs" / "rendered_digests.json"
+TABLES = ("bearings.parquet", "boxes.parquet", "floor_detections.parquet", "imu.parquet", "truth.parquet",
+          "truth_labels.parquet", "truth_visibility.parquet")
+DIGITS = 16
+VERSIONS = ("mujoco", "numpy", "opencv-python-headless", "python")  # what rendering depends on, as the manifest names them
+
+
+def key(manifest: dict) -> str:
+    """The record's name for a recording: scene, seed, duration, sensing and overrides."""
+    m = manifest["meta"]
+    over = "".join(f" --set {o}" for o in m.get("overrides", []))
+    return f"{m['scene']} seed {m['seed']} {float(m['duration']):g} s {m['sensing']}{over}"
+
+
+def digests(folder: Path) -> tuple[str, dict, dict]:
+    """(``key``, {table: digest}, versions) of a recording folder whose files match its manifest;
+    a file that does not ends the script with one line naming it."""
+    manifest = read_manifest(folder)
+    for rel, digest in manifest["files"].items():
+        p = folder / rel
+        if not p.is_file() or hashlib.sha256(p.read_bytes()).hexdigest() != digest:
+            raise SystemExit(f"check_rendered: {folder}: {rel} is missing or does not match its manifest")
+    files = {t: manifest["files"][t][:DIGITS] for t in TABLES if t in manifest["files"]}
+    versions = manifest["meta"].get("versions", {})
+    return key(manifest), files, {k: versions[k] for k in VERSIONS if k in versions}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="+", metavar="DIR", help="recording folders (globs allowed)")
+    ap.add_argument("--digests", default=str(DIGESTS), help=f"the record (default {DIGESTS.relative_to(DIGESTS.parents[1])})")
+    ap.add_argument("--record", action="store_true", help="record these recordings' digests instead of checking them")
+    args = ap.parse_args(argv)
+    folders = recording_folders(args.recordings, "check_rendered")
+    path = Path(args.digests)
+    record = json.loads(path.read_text()) if path.is_file() else {}
+    differs = 0
+    for d in folders:
+        name, files, versions = digests(Path(d))
+        if args.record:
+            record[name] = {"tables": files, "versions": versions}
+            continue
+        old = record.get(name)
+        if old is None:
+            print(f"{d}: {name}: not recorded")
+            continue
+        bad = sorted(t for t in set(files) | set(old["tables"]) if files.get(t) != old["tables"].get(t))
+        if not bad:
+            print(f"{d}: {name}: same")
+            continue
+        differs += 1
+        moved = {k: (old["versions"].get(k), v) for k, v in versions.items() if old["versions"].get(k) != v}
+        print(f"{d}: {name}: differs in {', '.join(bad)}" + (f" (versions recorded -> now: {moved})" if moved else ""))
+    if args.record:
+        tmp = path.with_suffix(".tmp")
+        lines = [f"{json.dumps(k)}: {json.dumps(v, sort_keys=True)}" for k, v in sorted(record.items())]  # one line a recording
+        tmp.write_text("{\n" + ",\n".join(lines) + "\n}\n")
+        tmp.replace(path)
+        print(f"recorded {len(folders)} recording(s) in {path}")
+    return 1 if differs else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
