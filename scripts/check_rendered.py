@@ -16,12 +16,12 @@ ones) or ``not recorded``; the exit status is 1 when any differs."""
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 from pathlib import Path
 
-from trackroom.dataset import read_manifest, recording_folders
+from trackroom.dataset import read_manifest, recording_folders, verify_files
+from trackroom.recording import RecordingError
 
 DIGESTS = Path(__file__).resolve().parents[1] / "docs" / "rendered_digests.json"
 TABLES = ("bearings.parquet", "boxes.parquet", "floor_detections.parquet", "imu.parquet", "truth.parquet",
@@ -38,13 +38,14 @@ def key(manifest: dict) -> str:
 
 
 def digests(folder: Path) -> tuple[str, dict, dict]:
-    """(``key``, {table: digest}, versions) of a recording folder whose files match its manifest;
-    a file that does not ends the script with one line naming it."""
+    """(``key``, {table: digest}, versions) of a recording folder whose files match its manifest
+    (``dataset.verify_files``, as ``read_recording`` checks them); a file that does not ends the
+    script with one line naming it."""
     manifest = read_manifest(folder)
-    for rel, digest in manifest["files"].items():
-        p = folder / rel
-        if not p.is_file() or hashlib.sha256(p.read_bytes()).hexdigest() != digest:
-            raise SystemExit(f"check_rendered: {folder}: {rel} is missing or does not match its manifest")
+    try:
+        verify_files(folder, manifest)
+    except RecordingError as e:
+        raise SystemExit(f"check_rendered: {e}") from None
     files = {t: manifest["files"][t][:DIGITS] for t in TABLES if t in manifest["files"]}
     versions = manifest["meta"].get("versions", {})
     return key(manifest), files, {k: versions[k] for k in VERSIONS if k in versions}

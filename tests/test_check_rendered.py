@@ -38,5 +38,5 @@ def test_a_file_that_does_not_match_its_manifest_is_named(recordings, tmp_path):
     bad = tmp_path / "bad"
     shutil.copytree(recordings / "a", bad)
     (bad / "boxes.parquet").write_bytes(b"not a table")
-    with pytest.raises(SystemExit, match=r"bad: boxes.parquet is missing or does not match its manifest"):
+    with pytest.raises(SystemExit, match=r"^check_rendered: .*bad: file boxes.parquet does not match its hash in the manifest"):
         main([str(bad), "--digests", str(tmp_path / "digests.json")])

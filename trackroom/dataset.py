@@ -220,6 +220,17 @@ def recording_folders(patterns, prog: str) -> list[str]:
     return folders
 
 
+def verify_files(root: Path, manifest: dict) -> None:
+    """Every file the manifest lists is in the folder ``root`` with its hash; else one
+    ``RecordingError`` naming the first that is not."""
+    for rel, digest in manifest["files"].items():
+        p = root / rel
+        if not p.is_file():
+            raise RecordingError(f"{root}: file {rel} listed in the manifest is missing")
+        if _sha256(p) != digest:
+            raise RecordingError(f"{root}: file {rel} does not match its hash in the manifest (modified or corrupt)")
+
+
 def read_recording(path: str | Path, verify: bool = True) -> Recording:
     """Read a dataset folder back into a ``Recording``; ``verify`` checks every file's hash.
 
@@ -231,12 +242,7 @@ def read_recording(path: str | Path, verify: bool = True) -> Recording:
     root = Path(path)
     manifest = read_manifest(root)
     if verify:
-        for rel, digest in manifest["files"].items():
-            p = root / rel
-            if not p.is_file():
-                raise RecordingError(f"{root}: file {rel} listed in the manifest is missing")
-            if _sha256(p) != digest:
-                raise RecordingError(f"{root}: file {rel} does not match its hash in the manifest (modified or corrupt)")
+        verify_files(root, manifest)
     tables = {kind: _read_parquet(root / f"{kind}.parquet", kind) for kind in manifest["observations"]}
     truth = {k: _read_parquet(root / f, k) for k, f in TRUTH_FILES.items() if (root / f).exists()}
     cams = {}
