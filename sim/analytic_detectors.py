@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from scipy.special import ndtri
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
+from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
 
 
 WHOLE = 0.999  # a person seen whole: this share of the rays reaching them and of their image width inside the image
@@ -337,6 +338,26 @@ def edge_tables(g, e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, 
     return ""
 
 
+def edge_copula(u_top: np.ndarray, u_bottom: np.ndarray, corr: EdgeCorr, kind: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """The bottom edges' uniforms correlated with the top edges' ``u_top`` (one per window) by
+    ``corr`` (``EdgeCorr``) for each window's kind (``kind``: its ``edge_tables`` tag, "" plain,
+    "_crowded" or "_cut") and the person's image ``height`` (px): the Gaussian copula
+    z' = r z_top + sqrt(1 - r^2) z_bottom keeps each edge's marginal and, the two being AR(1)
+    with the same ``err_rho``, its frame-to-frame correlation. Windows with r = 0 (cut, or a
+    kind or bin without one) keep ``u_bottom`` exactly."""
+    r = np.zeros(len(u_top))
+    hb = height_bin(height, corr.heights)
+    for name, rho in corr.rho.items():
+        on = kind == ("" if name == "plain" else "_" + name)
+        r[on] = np.asarray(rho, float)[hb[on]]
+    out = np.asarray(u_bottom, float).copy()
+    on = r != 0.0
+    if on.any():
+        z_top, z_bottom = (ndtri(np.clip(u[on], 1e-15, 1 - 1e-15)) for u in (u_top, u_bottom))
+        out[on] = ndtr(r[on] * z_top + np.sqrt(1.0 - r[on] ** 2) * z_bottom)
+    return out
+
+
 def crowded(e: np.ndarray, frac: np.ndarray, moving: np.ndarray, f: int, members: list[int]) -> bool:
     """Whether the window of ``members`` at frame f is crowded (``CROWDED_PX``): ``e`` (F, P, 4)
     image edges, ``frac`` the seen share of rays, ``moving`` who is in the image and moves in it
@@ -375,7 +396,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     grids = error_uniforms(rng, det.shape, m, 6)
     if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
         grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
-    out_f, out_p, out_e, out_fl, out_id, out_c, out_cut = [], [], [], [], [], [], []
+    out_f, out_p, out_e, out_fl, out_id, out_c, out_cut, out_k = [], [], [], [], [], [], [], []
     has_cut, has_crowded = "u_left_cut" in m.errors, "u_left_crowded" in m.errors  # the model's edge tables (older fits: fewer)
     moving = cand & (speed >= MOVING_PX_S)
     for f in range(F):
@@ -392,6 +413,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
             out_c.append(edge_tables(g, e, frac, moving, f, mem, has_cut, has_crowded))
+            if m.edge_corr is not None:  # the kind of window its edges' correlation is fitted for, whatever tables the model has
+                out_k.append(edge_tables(g, e, frac, moving, f, mem, True, True))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)
@@ -401,16 +424,19 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     pp = np.asarray(out_p, int)
     tables = np.asarray(out_c, dtype=object)
     hbin = None if m.edge_heights is None else height_bin(edges[:, 3] - edges[:, 2], m.edge_heights)
+    U = [grid[f, pp] for grid in grids[:4]]  # each window's uniforms for its four edges
+    if m.edge_corr is not None:
+        U[3] = edge_copula(U[2], U[3], m.edge_corr, np.asarray(out_k, dtype=object), edges[:, 3] - edges[:, 2])
     for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
-        e_j = m.error(name).at(grids[j][f, pp])
+        e_j = m.error(name).at(U[j])
         for tag in ("", "_crowded", "_cut"):
             on = tables == tag
             if tag and on.any():
-                e_j[on] = m.error(name + tag).at(grids[j][f[on], pp[on]])
+                e_j[on] = m.error(name + tag).at(U[j][on])
             for k in () if hbin is None else range(len(m.edge_heights) + 1):
                 on_k = on & (hbin == k)
                 if on_k.any() and height_table(name + tag, k) in m.errors:
-                    e_j[on_k] = m.error(height_table(name + tag, k)).at(grids[j][f[on_k], pp[on_k]])
+                    e_j[on_k] = m.error(height_table(name + tag, k)).at(U[j][on_k])
         edges[:, j] += e_j
     # an edge cut by the image border stays on it, as the rendered flow tracker's does
     # (``perception_flow.current_box``): the image clips the person, its edge has no error

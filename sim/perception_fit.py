@@ -31,7 +31,7 @@ from trackroom.scenes.spec import Scene
 
 from .analytic_detectors import (WHOLE, EDGE_HEIGHT_PX, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, height_bin, height_table, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
-from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
+from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
@@ -748,6 +748,33 @@ def fit_err_rho(s: DetectorStats, head_gain: dict | None = None) -> float:
     return float(np.clip(r, 0.0, 0.999)) if np.isfinite(r) else 0.0
 
 
+MIN_EDGE_PAIRS = 30  # windows of a kind and height bin below which its edges' correlation is 0
+
+
+def edge_pairs(s: DetectorStats, tag: str, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(top, bottom) edge errors of the own windows of tables ``tag`` ("" plain, "_crowded") in
+    height bin ``k``: each window files its four errors together (``_measure_windows``), so
+    the two tables' entries pair by index."""
+    return tuple(np.asarray(s.errors.get(height_table(name + tag, k), ()), float) for name in ("v_top", "v_bottom"))
+
+
+def score_corr(x: np.ndarray, y: np.ndarray) -> float:
+    """The correlation of x's and y's normal scores (the Gaussian copula's correlation, whatever
+    the marginals); 0 under ``MIN_EDGE_PAIRS`` pairs."""
+    if len(x) < MIN_EDGE_PAIRS:
+        return 0.0
+    r = float(np.corrcoef(normal_scores(x), normal_scores(y))[0, 1])
+    return float(np.clip(r, -0.99, 0.99)) if np.isfinite(r) else 0.0
+
+
+def fit_edge_corr(s: DetectorStats) -> EdgeCorr:
+    """The windows' top and bottom edge errors' correlation (``EdgeCorr``) per kind of window
+    and height bin (``analytic_detectors.EDGE_HEIGHT_PX``): the normal scores' correlation of
+    the own windows' errors (``score_corr``)."""
+    return EdgeCorr(EDGE_HEIGHT_PX, {kind: tuple(score_corr(*edge_pairs(s, tag, k)) for k in range(len(EDGE_HEIGHT_PX) + 1))
+                                     for kind, tag in (("plain", ""), ("crowded", "_crowded"))})
+
+
 FLOW_PERSIST_LAGS = 20  # frames: lags of the flow errors' autocorrelation that flow_persist is fitted to
 MIN_FLOW_PAIRS = 200  # pairs of consecutive flow errors below which no flow_persist is fitted
 
@@ -810,14 +837,16 @@ def height_of(name: str) -> tuple[str, int] | None:
 
 
 def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True, flow_persist: bool = False,
-        by_height: bool = False) -> PerceptionModel:
+        by_height: bool = False, edge_corr: bool = False) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings);
     ``crowded`` False: the windows' edge errors in one table each, crowded or not (no
     ``*_crowded`` tables, as the bundled eighth and tenth fits); ``flow_persist``: the windows'
     flow errors persist on two time scales (``fit_flow_persist``; the eleventh fit, not bundled);
     ``by_height``: the windows' edge errors (plain and crowded) also in tables per bin of the
     person's image height (``analytic_detectors.EDGE_HEIGHT_PX``; a bin with under 30 windows
-    takes its edge's table over every height; the thirteenth fit, not bundled)."""
+    takes its edge's table over every height; the thirteenth fit, not bundled); ``edge_corr``: the
+    windows' top and bottom edge errors correlated by kind of window and height bin
+    (``fit_edge_corr``; the fourteenth fit, not bundled)."""
     from .perception_flow import FlowParams
 
     out = {}
@@ -892,6 +921,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
             max_gap=FlowParams().max_missed if k == "windows" else 0,
             tail=fit_tail(s) if k in ("overhead", "privacy") else None,
             edge_heights=list(EDGE_HEIGHT_PX) if k == "windows" and by_h else None,
+            edge_corr=fit_edge_corr(s) if k == "windows" and edge_corr else None,
         )
     return PerceptionModel(out, list(fitted_on))
 
@@ -975,7 +1005,7 @@ def correct(model: PerceptionModel, rendered: dict[str, DetectorStats], analytic
 
 
 # ----------------------------------------------------------------------------- summaries
-SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "tail_share", "err_p999", "merge_rate", "merge_run", "fragment_rate", "partial_rate",
+SUMMARY_COLUMNS = ("candidates", "detection_rate", "miss_run", "err_median", "err_p90", "edge_tb_corr", "tail_share", "err_p999", "merge_rate", "merge_run", "fragment_rate", "partial_rate",
                    "id_restart_rate", "split_swap_rate", "label_accuracy", "clutter_per_frame")
 
 
@@ -1004,5 +1034,9 @@ def summary(stats: dict[str, DetectorStats]) -> pd.DataFrame:
             "split_swap_rate": s.swaps / s.splits if s.splits else np.nan,
             "label_accuracy": np.mean(s.label_ok) if s.label_ok else np.nan,
             "clutter_per_frame": s.clutter / s.frames if s.frames else np.nan,
+            # windows: how much the top and bottom edges' errors move together (plain windows of
+            # people above the first height bin, 60 px or more, ``score_corr``)
+            "edge_tb_corr": score_corr(*(np.concatenate(v) for v in zip(*(edge_pairs(s, "", k) for k in range(1, len(EDGE_HEIGHT_PX) + 1)))))
+            if k == "windows" else np.nan,
         })
     return pd.DataFrame(rows)

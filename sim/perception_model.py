@@ -225,6 +225,44 @@ class Quantiles:
 
 
 @dataclass
+class EdgeCorr:
+    """(windows) The correlation of a window's top and bottom edge errors: the rendered window
+    grows or shrinks as a whole (development 100-109, one person's window, Spearman: -0.35 for
+    plain windows of people 60 px high or more, -0.10 under 60 px, +0.03 to -0.17 for crowded
+    ones). ``rho`` holds,
+    per kind of window (``"plain"``, ``"crowded"``: ``analytic_detectors.edge_tables``), one
+    Gaussian-copula correlation per bin of the person's image height (``heights``: px between
+    the bins, ``analytic_detectors.height_bin``); windows cut by a box keep independent edges."""
+
+    heights: tuple[float, ...]
+    rho: dict[str, tuple[float, ...]]
+
+    def __post_init__(self):
+        self.heights = tuple(float(x) for x in self.heights)
+        self.rho = {str(k): tuple(float(x) for x in v) for k, v in self.rho.items()}
+        h = np.asarray(self.heights, float)
+        if not len(h) or not np.all(np.isfinite(h)) or np.any(np.diff(h) <= 0) or h[0] <= 0:
+            raise ValueError(f"edge_corr: heights must be positive, increasing image heights (px), got {list(self.heights)}")
+        for k, v in self.rho.items():
+            if k not in EDGE_CORR_KINDS:
+                raise ValueError(f"edge_corr: unknown kind of window {k!r}; expected {', '.join(EDGE_CORR_KINDS)}")
+            if len(v) != len(h) + 1 or not all(-1.0 < x < 1.0 for x in v):
+                raise ValueError(f"edge_corr: {k} needs {len(h) + 1} correlations in (-1, 1), one per height bin, got {list(v)}")
+
+    def to_dict(self) -> dict:
+        return {"heights": list(self.heights), "rho": {k: [round(x, 4) for x in v] for k, v in self.rho.items()}}
+
+    @classmethod
+    def from_dict(cls, d) -> "EdgeCorr":
+        if not isinstance(d, dict) or not isinstance(d.get("rho"), dict):
+            raise ValueError(f"edge_corr must be {{\"heights\": [...], \"rho\": {{\"plain\": [...], ...}}}}, got {d!r}")
+        return cls(tuple(d["heights"]), {k: tuple(v) for k, v in d["rho"].items()})
+
+
+EDGE_CORR_KINDS = ("plain", "crowded")  # the kinds of window ``EdgeCorr.rho`` is given for
+
+
+@dataclass
 class Tail:
     """Drift episodes of a floor detector (see the module docstring, ``tail``): an episode of L
     frames (geometric, mean ``frames``) has |error| TAIL_M + (peak - TAIL_M) k / L at its k-th
@@ -297,6 +335,9 @@ class DetectorModel:
     # edge errors come from ``<edge>_h<bin>`` where the model has it (``analytic_detectors.
     # height_bin``; the thirteenth fit, not bundled); None: one table for every height
     edge_heights: list[float] | None = None
+    # (windows) the top and bottom edge errors' correlation (``EdgeCorr``; the fourteenth fit,
+    # not bundled); None: drawn independently (models before it draw as before)
+    edge_corr: EdgeCorr | None = None
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -330,6 +371,7 @@ class DetectorModel:
             **({"tail": self.tail.to_dict()} if self.tail is not None else {}),
             **({"flow_persist": [round(x, 4) for x in self.flow_persist]} if self.flow_persist is not None else {}),
             **({"edge_heights": [float(x) for x in self.edge_heights]} if self.edge_heights is not None else {}),
+            **({"edge_corr": self.edge_corr.to_dict()} if self.edge_corr is not None else {}),
         }
 
     @classmethod
@@ -349,7 +391,8 @@ class DetectorModel:
                 head_gain={str(k): float(v) for k, v in d.get("head_gain", {}).items()},
                 tail=Tail.from_dict(d["tail"]) if "tail" in d else None,
                 flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None,
-                edge_heights=[float(x) for x in d["edge_heights"]] if "edge_heights" in d else None)
+                edge_heights=[float(x) for x in d["edge_heights"]] if "edge_heights" in d else None,
+                edge_corr=EdgeCorr.from_dict(d["edge_corr"]) if "edge_corr" in d else None)
         if m.edge_heights is not None and (not m.edge_heights or not all(np.isfinite(m.edge_heights))
                                            or np.any(np.diff(m.edge_heights) <= 0) or m.edge_heights[0] <= 0):
             raise ValueError(f"edge_heights must be positive, increasing image heights (px), got {m.edge_heights}")

@@ -202,6 +202,14 @@ def test_a_bad_probability_names_the_detector(tmp_path):
         load_model(path)
     with pytest.raises(ModelError, match="cannot be read"):
         load_model(tmp_path / "missing.json")
+    for bad, problem in (({"heights": [60, 100], "rho": {"plain": [0.0, 1.2, 0.0]}}, "windows.*edge_corr.*plain"),
+                         ({"heights": [60, 100], "rho": [0.1]}, "windows.*edge_corr must be"),
+                         ({"heights": [60, 100], "rho": {"other": [0.0, 0.0, 0.0]}}, "windows.*unknown kind of window 'other'")):
+        d = load_model("fitted").to_dict()
+        d["detectors"]["windows"]["edge_corr"] = bad
+        path.write_text(json.dumps(d))
+        with pytest.raises(ModelError, match=problem):
+            load_model(path)
 
 
 def test_the_bundled_model_round_trips_and_covers_every_detector():
@@ -247,9 +255,12 @@ def test_calibrate_sensing_fits_a_rendered_recording(tmp_path, capsys):
     # simulation over perception draws
     only = tmp_path / "only.json"
     assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--only", "windows", "--base", str(out),
-                 "--draws", "2", "--rounds", "1"]) == 0
+                 "--draws", "2", "--rounds", "1", "--edge-corr"]) == 0
     a, b = load_model(out), load_model(only)
     assert b["oblique"].to_dict() == a["oblique"].to_dict() and b["overhead"].to_dict() == a["overhead"].to_dict()
+    # --edge-corr: the windows' top and bottom edge errors' correlation, fitted and printed
+    assert a["windows"].edge_corr is None and b["windows"].edge_corr is not None
+    assert "top/bottom edge correlation" in capsys.readouterr().out
     assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--only", "nope"]) == 2
     assert main(["calibrate-sensing", str(rec_dir), "--out", str(only), "--draws", "0"]) == 2
 
@@ -918,6 +929,70 @@ def test_window_edge_errors_are_drawn_by_the_persons_image_height_and_the_fit_fi
     assert plain.edge_heights is None and not [k for k in plain.errors if k[-3:-1] == "_h"]
     back = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
     assert back.edge_heights == fitted.edge_heights and back.error("v_top_h2").bias == pytest.approx(fitted.error("v_top_h2").bias, abs=1e-3)
+
+
+def test_window_top_and_bottom_edge_errors_are_drawn_correlated_and_the_fit_finds_it(tmp_path):
+    """A windows model with ``edge_corr`` draws a window's top and bottom edge errors from one
+    Gaussian copula per kind of window and height bin (here -0.6 for plain windows of people 60 px
+    high or more, +0.5 for crowded ones, none under 60 px); the measured errors show it, the
+    fit with ``edge_corr`` finds it again, and a model without it draws them independently."""
+    from trackroom.sim.analytic_detectors import EDGE_HEIGHT_PX
+    from trackroom.sim.perception_model import EdgeCorr, Quantiles
+
+    def edit(corr):
+        def f(m):
+            w = m["windows"]
+            w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+            for c in pf.EDGE_NAMES:
+                w.errors[c] = w.errors[c + "_cut"] = Quantiles.gaussian(3.0)
+            w.edge_corr = corr
+        return f
+
+    corr = EdgeCorr(EDGE_HEIGHT_PX, {"plain": (0.0, -0.6, -0.6), "crowded": (0.0, 0.5, 0.5)})
+    stats = {}
+    for name, c in (("corr", corr), ("none", None)):
+        (tmp_path / name).mkdir()
+        scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path / name, edit(c))}"])
+        stats[name] = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    s = stats["corr"]
+    for tag, k, want in (("", 0, 0.0), ("", 1, -0.6), ("", 2, -0.6), ("_crowded", 1, 0.5), ("_crowded", 2, 0.5)):
+        top, bottom = pf.edge_pairs(s, tag, k)
+        assert len(top) > 150 and pf.score_corr(top, bottom) == pytest.approx(want, abs=0.15), (tag, k)
+        assert pf.score_corr(*pf.edge_pairs(stats["none"], tag, k)) == pytest.approx(0.0, abs=0.15), (tag, k)
+    assert pf.summary({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}).set_index("detector").loc[
+        "windows", "edge_tb_corr"] == pytest.approx(-0.6, abs=0.1)
+    fitted = pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"], crowded=False, edge_corr=True)["windows"]
+    assert fitted.edge_corr.heights == tuple(EDGE_HEIGHT_PX)
+    assert fitted.edge_corr.rho["plain"] == pytest.approx((0.0, -0.6, -0.6), abs=0.15)
+    assert fitted.edge_corr.rho["crowded"][1:] == pytest.approx((0.5, 0.5), abs=0.15)
+    assert pf.fit({k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"].edge_corr is None
+    back = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
+    assert back.edge_corr.rho["plain"] == pytest.approx(fitted.edge_corr.rho["plain"], abs=1e-4)
+
+
+def test_edge_copula_keeps_the_marginals_and_leaves_uncorrelated_windows_alone():
+    """``edge_copula`` returns uniforms (each edge's table still draws its own distribution),
+    correlated as asked per kind and height bin, and the very same ``u_bottom`` where the
+    correlation is 0 (cut windows, bins without one): a model without it draws as before."""
+    from scipy.special import ndtri
+
+    from trackroom.sim.analytic_detectors import edge_copula
+    from trackroom.sim.perception_model import EdgeCorr
+
+    rng = np.random.default_rng(3)
+    n = 20000
+    u_top, u_bottom = rng.random(n), rng.random(n)
+    kind = np.array(["", "_crowded", "_cut"], dtype=object)[rng.integers(0, 3, n)]
+    height = rng.uniform(20, 160, n)
+    corr = EdgeCorr((60.0, 100.0), {"plain": (0.0, -0.5, 0.8), "crowded": (0.3, 0.3, 0.3)})
+    out = edge_copula(u_top, u_bottom, corr, kind, height)
+    assert ((out > 0) & (out < 1)).all()
+    for on, want in (((kind == "") & (height >= 100), 0.8), ((kind == "") & (height >= 60) & (height < 100), -0.5),
+                     (kind == "_crowded", 0.3)):
+        assert np.corrcoef(ndtri(u_top[on]), ndtri(out[on]))[0, 1] == pytest.approx(want, abs=0.05)
+        assert np.histogram(out[on], bins=10, range=(0, 1))[0] / on.sum() == pytest.approx(np.full(10, 0.1), abs=0.02)
+    same = (kind == "_cut") | ((kind == "") & (height < 60))
+    assert np.array_equal(out[same], u_bottom[same]) and not np.array_equal(out[~same], u_bottom[~same])
 
 
 def test_windows_are_detected_by_the_head_ray_too_and_the_fit_finds_it(tmp_path):

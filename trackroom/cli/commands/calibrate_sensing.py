@@ -45,6 +45,10 @@ def add_arguments(p) -> None:
     p.add_argument("--by-height", action="store_true",
                    help="fit the flow windows' edge errors by the person's image height too: tables per height bin "
                         "(sim.analytic_detectors.EDGE_HEIGHT_PX; the thirteenth fit, not bundled)")
+    p.add_argument("--edge-corr", action="store_true",
+                   help="fit the correlation of the flow windows' top and bottom edge errors by kind of window (plain, "
+                        "crowded) and the person's image height (the rendered window grows or shrinks as a whole; the "
+                        "fourteenth fit, not bundled)")
     p.add_argument("--flow-persist", action="store_true",
                    help="fit the flow windows' flow errors as persisting on two time scales (a slow and a fast part: "
                         "the rendered flow detector's long shortfalls; the eleventh fit, not bundled)")
@@ -125,7 +129,8 @@ def run(args) -> int:
         names.append(f"{rec.meta['scene']} seed {rec.meta['seed']} ({float(rec.meta['duration']):g} s)")
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
-    model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist, by_height=args.by_height)
+    model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist, by_height=args.by_height,
+                   edge_corr=args.edge_corr)
     if args.only:
         from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
 
@@ -205,6 +210,11 @@ def parameter_text(model) -> str:
                      f"clutter {m.clutter:.3f}/frame" + (f" (lives {m.clutter_frames:.1f} frames), id restart {m.restart:.4f}/frame, "
                                                           f"swap at split {m.swap:.2f}" if name == "windows" else ""))
         lines.append(f"      errors (bias/sigma): {errs}")
+        if m.edge_corr is not None:
+            c = m.edge_corr
+            lines.append("      top/bottom edge correlation by image height (bins at "
+                         + ", ".join(f"{h:g}" for h in c.heights) + " px): "
+                         + "; ".join(f"{k} " + " ".join(f"{r:+.2f}" for r in v) for k, v in c.rho.items()))
         if m.tail is not None:
             t = m.tail
             starts = " ".join(f"{v:.2g}" for v in t.start.p.ravel())
