@@ -16,7 +16,7 @@ from scipy.special import ndtri
 
 from trackroom.scenes.camera import Camera
 
-from .perception_model import NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
+from .perception_model import EDGE_CORR_KINDS, NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, correlated_normals, correlated_uniforms, ndtr, run_events, two_timescale_normals
 
 
 WHOLE = 0.999  # a person seen whole: this share of the rays reaching them and of their image width inside the image
@@ -348,7 +348,7 @@ def edge_copula(u_top: np.ndarray, u_bottom: np.ndarray, corr: EdgeCorr, kind: n
     r = np.zeros(len(u_top))
     hb = height_bin(height, corr.heights)
     for name, rho in corr.rho.items():
-        on = kind == ("" if name == "plain" else "_" + name)
+        on = kind == EDGE_CORR_KINDS[name]
         r[on] = np.asarray(rho, float)[hb[on]]
     out = np.asarray(u_bottom, float).copy()
     on = r != 0.0
@@ -423,10 +423,11 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     tid = np.asarray(out_id, np.int64)
     pp = np.asarray(out_p, int)
     tables = np.asarray(out_c, dtype=object)
-    hbin = None if m.edge_heights is None else height_bin(edges[:, 3] - edges[:, 2], m.edge_heights)
+    height = edges[:, 3] - edges[:, 2]
+    hbin = None if m.edge_heights is None else height_bin(height, m.edge_heights)
     U = [grid[f, pp] for grid in grids[:4]]  # each window's uniforms for its four edges
     if m.edge_corr is not None:
-        U[3] = edge_copula(U[2], U[3], m.edge_corr, np.asarray(out_k, dtype=object), edges[:, 3] - edges[:, 2])
+        U[3] = edge_copula(U[2], U[3], m.edge_corr, np.asarray(out_k, dtype=object), height)
     for j, name in enumerate(("u_left", "u_right", "v_top", "v_bottom")):
         e_j = m.error(name).at(U[j])
         for tag in ("", "_crowded", "_cut"):

@@ -31,7 +31,7 @@ from trackroom.scenes.spec import Scene
 
 from .analytic_detectors import (WHOLE, EDGE_HEIGHT_PX, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, height_bin, height_table, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
-from .perception_model import DETECTORS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
+from .perception_model import DETECTORS, EDGE_CORR_KINDS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
@@ -772,7 +772,7 @@ def fit_edge_corr(s: DetectorStats) -> EdgeCorr:
     and height bin (``analytic_detectors.EDGE_HEIGHT_PX``): the normal scores' correlation of
     the own windows' errors (``score_corr``)."""
     return EdgeCorr(EDGE_HEIGHT_PX, {kind: tuple(score_corr(*edge_pairs(s, tag, k)) for k in range(len(EDGE_HEIGHT_PX) + 1))
-                                     for kind, tag in (("plain", ""), ("crowded", "_crowded"))})
+                                     for kind, tag in EDGE_CORR_KINDS.items()})
 
 
 FLOW_PERSIST_LAGS = 20  # frames: lags of the flow errors' autocorrelation that flow_persist is fitted to

@@ -224,15 +224,27 @@ class Quantiles:
         return cls(q)
 
 
+def check_heights(heights, what: str) -> None:
+    """``heights`` (px between image-height bins) must be positive and increasing; else one
+    ``ValueError`` naming ``what``."""
+    h = np.asarray(heights, float)
+    if not len(h) or not np.all(np.isfinite(h)) or np.any(np.diff(h) <= 0) or h[0] <= 0:
+        raise ValueError(f"{what} must be positive, increasing image heights (px), got {list(heights)}")
+
+
+# the kinds of window ``EdgeCorr.rho`` is given for, and the edge tables' tag of each
+# (``analytic_detectors.edge_tables``)
+EDGE_CORR_KINDS = {"plain": "", "crowded": "_crowded"}
+
+
 @dataclass
 class EdgeCorr:
     """(windows) The correlation of a window's top and bottom edge errors: the rendered window
     grows or shrinks as a whole (development 100-109, one person's window, Spearman: -0.35 for
     plain windows of people 60 px high or more, -0.10 under 60 px, +0.03 to -0.17 for crowded
-    ones). ``rho`` holds,
-    per kind of window (``"plain"``, ``"crowded"``: ``analytic_detectors.edge_tables``), one
-    Gaussian-copula correlation per bin of the person's image height (``heights``: px between
-    the bins, ``analytic_detectors.height_bin``); windows cut by a box keep independent edges."""
+    ones). ``rho`` holds, per kind of window (``EDGE_CORR_KINDS``), one Gaussian-copula
+    correlation per bin of the person's image height (``heights``: px between the bins,
+    ``analytic_detectors.height_bin``); windows cut by a box keep independent edges."""
 
     heights: tuple[float, ...]
     rho: dict[str, tuple[float, ...]]
@@ -240,14 +252,13 @@ class EdgeCorr:
     def __post_init__(self):
         self.heights = tuple(float(x) for x in self.heights)
         self.rho = {str(k): tuple(float(x) for x in v) for k, v in self.rho.items()}
-        h = np.asarray(self.heights, float)
-        if not len(h) or not np.all(np.isfinite(h)) or np.any(np.diff(h) <= 0) or h[0] <= 0:
-            raise ValueError(f"edge_corr: heights must be positive, increasing image heights (px), got {list(self.heights)}")
+        check_heights(self.heights, "edge_corr: heights")
+        n = len(self.heights) + 1
         for k, v in self.rho.items():
             if k not in EDGE_CORR_KINDS:
                 raise ValueError(f"edge_corr: unknown kind of window {k!r}; expected {', '.join(EDGE_CORR_KINDS)}")
-            if len(v) != len(h) + 1 or not all(-1.0 < x < 1.0 for x in v):
-                raise ValueError(f"edge_corr: {k} needs {len(h) + 1} correlations in (-1, 1), one per height bin, got {list(v)}")
+            if len(v) != n or not all(-1.0 < x < 1.0 for x in v):
+                raise ValueError(f"edge_corr: {k} needs {n} correlations in (-1, 1), one per height bin, got {list(v)}")
 
     def to_dict(self) -> dict:
         return {"heights": list(self.heights), "rho": {k: [round(x, 4) for x in v] for k, v in self.rho.items()}}
@@ -258,8 +269,6 @@ class EdgeCorr:
             raise ValueError(f"edge_corr must be {{\"heights\": [...], \"rho\": {{\"plain\": [...], ...}}}}, got {d!r}")
         return cls(tuple(d["heights"]), {k: tuple(v) for k, v in d["rho"].items()})
 
-
-EDGE_CORR_KINDS = ("plain", "crowded")  # the kinds of window ``EdgeCorr.rho`` is given for
 
 
 @dataclass
@@ -393,9 +402,8 @@ class DetectorModel:
                 flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None,
                 edge_heights=[float(x) for x in d["edge_heights"]] if "edge_heights" in d else None,
                 edge_corr=EdgeCorr.from_dict(d["edge_corr"]) if "edge_corr" in d else None)
-        if m.edge_heights is not None and (not m.edge_heights or not all(np.isfinite(m.edge_heights))
-                                           or np.any(np.diff(m.edge_heights) <= 0) or m.edge_heights[0] <= 0):
-            raise ValueError(f"edge_heights must be positive, increasing image heights (px), got {m.edge_heights}")
+        if m.edge_heights is not None:
+            check_heights(m.edge_heights, "edge_heights")
         if m.flow_persist is not None and (len(m.flow_persist) != 3 or not all(0.0 <= x <= 1.0 for x in m.flow_persist)
                                            or max(m.flow_persist[1:]) >= 1.0):
             raise ValueError(f"flow_persist must be (w, a_slow, a_fast), w in [0, 1] and both a in [0, 1), got {m.flow_persist}")
