@@ -13,7 +13,9 @@ mover is a track inside it) and reads each confirmed track it dropped (``TargetP
 - ``speed``: that person's speed over the half second before, m/s (a person stopping or standing
   makes no flow window);
 - ``cover_now``, ``cover_1s``: the distance from that person to the track matched to it among the
-  others the tracker held (confirmed or not), in the frame of the end and 1 s later, m (inf: none).
+  others the tracker held (confirmed or not), in the frame of the end and 1 s later, m (inf: none);
+- ``other``: for a duplicate, the track it duplicated (the one kept; in single-target mode the
+  hand-chosen target's is never dropped), empty otherwise.
 
 Each end is classed (``classify``): ``ghost`` (no one within ``NEAR_M`` of it on average: the
 test did its job), ``person untracked`` (of the people within ``BESIDE_M`` of it when it ended,
@@ -107,7 +109,8 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
         earlier = _people(people, e.t - SPEED_S)
         speed = float(np.hypot(*(now.loc[who] - earlier.loc[who]))) / SPEED_S if who in earlier.index else float("nan")
         c0, c1 = covers[0].get(who, np.inf), covers[1].get(who, np.inf)
-        rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "x": round(float(e.x), 2),
+        other = int(e.other) if e.reason == "duplicate" and pd.notna(e.other) else None  # the track it duplicated
+        rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "other": other, "x": round(float(e.x), 2),
                      "y": round(float(e.y), 2), "who": who, "dist": round(float(d[who]), 2), "speed": round(speed, 2),
                      "cover_now": round(c0, 2), "cover_1s": round(c1, 2), "class": classify(float(d.min()), bool(left))})
     return rows
@@ -122,6 +125,8 @@ def main(argv=None) -> int:
         for r in ends_against_truth(rec.truth.people, res.internal, res.ends):
             rows.append({"recording": d, "seed": rec.seed, **r})
     df = pd.DataFrame(rows)
+    if len(df):
+        df["other"] = df["other"].astype("Int64")  # empty where the end is no duplicate
     if csv:
         df.to_csv(csv, index=False)
     if not len(df):
@@ -133,7 +138,8 @@ def main(argv=None) -> int:
     if len(lost):
         print(f"\na person left untracked ({len(lost)}):")
         for r in lost.itertuples():
-            print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({r.reason}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
+            why = f"duplicate of track {int(r.other)}" if r.reason == "duplicate" and pd.notna(r.other) else r.reason
+            print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({why}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
                   f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m")
     return 0
 

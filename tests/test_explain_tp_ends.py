@@ -68,11 +68,11 @@ def test_two_tracks_drawn_onto_one_person_leave_the_other_untracked():
     drawn[25:] = look[25:] + [0.05, 0.0]  # track 0 leaves the target for the look-alike at 2.5 s
     truth = people(target=tgt, distractor=look)
     rows = ends_against_truth(truth, tracks(t0=(drawn, 59), t1=(look, 30)), end(1, 30, look[30]))
-    assert [(r["class"], r["who"]) for r in rows] == [("person untracked", "target")]
+    assert [(r["class"], r["who"], r["other"]) for r in rows] == [("person untracked", "target", 0)]  # a duplicate of track 0
     assert np.isinf(rows[0]["cover_1s"])
     # the same with track 0 staying on the target: the look-alike is left untracked instead
     rows = ends_against_truth(truth, tracks(t0=(tgt, 59), t1=(look, 30)), end(1, 30, look[30], "existence"))
-    assert [(r["class"], r["who"], r["speed"]) for r in rows] == [("person untracked", "distractor", 0.0)]
+    assert [(r["class"], r["who"], r["speed"], r["other"]) for r in rows] == [("person untracked", "distractor", 0.0, None)]
 
 
 def test_the_command_on_a_recording_without_dropped_tracks(occlusion_lab_6s, capsys):
@@ -104,6 +104,6 @@ def test_the_command_counts_and_lists_the_people_left_untracked(monkeypatch, tmp
     assert cmd.main(["somewhere", "--csv", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "1 recordings, 1 confirmed tracks dropped" in printed
-    assert "seed  903 t   3.0 s  track 1 (duplicate) at (2.00, 1.60)  target" in printed
+    assert "seed  903 t   3.0 s  track 1 (duplicate of track 0) at (2.00, 1.60)  target" in printed
     df = pd.read_csv(out)
-    assert df[["seed", "reason", "who", "class"]].values.tolist() == [[903, "duplicate", "target", "person untracked"]]
+    assert df[["seed", "reason", "other", "who", "class"]].values.tolist() == [[903, "duplicate", 0, "target", "person untracked"]]
