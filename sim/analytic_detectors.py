@@ -414,7 +414,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_id.append(tid)
             out_c.append(edge_tables(g, e, frac, moving, f, mem, has_cut, has_crowded))
             if m.edge_corr is not None:  # the kind of window its edges' correlation is fitted for, whatever tables the model has
-                out_k.append(edge_tables(g, e, frac, moving, f, mem, True, True))
+                out_k.append(out_c[-1] if has_cut and has_crowded else edge_tables(g, e, frac, moving, f, mem, True, True))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
     n = len(out_f)
     f = np.asarray(out_f, int)

@@ -270,7 +270,6 @@ class EdgeCorr:
         return cls(tuple(d["heights"]), {k: tuple(v) for k, v in d["rho"].items()})
 
 
-
 @dataclass
 class Tail:
     """Drift episodes of a floor detector (see the module docstring, ``tail``): an episode of L
