@@ -271,16 +271,22 @@ def parse_params(items: list[str]) -> dict:
     return out
 
 
-def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
+def measurement_parser(doc: str, csv_help: str | None = None) -> argparse.ArgumentParser:
     """The command line of the measurement scripts that run target_planes on recordings:
     ``DIR [DIR ...] [--param KEY=VALUE ...]``, and ``[--csv FILE]`` with ``csv_help`` (``doc``:
-    the script's docstring). Returns the folders (quoted globs expanded), the Config values and
-    the CSV path (None: not asked for)."""
+    the script's docstring); a script adds its own options to it."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR", help="recording folders (globs allowed)")
     ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="a target_planes Config value (JSON)")
     if csv_help:
         ap.add_argument("--csv", help=csv_help)
+    return ap
+
+
+def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
+    """``measurement_parser``'s command line read: the folders (quoted globs expanded), the
+    Config values and the CSV path (None: not asked for)."""
+    ap = measurement_parser(doc, csv_help)
     a = ap.parse_args(argv)
     return recording_folders(a.recordings, ap.prog), parse_params(a.param), getattr(a, "csv", None)
 

@@ -1,9 +1,11 @@
 """How far `target_planes`' tracks are off the movers they follow, by how the cameras held them.
 
-    python -m scripts.explain_tp_errors DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+    python -m scripts.explain_tp_errors DIR [DIR ...] [--single] [--param KEY=VALUE ...] [--csv FILE]
 
 Runs the multi-person tracker on each occlusion_lab recording as ``scripts/experiment_tsutsui.py``
-does and reads its internal tracks (every frame of every confirmed track, before the output's
+does (the run its movers' MOTA scores), or with ``--single`` the single-target run from the
+experiment's click (``experiment_tsutsui.run_target``: the run the identity and RMSE targets score,
+whose track ids ``trace_tp_track`` uses without ``--multi``), and reads its internal tracks (every frame of every confirmed track, before the output's
 lag and selection) against the movers' truth, by the experimenter. Each frame, tracks and movers
 are matched one to one (least total distance, a pair only within 1 m); for each matched pair
 with the mover walking (the truth's ``walking``, true speed at least 0.3 m/s):
@@ -117,15 +119,16 @@ def summary(E: pd.DataFrame, by: tuple[str, ...] = ("mode", "pair")) -> pd.DataF
     return S.sort_values(list(by), key=lambda s: s.map(order) if s.name == "mode" else s).reset_index(drop=True)
 
 
-def errors(d: str, params: dict) -> pd.DataFrame:
-    """One recording's matched frames (``track_errors``), with its folder."""
-    from scripts.experiment_tsutsui import movers_only, multi_estimator
+def errors(d: str, params: dict, single: bool = False) -> pd.DataFrame:
+    """One recording's matched frames (``track_errors``), with its folder; ``single``: of the
+    single-target run (``experiment_tsutsui.run_target``), else of the multi-person one."""
+    from scripts.experiment_tsutsui import movers_only, multi_estimator, run_target
     from trackroom.dataset import read_recording
     from trackroom.scenes.loader import load_scene
 
     rec = read_recording(d)
     scene = load_scene(Path(d) / "scene.toml")
-    res = multi_estimator(rec, params).run(rec.observations, rec.calibration)
+    res = run_target(rec, params) if single else multi_estimator(rec, params).run(rec.observations, rec.calibration)
     cams = {c: (np.asarray(cam.P, float), float(cam.width), float(cam.height))
             for c, cam in rec.calibration.cameras_of_kind("oblique").items()}
     E = track_errors(res.internal, movers_only(rec, scene).truth.people, cams)
@@ -134,17 +137,24 @@ def errors(d: str, params: dict) -> pd.DataFrame:
 
 
 def main(argv=None) -> int:
-    from scripts.experiment_tsutsui import recordings_and_params
+    from scripts.experiment_tsutsui import measurement_parser, parse_params
+    from trackroom.dataset import recording_folders
 
-    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write every matched frame to this CSV file")
-    E = pd.concat([errors(d, params) for d in dirs], ignore_index=True)
-    print(f"{len(dirs)} recordings, {len(E)} matched frames of walking movers")
+    ap = measurement_parser(__doc__, csv_help="write every matched frame to this CSV file")
+    ap.add_argument("--single", action="store_true",
+                    help="the single-target run from the experiment's click (the identity and RMSE targets' run) "
+                         "instead of the multi-person one (the movers' MOTA's)")
+    a = ap.parse_args(argv)
+    dirs, params = recording_folders(a.recordings, ap.prog), parse_params(a.param)
+    E = pd.concat([errors(d, params, a.single) for d in dirs], ignore_index=True)
+    run = "single-target run" if a.single else "multi-person run"
+    print(f"{len(dirs)} recordings ({run}), {len(E)} matched frames of walking movers")
     with pd.option_context("display.width", 200, "display.float_format", "{:.3f}".format):
         print(summary(E).to_string(index=False))
         print("by mode and whether a camera sees the mover's feet below its image:")
         print(summary(E, ("mode", "below")).to_string(index=False))
-    if csv:
-        E.to_csv(csv, index=False)
+    if a.csv:
+        E.to_csv(a.csv, index=False)
     return 0
 
 

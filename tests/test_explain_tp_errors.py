@@ -91,3 +91,29 @@ def test_frames_where_a_corner_camera_sees_the_movers_feet_below_its_image_are_t
     S = summary(E, ("below",)).set_index("below")
     assert S.loc[True, "frames"] == S.loc[False, "frames"] == len(T)
     assert S.loc[True, "err_median"] == pytest.approx(0.05) and S.loc[False, "err_median"] == pytest.approx(0.0)
+
+
+def test_single_reads_the_single_target_run_the_rmse_target_scores(tmp_path, monkeypatch, capsys):
+    """``--single``: the tracks of ``experiment_tsutsui.run_target`` (the clicked target's run, whose
+    track ids ``trace_tp_track`` uses), not of the multi-person run; without it, the multi-person
+    run's. Each run is the real one, watched."""
+    import scripts.experiment_tsutsui as ts
+    from scripts.explain_tp_errors import errors, main
+    from trackroom.dataset import write_recording
+    from trackroom.scenes.loader import load_scene
+    from trackroom.sim.simulate import simulate
+
+    d = tmp_path / "seed_3"
+    write_recording(simulate(load_scene("occlusion_lab"), 3, 3.0, "analytic"), d)
+    calls = []
+    run_target, multi_estimator = ts.run_target, ts.multi_estimator
+    monkeypatch.setattr(ts, "run_target", lambda rec, params=None: calls.append("single") or run_target(rec, params))
+    monkeypatch.setattr(ts, "multi_estimator", lambda rec, params=None: calls.append("multi") or multi_estimator(rec, params))
+    single = errors(str(d), {}, single=True)
+    assert calls == ["single"]
+    multi = errors(str(d), {})
+    assert calls == ["single", "multi"]
+    for E in (single, multi):
+        assert len(E) and (E["recording"] == str(d)).all()
+    assert main([str(d), "--single"]) == 0 and calls[-1] == "single"
+    assert "(single-target run)" in capsys.readouterr().out
