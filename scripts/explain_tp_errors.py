@@ -4,11 +4,12 @@
 
 Runs the multi-person tracker on each occlusion_lab recording as ``scripts/experiment_tsutsui.py``
 does (the run its movers' MOTA scores), or with ``--single`` the single-target run from the
-experiment's click (``experiment_tsutsui.run_target``: the run the identity and RMSE targets score,
-whose track ids ``trace_tp_track`` uses without ``--multi``), and reads its internal tracks (every frame of every confirmed track, before the output's
-lag and selection) against the movers' truth, by the experimenter. Each frame, tracks and movers
-are matched one to one (least total distance, a pair only within 1 m); for each matched pair
-with the mover walking (the truth's ``walking``, true speed at least 0.3 m/s):
+experiment's click (``experiment_tsutsui.run_target``: the run the identity and RMSE targets
+score, whose track ids ``trace_tp_track`` uses without ``--multi``), and reads its internal tracks
+(every frame of every confirmed track, before the output's lag and selection) against the movers'
+truth, by the experimenter. Each frame, tracks and movers are matched one to one (least total
+distance, a pair only within 1 m); for each matched pair with the mover walking (the truth's
+``walking``, true speed at least 0.3 m/s):
 
 - ``err``: the track's distance from the mover, m;
 - ``along``: its offset along the mover's true heading, m (negative: the track lags behind);
