@@ -283,12 +283,18 @@ def measurement_parser(doc: str, csv_help: str | None = None) -> argparse.Argume
     return ap
 
 
-def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
-    """``measurement_parser``'s command line read: the folders (quoted globs expanded), the
-    Config values and the CSV path (None: not asked for)."""
-    ap = measurement_parser(doc, csv_help)
+def measurement_args(ap: argparse.ArgumentParser, argv=None) -> tuple[list[str], dict, argparse.Namespace]:
+    """A ``measurement_parser`` command line (with whatever options the script added) read: the
+    folders (quoted globs expanded, each checked), the Config values and every parsed option."""
     a = ap.parse_args(argv)
-    return recording_folders(a.recordings, ap.prog), parse_params(a.param), getattr(a, "csv", None)
+    return recording_folders(a.recordings, ap.prog), parse_params(a.param), a
+
+
+def recordings_and_params(doc: str, argv=None, csv_help: str | None = None) -> tuple[list[str], dict, str | None]:
+    """``measurement_parser``'s command line read: the folders, the Config values and the CSV path
+    (None: not asked for)."""
+    dirs, params, a = measurement_args(measurement_parser(doc, csv_help), argv)
+    return dirs, params, getattr(a, "csv", None)
 
 
 def run(sensing: str, duration: float, seed: int, progress: bool = False, recording: Recording | None = None,

@@ -138,7 +138,7 @@ def main(argv=None) -> int:
     if len(lost):
         print(f"\na person left untracked ({len(lost)}):")
         for r in lost.itertuples():
-            why = f"duplicate of track {int(r.other)}" if r.reason == "duplicate" and pd.notna(r.other) else r.reason
+            why = f"duplicate of track {int(r.other)}" if pd.notna(r.other) else r.reason  # other: set for duplicates only
             print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({why}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
                   f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m")
     return 0

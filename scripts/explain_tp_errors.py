@@ -138,15 +138,13 @@ def errors(d: str, params: dict, single: bool = False) -> pd.DataFrame:
 
 
 def main(argv=None) -> int:
-    from scripts.experiment_tsutsui import measurement_parser, parse_params
-    from trackroom.dataset import recording_folders
+    from scripts.experiment_tsutsui import measurement_args, measurement_parser
 
     ap = measurement_parser(__doc__, csv_help="write every matched frame to this CSV file")
     ap.add_argument("--single", action="store_true",
                     help="the single-target run from the experiment's click (the identity and RMSE targets' run) "
                          "instead of the multi-person one (the movers' MOTA's)")
-    a = ap.parse_args(argv)
-    dirs, params = recording_folders(a.recordings, ap.prog), parse_params(a.param)
+    dirs, params, a = measurement_args(ap, argv)
     E = pd.concat([errors(d, params, a.single) for d in dirs], ignore_index=True)
     run = "single-target run" if a.single else "multi-person run"
     print(f"{len(dirs)} recordings ({run}), {len(E)} matched frames of walking movers")
