@@ -15,7 +15,15 @@ mover is a track inside it) and reads each confirmed track it dropped (``TargetP
 - ``cover_now``, ``cover_1s``: the distance from that person to the track matched to it among the
   others the tracker held (confirmed or not), in the frame of the end and 1 s later, m (inf: none);
 - ``other``: for a duplicate, the track it duplicated (the one kept; in single-target mode the
-  hand-chosen target's is never dropped), empty otherwise.
+  hand-chosen target's is never dropped), empty otherwise;
+- ``views``, ``views_1s``: how many of the tracker's cameras saw that person in the frame of the
+  end and 1 s later, by the recording's truth (``truth_visibility``'s ``visible``); 0 is someone
+  no camera could see, such as a person below a corner camera's image and behind another in the
+  other views (issue 12's eighty-first session: rendered 3320, 3329). The two sensing modes
+  define ``visible`` differently: rendered, at least half of the person's pixels unhidden
+  (``sim.rendered``, from the segmentation); analytic, one of the rays to the body centre, chest
+  and head clear (``sim.analytic``); so a person in a corner seen by its head alone counts in
+  analytic recordings and not in rendered ones.
 
 Each end is classed (``classify``): ``ghost`` (no one within ``NEAR_M`` of it on average: the
 test did its job), ``person untracked`` (of the people within ``BESIDE_M`` of it when it ended,
@@ -79,10 +87,24 @@ def matched_cover(people_xy: pd.DataFrame, tracks_xy: pd.DataFrame) -> dict[str,
     return out
 
 
-def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.DataFrame) -> list[dict]:
+def views_at(visibility: pd.DataFrame | None, cameras, who: str, t: float) -> int | None:
+    """How many of ``cameras`` saw person ``who`` in the frame nearest t (within half a 10 Hz
+    frame) by ``visibility`` (t, camera, person_id, visible); None without that table's rows."""
+    if visibility is None or not len(visibility):
+        return None
+    v = visibility[(np.abs(visibility["t"].to_numpy(float) - t) < 0.05 + 1e-9) & (visibility["person_id"] == who)
+                   & visibility["camera"].isin(list(cameras))]
+    if not len(v):
+        return None
+    return int(v.groupby("camera")["visible"].any().sum())
+
+
+def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.DataFrame,
+                       visibility: pd.DataFrame | None = None, cameras=()) -> list[dict]:
     """One row per dropped track: ``people`` the truth (t, person_id, x, y), ``internal`` every
     track the tracker held (t, track_id, x, y), ``ends`` its dropped tracks (t, track_id, x, y,
-    reason, other)."""
+    reason, other); ``visibility`` the truth's (t, camera, person_id, visible) for ``cameras``,
+    the tracker's, or None (``views``: None)."""
     rows = []
     for e in ends.itertuples():
         now = _people(people, e.t)
@@ -112,7 +134,8 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
         other = int(e.other) if e.reason == "duplicate" and pd.notna(e.other) else None  # the track it duplicated
         rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "other": other, "x": round(float(e.x), 2),
                      "y": round(float(e.y), 2), "who": who, "dist": round(float(d[who]), 2), "speed": round(speed, 2),
-                     "cover_now": round(c0, 2), "cover_1s": round(c1, 2), "class": classify(float(d.min()), bool(left))})
+                     "cover_now": round(c0, 2), "cover_1s": round(c1, 2), "views": views_at(visibility, cameras, who, e.t),
+                     "views_1s": views_at(visibility, cameras, who, e.t + LATER_S), "class": classify(float(d.min()), bool(left))})
     return rows
 
 
@@ -122,11 +145,14 @@ def main(argv=None) -> int:
     for d in dirs:
         rec = read_recording(d)
         res = run_target(rec, params)
-        for r in ends_against_truth(rec.truth.people, res.internal, res.ends):
+        cams = rec.calibration.cameras_of_kind("oblique")
+        for r in ends_against_truth(rec.truth.people, res.internal, res.ends, rec.truth.visibility, cams):
             rows.append({"recording": d, "seed": rec.seed, **r})
     df = pd.DataFrame(rows)
     if len(df):
         df["other"] = df["other"].astype("Int64")  # empty where the end is no duplicate
+        for k in ("views", "views_1s"):
+            df[k] = df[k].astype("Int64")  # empty without the truth's visibility
     if csv:
         df.to_csv(csv, index=False)
     if not len(df):
@@ -139,8 +165,9 @@ def main(argv=None) -> int:
         print(f"\na person left untracked ({len(lost)}):")
         for r in lost.itertuples():
             why = f"duplicate of track {int(r.other)}" if pd.notna(r.other) else r.reason  # other: set for duplicates only
+            seen = "" if pd.isna(r.views) else f"; seen by {r.views} cameras, 1 s later {r.views_1s}"
             print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({why}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
-                  f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m")
+                  f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m{seen}")
     return 0
 
 

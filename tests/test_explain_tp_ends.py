@@ -95,7 +95,12 @@ def test_the_command_counts_and_lists_the_people_left_untracked(monkeypatch, tmp
     look = still([2.0, 1.6])
     drawn = tgt.copy()
     drawn[25:] = look[25:] + [0.05, 0.0]
-    rec = SimpleNamespace(seed=903, truth=SimpleNamespace(people=people(target=tgt, distractor=look)))
+    # the truth's visibility: the target seen by ne at the end (3.0 s), by no oblique camera 1 s later
+    vis = pd.DataFrame([(3.0, "ne", "target", True, True), (3.0, "sw", "target", True, False), (4.0, "ne", "target", False, False),
+                        (4.0, "sw", "target", True, False), (4.0, "top", "target", True, True)],
+                       columns=["t", "camera", "person_id", "in_fov", "visible"])
+    rec = SimpleNamespace(seed=903, truth=SimpleNamespace(people=people(target=tgt, distractor=look), visibility=vis),
+                          calibration=SimpleNamespace(cameras_of_kind=lambda *kinds: {"ne": None, "sw": None}))
     res = SimpleNamespace(internal=tracks(t0=(drawn, 59), t1=(look, 30)), ends=end(1, 30, look[30]))
     monkeypatch.setattr(cmd, "read_recording", lambda d: rec)
     monkeypatch.setattr(cmd, "run_target", lambda r, params=None: res)
@@ -105,5 +110,24 @@ def test_the_command_counts_and_lists_the_people_left_untracked(monkeypatch, tmp
     printed = capsys.readouterr().out
     assert "1 recordings, 1 confirmed tracks dropped" in printed
     assert "seed  903 t   3.0 s  track 1 (duplicate of track 0) at (2.00, 1.60)  target" in printed
+    assert "seen by 1 cameras, 1 s later 0" in printed  # the overhead camera "top" is not the tracker's
     df = pd.read_csv(out)
     assert df[["seed", "reason", "other", "who", "class"]].values.tolist() == [[903, "duplicate", 0, "target", "person untracked"]]
+
+
+def test_views_count_the_cameras_that_saw_the_person_by_the_truth():
+    """``views_at``: the tracker's cameras whose truth says they saw the person in the frame
+    nearest t; someone below one camera's image and hidden in the other counts 0; without the
+    truth's visibility there is no count."""
+    from scripts.explain_tp_ends import views_at
+
+    vis = pd.DataFrame([(2.0, "ne", "a", True, True), (2.0, "sw", "a", True, True), (2.0, "ne", "b", True, False),
+                        (2.1, "ne", "a", True, False), (2.1, "sw", "a", False, False)],
+                       columns=["t", "camera", "person_id", "in_fov", "visible"])
+    assert views_at(vis, ["ne", "sw"], "a", 2.0) == 2
+    assert views_at(vis, ["ne"], "a", 2.02) == 1
+    assert views_at(vis, ["ne", "sw"], "a", 2.1) == 0
+    assert views_at(vis, ["ne", "sw"], "b", 2.0) == 0
+    assert views_at(vis.iloc[:0], ["ne"], "a", 2.0) is None
+    assert views_at(None, ["ne"], "a", 2.0) is None
+    assert views_at(vis, ["ne"], "a", 5.0) is None  # no frame of the truth then
