@@ -59,9 +59,14 @@ def _people(ppl: pd.DataFrame, t: float) -> pd.DataFrame:
     return people_at(ppl, np.array([t])).set_index("person_id")[["x", "y"]]
 
 
+def _frame(table: pd.DataFrame, t: float) -> pd.DataFrame:
+    """The rows of ``table`` in the frame nearest t (within half a 10 Hz frame)."""
+    return table[np.abs(table["t"].to_numpy(float) - t) < 0.05 + 1e-9]
+
+
 def _tracks(internal: pd.DataFrame, t: float) -> pd.DataFrame:
-    """The tracks' x, y in the frame nearest t (within half a 10 Hz frame), indexed by track_id."""
-    return internal[np.abs(internal["t"].to_numpy(float) - t) < 0.05 + 1e-9].groupby("track_id")[["x", "y"]].mean()
+    """The tracks' x, y in the frame nearest t, indexed by track_id."""
+    return _frame(internal, t).groupby("track_id")[["x", "y"]].mean()
 
 
 def classify(dist: float, untracked: bool) -> str:
@@ -92,8 +97,8 @@ def views_at(visibility: pd.DataFrame | None, cameras, who: str, t: float) -> in
     frame) by ``visibility`` (t, camera, person_id, visible); None without that table's rows."""
     if visibility is None or not len(visibility):
         return None
-    v = visibility[(np.abs(visibility["t"].to_numpy(float) - t) < 0.05 + 1e-9) & (visibility["person_id"] == who)
-                   & visibility["camera"].isin(list(cameras))]
+    v = _frame(visibility, t)
+    v = v[(v["person_id"] == who) & v["camera"].isin(list(cameras))]
     if not len(v):
         return None
     return int(v.groupby("camera")["visible"].any().sum())
