@@ -1687,15 +1687,20 @@ class JointTracker:
         false splits on analytic recordings (issue 12, third session). Then the track moves to
         xy_near (position spread ``radius``) and a new track starts at xy_far, its velocity
         from the windows' flows (eq. 7). Of several confirming windows the one whose planes
-        cross at the largest angle is used. ``taken``: far-side windows (camera, index) a
-        crossing of free windows (``tp_initiate.propose``) already used.
+        cross at the largest angle is used. A track is split at most once a frame (each
+        camera's too-wide window of the pair is a candidate; two far crossings more than 2
+        ``radius`` apart used to start two tracks and move the track twice: issue 12, eighty-
+        second session). ``taken``: far-side windows (camera, index) a crossing of free windows
+        (``tp_initiate.propose``) already used.
         Returns the new tracks (ids not yet set)."""
         cfg = self.cfg
         min_angle = np.radians(cfg.min_plane_angle_deg)
         out = []
+        split = set()  # tracks split this frame: one split each (another camera's too-wide window
+        # of the same pair would move the track a second time and start a second far person)
         for c, i, j, k, near_u in self.wide:
             tr = tracks[i]
-            if (c, k) in taken or not tr.confirmed or not tr.located or tr.wide_run < cfg.confirm_frames:
+            if (c, k) in taken or i in split or not tr.confirmed or not tr.located or tr.wide_run < cfg.confirm_frames:
                 continue  # a too-wide window for confirm_frames frames, as a new track's own windows
             b = frame[c]
             if np.linalg.norm(b.flow[k]) < cfg.mover_flow_px:
@@ -1759,6 +1764,7 @@ class JointTracker:
             new = self.birth(-1, xy_f, {c: k, c2: j2}, frame)
             new.split = True
             taken.add((c, k))
+            split.add(i)
             out.append(new)
         return out
 
