@@ -1696,11 +1696,11 @@ class JointTracker:
         cfg = self.cfg
         min_angle = np.radians(cfg.min_plane_angle_deg)
         out = []
-        split = set()  # tracks split this frame: one split each (another camera's too-wide window
-        # of the same pair would move the track a second time and start a second far person)
+        split_now = set()  # tracks split this frame: one split each (another camera's too-wide
+        # window of the same pair would move the track a second time and start a second far person)
         for c, i, j, k, near_u in self.wide:
             tr = tracks[i]
-            if (c, k) in taken or i in split or not tr.confirmed or not tr.located or tr.wide_run < cfg.confirm_frames:
+            if (c, k) in taken or i in split_now or not tr.confirmed or not tr.located or tr.wide_run < cfg.confirm_frames:
                 continue  # a too-wide window for confirm_frames frames, as a new track's own windows
             b = frame[c]
             if np.linalg.norm(b.flow[k]) < cfg.mover_flow_px:
@@ -1764,7 +1764,7 @@ class JointTracker:
             new = self.birth(-1, xy_f, {c: k, c2: j2}, frame)
             new.split = True
             taken.add((c, k))
-            split.add(i)
+            split_now.add(i)
             out.append(new)
         return out
 
