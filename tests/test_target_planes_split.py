@@ -162,31 +162,27 @@ def test_a_too_wide_window_no_other_camera_confirms_starts_nothing():
 
 
 def test_a_track_is_split_once_a_frame_though_both_cameras_offer_the_pair():
-    """South and west both see the diagonal pair in one window too wide for one person, so each
-    camera's far side is a split candidate. The track, 0.7 m from the pair (after a frame of
-    gross errors, say), is moved by the first split; the second camera's would move it again and
-    start a second far person 0.4 m from the first (issue 12's eighty-second session): one split."""
+    """The diagonal scene: south and west both see the pair in one window too wide for one
+    person, so each camera's far side is a split candidate. The track, stepped through the
+    ``confirm_frames`` frames up to 5 s and then 0.7 m from A (after a frame of gross errors,
+    say), is moved by the first split; the second camera's would move it again and start a
+    second far person (issue 12's eighty-second session): one split."""
     from tests.test_target_planes_joint import _tracker
-    from trackroom.estimators.tp_joint import CameraBoxes, JointTrack
+    from trackroom.estimators.tp_frames import split_boxes
+    from trackroom.estimators.tp_joint import JointTrack
 
     cams = right_angle_pair()
-    A = np.array([3.0, 3.0])
-    people = [A, A + [0.45, -0.45]]
-    v = (0.4, 0.4)
-    frame = {}
-    for k, c in enumerate(cams):
-        rows = [window_row(c, xy, v) for xy in people]
-        ul, ur = min(r[1] for r in rows), max(r[2] for r in rows)
-        frame[c.name] = CameraBoxes(np.array([7 + k], object), np.array([0.5 * (ul + ur)]),
-                                    np.array([[ul, ur, min(r[3] for r in rows), max(r[4] for r in rows)]]),
-                                    np.mean([r[5:7] for r in rows], axis=0)[None])
+    paths = _diagonal()
+    frames = split_boxes(_boxes(cams, paths), [c.name for c in cams])
     cfg, jt = _tracker(list(cams), split_births=True)
-    tr = JointTrack(0, np.r_[A, v], np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2]), confirmed=True, seen=True)
-    for _ in range(cfg.confirm_frames):
-        last = dict(frame)  # step adds each far side to the frame it is given
-        jt.step([tr], last, 0.0)
+    end = int(round(5.0 / DT))
+    ks = range(end - cfg.confirm_frames + 1, end + 1)
+    tr = JointTrack(0, np.r_[paths["A"][ks[0]], 0.4, 0.4], np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2]), confirmed=True, seen=True)
+    for n, k in enumerate(ks):
+        last = dict(frames[float(TIMES[k])])  # step adds each far side to the frame it is given
+        jt.step([tr], last, DT if n else 0.0)
     assert len(jt.wide) == 2  # a far-side candidate from each camera
-    tr.s[:2] = A - 0.5
+    tr.s[:2] = paths["A"][end] - 0.5
     tr.S[:2, :2] = np.eye(2) * 0.05**2
     new = jt.split([tr], last, set(), lambda xy: np.ones(len(xy), bool))
     assert len(new) == 1
