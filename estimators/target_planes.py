@@ -341,7 +341,8 @@ class TargetPlanes(Estimator):
         split_births: bool = param(False, "start a track at the far side of a window too wide for the one track it "
                                    "holds (eq. 8) when a second camera's window is too wide for one person as well "
                                    "(both see two people side by side; issue 12: a look-alike walking beside the "
-                                   "target, merged with it in every view); off: on development seeds it never fired "
+                                   "target, merged with it in every view); off: it helps some recordings and hurts "
+                                   "others, through its clutter-region updates more than its splits, which are rare "
                                    "(docs/target_planes.md)")
         fit_normalised: bool = param(True, "a window's fit to a track's prediction includes the Gaussian's "
                                      "normalisation, 0.5 log of the predicted centroid and flow variances over a "
