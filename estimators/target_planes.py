@@ -57,6 +57,7 @@ from .tp_frames import CameraBoxes, frame_times, person_detections, split_boxes
 from .tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from .tp_initiate import propose
 from .tp_joint import EXIST_REJECT, LOST, JointTrack, JointTracker, Occluders, on_floor
+from .tp_smooth import smooth_chains
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
 NO_DETECTIONS = np.zeros(0)
@@ -80,6 +81,7 @@ class _RunState:
     rows: list = field(default_factory=list)
     status_rows: list = field(default_factory=list)
     end_rows: list = field(default_factory=list)
+    smooth: list = field(default_factory=list)  # one per row: what ``tp_smooth`` needs of its track (None: off)
     mark: tuple = (0, 0, 0)
 
     def target(self) -> JointTrack | None:
@@ -94,6 +96,7 @@ class _RunState:
     def take(self, other: "_RunState") -> None:
         a, b, c = self.mark
         self.rows[a:], self.status_rows[b:], self.end_rows[c:] = other.rows, other.status_rows, other.end_rows
+        self.smooth[a:] = other.smooth
         self.tracks, self.keep, self.next_id, self.idl = other.tracks, other.keep, other.next_id, other.idl
         self.t_prev, self.cost, self.branch = other.t_prev, other.cost, other.branch
 
@@ -338,6 +341,10 @@ class TargetPlanes(Estimator):
                                  "starts a track (``JointTracker.sees_no_one``; no parameter value: one camera "
                                  "seeing no one is common for people too - measured with "
                                  "scripts/measure_ghost_crossings.py, docs/target_planes.md)")
+        smooth_output: bool = param(True, "report each track's walking state smoothed over the output lag: the "
+                                    "fixed-lag Rauch-Tung-Striebel smoother over the frames up to output_lag_s "
+                                    "after each frame, the output being final only then (``tp_smooth``; no parameter "
+                                    "value: the filter's own transitions and covariances)")
         split_births: bool = param(False, "start a track at the far side of a window too wide for the one track it "
                                    "holds (eq. 8) when a second camera's window is too wide for one person as well "
                                    "(both see two people side by side; issue 12: a look-alike walking beside the "
@@ -653,6 +660,7 @@ class TargetPlanes(Estimator):
                 jt.detections = {c: now.get(c, NO_DETECTIONS) for c in det_cams}
             target = st.target()
             free = jt.step(st.tracks, frame, dt, target if probe else None, force)
+            stepped = {id(tr): tr.s.copy() for tr in st.tracks} if cfg.smooth_output else {}
             st.cost += jt.frame_cost
             st.branch = jt.branch
             locating = target is not None and not target.located
@@ -691,6 +699,11 @@ class TargetPlanes(Estimator):
                 # may hand the target's identity to another track retroactively, within the lag)
                 x, C = tr.estimate(), tr.position_cov()
                 st.rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed, C[0, 0], C[0, 1], C[1, 1]))
+                # the chain is cut where the prediction capped the spreads or something after the
+                # frame's updates moved the track (located, taken over, put back on the floor)
+                cut = tr.capped or id(tr) not in stepped or not np.array_equal(stepped[id(tr)], tr.s)
+                st.smooth.append((tr.tid, tr.s.copy(), tr.S.copy(), tr.prior, tr.F, tr.pre, cut,
+                                  tr.mu if tr.xs is not None else 0.0, tr.xs) if cfg.smooth_output else None)
                 for c in cams:
                     status, reason, win = tr.status.get(c, (LOST, "", None))
                     st.status_rows.append((t, tr.tid, c, status, reason, win))
@@ -729,6 +742,8 @@ class TargetPlanes(Estimator):
         rows, status_rows, end_rows = st.rows, st.status_rows, st.end_rows
         if idl is not None:
             idl.finish(tracks)
+        if cfg.smooth_output and len(times) > 1:
+            rows = smoothed_rows(rows, st.smooth, int(round(cfg.output_lag_s / float(np.median(np.diff(times))))))
         internal = pd.DataFrame(rows, columns=["t", "track_id", "x", "y", "vx", "vy", "n_cameras", "mode", "confirmed", "cxx", "cxy", "cyy"])
         tracks_df = internal.drop(columns=["cxx", "cxy", "cyy"])
         status_df = pd.DataFrame(status_rows, columns=STATUS_COLUMNS)
@@ -856,6 +871,21 @@ def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, in
             extra += [(float(tk), ident, float(x), float(y), float(vx), float(vy), 0, "bridged")
                       for tk, (x, y), (vx, vy) in zip(ts, xy, v)]
     return with_rows(tracks_df, extra)
+
+
+def smoothed_rows(rows: list, smooth: list, lag: int) -> list:
+    """The output rows with each track's walking state smoothed over the ``lag`` frames after it
+    (``smooth_output``, ``tp_smooth``); a row's position is the mode-weighted one (walking state
+    smoothed, the standing mode's position as filtered), as ``JointTrack.estimate``."""
+    states = smooth_chains([None if r is None else r[:7] for r in smooth], lag)
+    out = []
+    for row, r, s in zip(rows, smooth, states):
+        if r is not None and s is not None:
+            mu, xs = r[7], r[8]
+            xy = s[:2] if xs is None else (1.0 - mu) * s[:2] + mu * xs
+            row = (row[0], row[1], float(xy[0]), float(xy[1]), float((1.0 - mu) * s[2]), float((1.0 - mu) * s[3])) + tuple(row[6:])
+        out.append(row)
+    return out
 
 
 def with_rows(tracks_df: pd.DataFrame, extra: list) -> pd.DataFrame:

@@ -215,6 +215,9 @@ class JointTrack:
     det_prev: dict = field(default_factory=dict)  # camera -> whether a person detection was at it last frame (``detection_evidence``)
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras without a window or share of it that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
+    pre: np.ndarray | None = None  # s as the last frame left it, before this frame's prediction (``tp_smooth``)
+    F: np.ndarray | None = None  # this frame's transition (``tp_smooth``)
+    capped: bool = False  # this frame's prediction capped the spreads (``tp_smooth`` cuts the chain there)
 
     def estimate(self) -> np.ndarray:
         """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
@@ -474,6 +477,7 @@ class JointTracker:
 
     def predict(self, tr: JointTrack, dt: float) -> None:
         cfg = self.cfg
+        tr.pre = tr.s.copy()
         self.mix_modes(tr, dt)
         decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
         F = np.eye(4)
@@ -484,6 +488,7 @@ class JointTracker:
         Q = np.kron(Q1, np.eye(2))
         tr.s = F @ tr.s
         tr.S = F @ tr.S @ F.T + Q
+        tr.F, tr.capped = F, False
         for sl, cap in ((slice(0, 2), cfg.sigma_max), (slice(2, 4), 0.5 * cfg.max_speed)):
             # cap the spreads: a stopped walker stays near where it vanished; no one walks faster
             # than max_speed (scaling rows and columns keeps S positive definite)
@@ -492,6 +497,7 @@ class JointTracker:
                 k = np.ones(4)
                 k[sl] = cap / sd
                 tr.S = tr.S * np.outer(k, k)
+                tr.capped = True
         tr.prior = (tr.s.copy(), tr.S.copy())
 
     def project(self, c: str, tr: JointTrack) -> Projection | None:
