@@ -702,7 +702,7 @@ class TargetPlanes(Estimator):
                 # the chain is cut where the prediction capped the spreads or something after the
                 # frame's updates moved the track (located, taken over, put back on the floor)
                 cut = tr.capped or id(tr) not in stepped or not np.array_equal(stepped[id(tr)], tr.s)
-                st.smooth.append((tr.tid, tr.s.copy(), tr.S.copy(), tr.prior, tr.F, tr.pre, cut,
+                st.smooth.append((tr.tid, tr.s.copy(), tr.S.copy(), tr.prior, tr.F, cut,
                                   tr.mu if tr.xs is not None else 0.0, tr.xs) if cfg.smooth_output else None)
                 for c in cams:
                     status, reason, win = tr.status.get(c, (LOST, "", None))
@@ -877,11 +877,11 @@ def smoothed_rows(rows: list, smooth: list, lag: int) -> list:
     """The output rows with each track's walking state smoothed over the ``lag`` frames after it
     (``smooth_output``, ``tp_smooth``); a row's position is the mode-weighted one (walking state
     smoothed, the standing mode's position as filtered), as ``JointTrack.estimate``."""
-    states = smooth_chains([None if r is None else r[:7] for r in smooth], lag)
+    states = smooth_chains([None if r is None else r[:6] for r in smooth], lag)
     out = []
     for row, r, s in zip(rows, smooth, states):
         if r is not None and s is not None:
-            mu, xs = r[7], r[8]
+            mu, xs = r[6], r[7]
             xy = s[:2] if xs is None else (1.0 - mu) * s[:2] + mu * xs
             row = (row[0], row[1], float(xy[0]), float(xy[1]), float((1.0 - mu) * s[2]), float((1.0 - mu) * s[3])) + tuple(row[6:])
         out.append(row)

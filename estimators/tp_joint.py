@@ -215,7 +215,6 @@ class JointTrack:
     det_prev: dict = field(default_factory=dict)  # camera -> whether a person detection was at it last frame (``detection_evidence``)
     log_miss: float = 0.0  # log P(no window anywhere | walking) this frame, summed over the cameras without a window or share of it that would see a walker there (``step``)
     born: tuple | None = None  # (t, s, S) at its birth at a two-camera crossing (``JointTracker.adopt``)
-    pre: np.ndarray | None = None  # s as the last frame left it, before this frame's prediction (``tp_smooth``)
     F: np.ndarray | None = None  # this frame's transition (``tp_smooth``)
     capped: bool = False  # this frame's prediction capped the spreads (``tp_smooth`` cuts the chain there)
 
@@ -477,7 +476,6 @@ class JointTracker:
 
     def predict(self, tr: JointTrack, dt: float) -> None:
         cfg = self.cfg
-        tr.pre = tr.s.copy()
         self.mix_modes(tr, dt)
         decay = 1.0 if tr.seen else float(np.exp(-dt / cfg.stop_tau))
         F = np.eye(4)

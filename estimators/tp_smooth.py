@@ -53,35 +53,29 @@ def fixed_lag_means(s: np.ndarray, S: np.ndarray, s_prior: np.ndarray, S_prior: 
 
 def smooth_chains(records: list, lag: int) -> list:
     """Smoothed walking states of every track. ``records``: one per output row, in frame order,
-    (track id, s, S, prior, F, pre, cut) - the track's state after the frame's updates, its
-    prior (s, S) for the frame, the frame's transition, its state before the frame's prediction
-    (``tp_joint.JointTracker.predict``) and whether the chain is cut before this frame anyway (the
-    prediction capped the spreads; the track was moved after the frame's updates). A track's
-    chain is also cut before a frame whose ``pre`` is not the state the track's previous row
-    recorded, or whose prior is missing. Returns the smoothed s of each row (None where a
-    record is None)."""
+    (track id, s, S, prior, F, cut) - the track's state after the frame's updates, its prior
+    (s, S) for the frame and the frame's transition (``tp_joint.JointTracker.predict``; a track's
+    first frame has no prior), and whether its chain is cut before this frame (the prediction
+    capped the spreads; the track was moved after the frame's updates). Returns the smoothed s
+    of each row (None where a record is None)."""
     out: list = [None if r is None else r[1] for r in records]
     chains: dict = {}  # track id -> row indices of its current chain
     pieces: list = []
     for k, r in enumerate(records):
         if r is None:
             continue
-        tid, s_k, _, prior, F, pre, cut = r
+        tid, _, _, prior, F, cut = r
         chain = chains.get(tid)
-        linked = (chain is not None and prior is not None and F is not None and pre is not None and not cut
-                  and np.array_equal(pre, records[chain[-1]][1]))
-        if linked:
+        if chain is not None and prior is not None and F is not None and not cut:
             chain.append(k)
         else:
             chains[tid] = [k]
             pieces.append(chains[tid])
-    eye = None
     for piece in pieces:
         if len(piece) < 2:
             continue
         recs = [records[k] for k in piece]
-        d = len(recs[0][1])
-        eye = np.eye(d) if eye is None or len(eye) != d else eye
+        eye = np.eye(len(recs[0][1]))  # row 0's prior and transition: unused
         s_prior = np.array([r[3][0] if k else r[1] for k, r in enumerate(recs)])
         S_prior = np.array([r[3][1] if k else eye for k, r in enumerate(recs)])
         F = np.array([r[4] if k else eye for k, r in enumerate(recs)])

@@ -70,15 +70,14 @@ def test_smoothing_brings_the_walker_closer():
 
 
 def test_a_chain_is_cut_where_the_state_changed_outside_the_prediction():
-    """Two tracks interleaved: track 1 is moved between its third and fourth frame (its ``pre``
-    is not what its row recorded), so its frames are smoothed in two pieces; a capped prior cuts
-    too. Track 2, one chain, is smoothed as the whole."""
+    """Two tracks interleaved: track 1 is moved after its fourth frame's updates, so its frames
+    are smoothed in two pieces; a capped prior cuts too (track 2's last frame). A track's first
+    frame, without a prior, starts its chain."""
     s, S, pri, Pri, Fs, _, _ = cv_filter(6, seed=1)
     recs = []
     for k in range(6):
-        pre1 = s[k - 1] + (0.0 if k != 3 else 1.0) if k else None
-        recs.append((1, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], pre1, False))
-        recs.append((2, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], s[k - 1] if k else None, k == 5))
+        recs.append((1, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], k == 3))
+        recs.append((2, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], k == 5))
     out = smooth_chains(recs, lag=10)
     first, second = fixed_lag_means(s[:3], S[:3], pri[:3], Pri[:3], Fs[:3], 10), fixed_lag_means(s[3:], S[3:], pri[3:], Pri[3:], Fs[3:], 10)
     np.testing.assert_allclose(np.array(out[0::2]), np.r_[first, second])
