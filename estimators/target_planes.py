@@ -56,7 +56,7 @@ from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, person_detections, split_boxes
 from .tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from .tp_initiate import propose
-from .tp_joint import EXIST_REJECT, LOST, JointTrack, JointTracker, Occluders, on_floor
+from .tp_joint import EXIST_REJECT, LOST, JointTrack, JointTracker, Occluders, mixture_moments, on_floor
 from .tp_smooth import smooth_chains
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
@@ -703,7 +703,8 @@ class TargetPlanes(Estimator):
                 # frame's updates moved the track (located, taken over, put back on the floor)
                 cut = tr.capped or id(tr) not in stepped or not np.array_equal(stepped[id(tr)], tr.s)
                 st.smooth.append((tr.tid, tr.s.copy(), tr.S.copy(), tr.prior, tr.F, cut,
-                                  tr.mu if tr.xs is not None else 0.0, tr.xs) if cfg.smooth_output else None)
+                                  tr.mu if tr.xs is not None else 0.0, tr.xs,
+                                  None if tr.xs is None else tr.Ps.copy()) if cfg.smooth_output else None)
                 for c in cams:
                     status, reason, win = tr.status.get(c, (LOST, "", None))
                     st.status_rows.append((t, tr.tid, c, status, reason, win))
@@ -875,15 +876,20 @@ def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, in
 
 def smoothed_rows(rows: list, smooth: list, lag: int) -> list:
     """The output rows with each track's walking state smoothed over the ``lag`` frames after it
-    (``smooth_output``, ``tp_smooth``); a row's position is the mode-weighted one (walking state
-    smoothed, the standing mode's position as filtered), as ``JointTrack.estimate``."""
+    (``smooth_output``, ``tp_smooth``); a row's position and its covariance are the mode-weighted
+    ones (walking state smoothed, the standing mode's as filtered), as ``JointTrack.estimate``
+    and ``position_cov``."""
     states = smooth_chains([None if r is None else r[:6] for r in smooth], lag)
     out = []
-    for row, r, s in zip(rows, smooth, states):
-        if r is not None and s is not None:
-            mu, xs = r[6], r[7]
-            xy = s[:2] if xs is None else (1.0 - mu) * s[:2] + mu * xs
-            row = (row[0], row[1], float(xy[0]), float(xy[1]), float((1.0 - mu) * s[2]), float((1.0 - mu) * s[3])) + tuple(row[6:])
+    for row, r, st in zip(rows, smooth, states):
+        if r is not None and st is not None:
+            (s, S), mu, xs, Ps = st, r[6], r[7], r[8]
+            if xs is None:
+                xy, C = s[:2], S[:2, :2]
+            else:
+                xy, C = mixture_moments(mu, s[:2], S[:2, :2], xs, Ps)
+            row = (*row[:2], float(xy[0]), float(xy[1]), float((1.0 - mu) * s[2]), float((1.0 - mu) * s[3]), *row[6:9],
+                   float(C[0, 0]), float(C[0, 1]), float(C[1, 1]))
         out.append(row)
     return out
 

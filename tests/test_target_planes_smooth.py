@@ -3,7 +3,7 @@ import numpy as np
 from filterpy.kalman import rts_smoother
 
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_smooth import fixed_lag_means, smooth_chains
+from trackroom.estimators.tp_smooth import fixed_lag_smooth, smooth_chains
 from trackroom.recording import Observations
 
 from tests.test_target_planes import calib, four_cameras, line_path, synth_boxes
@@ -38,22 +38,31 @@ def cv_filter(n: int, seed: int = 0, dt: float = 0.1, q: float = 0.5, r: float =
     return np.array(xs), np.array(Ss), np.array(pri), np.array(Pri), Fs, np.array([Q] * n), np.array(truth)
 
 
+def fixed_lag_means(s, S, pri, Pri, Fs, lag):
+    return fixed_lag_smooth(s, S, pri, Pri, Fs, lag)[0]
+
+
 def test_the_whole_lag_is_filterpys_rts_smoother():
     s, S, pri, Pri, Fs, Qs, _ = cv_filter(60)
-    ref, _, _, _ = rts_smoother(s, S, Fs, Qs)
-    np.testing.assert_allclose(fixed_lag_means(s, S, pri, Pri, Fs, lag=59), ref, atol=1e-10)
-    np.testing.assert_allclose(fixed_lag_means(s, S, pri, Pri, Fs, lag=1000), ref, atol=1e-10)
+    ref, Pref, _, _ = rts_smoother(s, S, Fs, Qs)
+    for lag in (59, 1000):
+        m, P = fixed_lag_smooth(s, S, pri, Pri, Fs, lag)
+        np.testing.assert_allclose(m, ref, atol=1e-10)
+        np.testing.assert_allclose(P, Pref, atol=1e-12)
 
 
 def test_a_fixed_lag_uses_the_frames_up_to_the_lag_and_no_further():
     """Frame k's mean is the RTS smoother's over frames 0 .. k + lag (the rest not read)."""
     s, S, pri, Pri, Fs, Qs, _ = cv_filter(40, seed=3)
     lag = 7
-    got = fixed_lag_means(s, S, pri, Pri, Fs, lag)
+    got, cov = fixed_lag_smooth(s, S, pri, Pri, Fs, lag)
     for k in range(40):
         end = min(k + lag, 39) + 1
-        ref, _, _, _ = rts_smoother(s[:end], S[:end], Fs[:end], Qs[:end])
+        ref, Pref, _, _ = rts_smoother(s[:end], S[:end], Fs[:end], Qs[:end])
         np.testing.assert_allclose(got[k], ref[k], atol=1e-10)
+        np.testing.assert_allclose(cov[k], Pref[k], atol=1e-12)
+    # smoothing only narrows: each frame's smoothed covariance is at most its filtered one
+    assert all(np.linalg.eigvalsh(S[k] - cov[k]).min() > -1e-12 for k in range(40))
     np.testing.assert_array_equal(fixed_lag_means(s, S, pri, Pri, Fs, 0), s)
 
 
@@ -79,9 +88,12 @@ def test_a_chain_is_cut_where_the_state_changed_outside_the_prediction():
         recs.append((1, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], k == 3))
         recs.append((2, s[k], S[k], (pri[k], Pri[k]) if k else None, Fs[k], k == 5))
     out = smooth_chains(recs, lag=10)
-    first, second = fixed_lag_means(s[:3], S[:3], pri[:3], Pri[:3], Fs[:3], 10), fixed_lag_means(s[3:], S[3:], pri[3:], Pri[3:], Fs[3:], 10)
-    np.testing.assert_allclose(np.array(out[0::2]), np.r_[first, second])
-    np.testing.assert_allclose(np.array(out[1::2]), np.r_[fixed_lag_means(s[:5], S[:5], pri[:5], Pri[:5], Fs[:5], 10), s[5:]])
+    first, second = fixed_lag_smooth(s[:3], S[:3], pri[:3], Pri[:3], Fs[:3], 10), fixed_lag_smooth(s[3:], S[3:], pri[3:], Pri[3:], Fs[3:], 10)
+    np.testing.assert_allclose(np.array([m for m, _ in out[0::2]]), np.r_[first[0], second[0]])
+    np.testing.assert_allclose(np.array([P for _, P in out[0::2]]), np.r_[first[1], second[1]])
+    alone = fixed_lag_smooth(s[:5], S[:5], pri[:5], Pri[:5], Fs[:5], 10)
+    np.testing.assert_allclose(np.array([m for m, _ in out[1::2]]), np.r_[alone[0], s[5:]])
+    np.testing.assert_allclose(np.array([P for _, P in out[1::2]]), np.r_[alone[1], S[5:]])
     assert smooth_chains([None, recs[0]], 3)[0] is None
 
 
@@ -96,8 +108,13 @@ def _noisy_walker(duration: float):
 
 def test_the_smoothed_output_is_closer_and_final_the_output_lag_after_each_frame():
     obs, cal, times, path = _noisy_walker(8.0)
-    off = TargetPlanes(initial_xy=[1.5, 3.0], smooth_output=False).run(obs, cal).tracks
-    on = TargetPlanes(initial_xy=[1.5, 3.0], smooth_output=True).run(obs, cal).tracks
+    res_off = TargetPlanes(initial_xy=[1.5, 3.0], smooth_output=False).run(obs, cal)
+    res_on = TargetPlanes(initial_xy=[1.5, 3.0], smooth_output=True).run(obs, cal)
+    off, on = res_off.tracks, res_on.tracks
+    # the internal rows' covariances are the smoothed estimate's: narrower, the last frame's the filter's
+    cov = {k: r.internal[r.internal["track_id"] == 0][["cxx", "cyy"]].to_numpy() for k, r in (("off", res_off), ("on", res_on))}
+    assert (cov["on"] <= cov["off"] + 1e-12).all() and cov["on"].sum() < 0.8 * cov["off"].sum()
+    np.testing.assert_allclose(cov["on"][-1], cov["off"][-1])
     assert len(on) == len(off) == len(times)
     np.testing.assert_array_equal(on[["t", "track_id", "n_cameras"]], off[["t", "track_id", "n_cameras"]])
     err = {k: np.hypot(tr.x - path[:, 0], tr.y - path[:, 1]) for k, tr in (("off", off), ("on", on))}
