@@ -1,0 +1,122 @@
+"""How far a merged window's outer edges lie from the outermost person's, against one person's own.
+
+    python -m scripts.measure_merged_edges DIR [DIR ...]     # occlusion_lab recordings, either mode
+
+``target_planes`` updates a track by a window's edge in two ways: a window of the track alone
+gives both edges with the noise ``edge_sigma`` (``JointTracker.edge_sigma``: the box noise and
+``edge_sigma_frac`` of the projected width), and a merged window gives each outer edge to its
+outermost member with ``outer_edge_sigma``, twice that. This script measures both against the
+truth: for every oblique camera's window, the walking people whose projected cylinders
+(``tp_geometry.cylinder_window``, the tracker's height and radius) lie at least half inside it
+are its members. A window is used when it touches no other walking person's projection, every
+member is wholly visible (``tp_joint.Occluders``) and wholly in the image, and the window does not
+reach the image border. Its left edge's error is its ``u_left`` minus the leftmost member's
+projected left edge, the right edge likewise. Each error is also given in units of the outermost
+member's ``edge_sigma``.
+
+Printed, for windows of one member and of two or more: the number of edges, the median, the
+robust sigma (1.4826 MAD) and the standard deviation of the errors in ``edge_sigma`` units, and
+the median and robust sigma in px. The truth is read here, by the experimenter (issue 12's
+eighty-fourth session: is the merged edges' doubled noise what the windows show?).
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pandas as pd
+
+from trackroom.dataset import read_recording, recording_folders
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
+from trackroom.estimators.tp_joint import Occluders
+
+BORDER_PX = 0.5  # a window this close to the image border may be cut by it
+
+
+def edge_errors(people: np.ndarray, visible: np.ndarray, windows: np.ndarray, width: float) -> list:
+    """The outer-edge errors of one camera's windows in one frame.
+
+    ``people`` (k, 2): each walking person's projected [left, right] columns (NaN: behind the
+    camera); ``visible`` (k,): wholly visible; ``windows`` (m, 2): the windows' [u_left, u_right];
+    ``width``: the image width, px. Returns (members, side, error px, the outermost member's
+    projected width) for each edge of each usable window (module docstring)."""
+    out = []
+    ok = np.isfinite(people).all(1)
+    in_image = ok & (people[:, 0] > 0.0) & (people[:, 1] < width)
+    for ul, ur in np.asarray(windows, float).reshape(-1, 2):
+        if ul <= BORDER_PX or ur >= width - BORDER_PX:
+            continue
+        overlap = np.where(ok, np.minimum(people[:, 1], ur) - np.maximum(people[:, 0], ul), 0.0)
+        inside = ok & (overlap >= 0.5 * (people[:, 1] - people[:, 0]))
+        touching = ok & (overlap > 0.0) & ~inside
+        if not inside.any() or touching.any() or not (visible[inside] & in_image[inside]).all():
+            continue
+        idx = np.flatnonzero(inside)
+        kl, kr = idx[np.argmin(people[idx, 0])], idx[np.argmax(people[idx, 1])]
+        n = len(idx)
+        out.append((n, "left", float(ul - people[kl, 0]), float(people[kl, 1] - people[kl, 0])))
+        out.append((n, "right", float(ur - people[kr, 1]), float(people[kr, 1] - people[kr, 0])))
+    return out
+
+
+def recording_edges(folder: str) -> pd.DataFrame:
+    """Every usable edge of one recording's oblique windows (``edge_errors``), with ``z``: the
+    error over the outermost member's ``edge_sigma``."""
+    from scripts.experiment_tsutsui import estimator_config, people_at
+
+    rec = read_recording(folder)
+    cfg = TargetPlanes(initial_xy=[0.0, 0.0], **estimator_config(rec)).resolved_config(rec.calibration)
+    cams = rec.calibration.cameras_of_kind("oblique")
+    Ps = {c: np.asarray(rec.calibration.cameras[c].P, float) for c in cams}
+    occ = Occluders(rec.calibration.floorplan, Ps, cfg.height)
+    boxes = rec.observations["boxes"]
+    times = np.sort(boxes["t"].unique())
+    walkers = people_at(rec.truth.people, times, ("x", "y", "walking"))
+    walkers = walkers[walkers["walking"].astype(bool)]
+    by_t = {t: g[["x", "y"]].to_numpy(float) for t, g in walkers.groupby("t")}
+    rows = []
+    for (t, c), g in boxes.groupby(["t", "camera"]):
+        xy = by_t.get(t)
+        if c not in Ps or xy is None:
+            continue
+        win = geo.cylinder_window(Ps[c], xy, cfg.height, cfg.radius)[:, :2]
+        vis = np.asarray(occ.visible_many(c, xy, whole=True), bool)
+        for n, side, err, w in edge_errors(win, vis, g[["u_left", "u_right"]].to_numpy(float), float(rec.calibration.cameras[c].width)):
+            sigma = float(np.hypot(cfg.box_sigma_px, cfg.edge_sigma_frac * w))
+            rows.append((folder, float(t), c, n, side, err, err / sigma))
+    return pd.DataFrame(rows, columns=["recording", "t", "camera", "members", "side", "err_px", "z"])
+
+
+def robust_sigma(x) -> float:
+    x = np.asarray(x, float)
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def summarise(edges: pd.DataFrame) -> pd.DataFrame:
+    """Per window kind (one member, two or more): edges, median / robust sigma / sd of ``z``, and
+    median / robust sigma of the error in px."""
+    kind = np.where(edges["members"] >= 2, "two or more", "one")
+    rows = []
+    for k, g in edges.groupby(kind):
+        rows.append({"members": k, "edges": len(g), "z_median": g["z"].median(), "z_robust_sigma": robust_sigma(g["z"]),
+                     "z_sd": g["z"].std(), "px_median": g["err_px"].median(), "px_robust_sigma": robust_sigma(g["err_px"])})
+    return pd.DataFrame(rows)
+
+
+def main(argv: list[str]) -> int:
+    if not argv:
+        print("usage: python -m scripts.measure_merged_edges DIR [DIR ...]", file=sys.stderr)
+        return 2
+    folders = recording_folders(argv, "measure_merged_edges")
+    edges = pd.concat([recording_edges(f) for f in folders], ignore_index=True)
+    if edges.empty:
+        print("no usable windows in these recordings", file=sys.stderr)
+        return 1
+    print(f"{len(folders)} recordings")
+    print(summarise(edges).to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
