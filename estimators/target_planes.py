@@ -56,7 +56,7 @@ from .base import Estimator, EstimatorError, check_tracks, param, register
 from .tp_frames import CameraBoxes, frame_times, person_detections, split_boxes
 from .tp_identity import EXCHANGE_LOG_ODDS, IdentityLag
 from .tp_initiate import propose
-from .tp_joint import EXIST_REJECT, LOST, JointTrack, JointTracker, Occluders, mixture_moments, on_floor
+from .tp_joint import EXIST_REJECT, LOST, JointTrack, JointTracker, Occluders, mode_weighted, on_floor
 from .tp_smooth import smooth_chains
 
 STATUS_COLUMNS = ["t", "track_id", "camera", "status", "reason", "window"]
@@ -697,14 +697,13 @@ class TargetPlanes(Estimator):
             for tr in st.tracks:
                 # every track is kept for now (in single-target mode too: the identity decision
                 # may hand the target's identity to another track retroactively, within the lag)
-                x, C = tr.estimate(), tr.position_cov()
+                x, C = tr.mode_weighted()
                 st.rows.append((t, tr.tid, x[0], x[1], x[2], x[3], tr.n_used, tr.mode, tr.confirmed, C[0, 0], C[0, 1], C[1, 1]))
                 # the chain is cut where the prediction capped the spreads or something after the
                 # frame's updates moved the track (located, taken over, put back on the floor)
                 cut = tr.capped or id(tr) not in stepped or not np.array_equal(stepped[id(tr)], tr.s)
                 st.smooth.append((tr.tid, tr.s.copy(), tr.S.copy(), tr.prior, tr.F, cut,
-                                  tr.mu if tr.xs is not None else 0.0, tr.xs,
-                                  None if tr.xs is None else tr.Ps.copy()) if cfg.smooth_output else None)
+                                  tr.mu, tr.xs, None if tr.xs is None else tr.Ps.copy()) if cfg.smooth_output else None)
                 for c in cams:
                     status, reason, win = tr.status.get(c, (LOST, "", None))
                     st.status_rows.append((t, tr.tid, c, status, reason, win))
@@ -877,19 +876,14 @@ def bridge_gaps(tracks_df: pd.DataFrame, times: np.ndarray, max_gap_s: float, in
 def smoothed_rows(rows: list, smooth: list, lag: int) -> list:
     """The output rows with each track's walking state smoothed over the ``lag`` frames after it
     (``smooth_output``, ``tp_smooth``); a row's position and its covariance are the mode-weighted
-    ones (walking state smoothed, the standing mode's as filtered), as ``JointTrack.estimate``
-    and ``position_cov``."""
+    ones (``tp_joint.mode_weighted``, as ``JointTrack.estimate`` and ``position_cov``: the walking
+    state smoothed, the standing mode's as filtered)."""
     states = smooth_chains([None if r is None else r[:6] for r in smooth], lag)
     out = []
     for row, r, st in zip(rows, smooth, states):
         if r is not None and st is not None:
-            (s, S), mu, xs, Ps = st, r[6], r[7], r[8]
-            if xs is None:
-                xy, C = s[:2], S[:2, :2]
-            else:
-                xy, C = mixture_moments(mu, s[:2], S[:2, :2], xs, Ps)
-            row = (*row[:2], float(xy[0]), float(xy[1]), float((1.0 - mu) * s[2]), float((1.0 - mu) * s[3]), *row[6:9],
-                   float(C[0, 0]), float(C[0, 1]), float(C[1, 1]))
+            x, C = mode_weighted(*st, *r[6:9])
+            row = (*row[:2], *map(float, x), *row[6:9], float(C[0, 0]), float(C[0, 1]), float(C[1, 1]))
         out.append(row)
     return out
 

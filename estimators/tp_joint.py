@@ -169,6 +169,23 @@ def mixture_moments(w: float, m1: np.ndarray, C1: np.ndarray, m2: np.ndarray, C2
     return m, (1.0 - w) * (C1 + np.outer(d1, d1)) + w * (C2 + np.outer(d2, d2))
 
 
+def mode_weighted(s: np.ndarray, S: np.ndarray, mu: float, xs: np.ndarray | None, Ps: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """A track's mode-weighted state [x, y, vx, vy] and its position's covariance (2, 2): the
+    walking state ``s``, ``S`` mixed with the standing position ``xs``, ``Ps`` at standing
+    probability ``mu`` (``mixture_moments``; a standing person's velocity is 0); without a
+    standing position (``xs`` None), the walking state alone."""
+    if xs is None:
+        return s, S[:2, :2].copy()
+    m, C = mixture_moments(mu, s[:2], S[:2, :2], xs, Ps)
+    return np.r_[m, (1.0 - mu) * s[2:]], C
+
+
+def edge_noise(box_sigma: float, edge_sigma_frac: float, width: float) -> float:
+    """The noise (px) of a window's edge about the projected cylinder's of ``width`` px: the
+    box noise and ``edge_sigma_frac`` of the width (``JointTracker.edge_sigma``)."""
+    return float(np.hypot(box_sigma, edge_sigma_frac * width))
+
+
 def alike(sa: np.ndarray, Sa: np.ndarray, sb: np.ndarray, Sb: np.ndarray, radius: float) -> bool:
     """Whether two track states (s, S) are one person's: nearer than 2 ``radius`` and alike at
     the 99 % level (``DUPLICATE``; ``JointTracker.prune``)."""
@@ -218,18 +235,18 @@ class JointTrack:
     F: np.ndarray | None = None  # this frame's transition (``tp_smooth``)
     capped: bool = False  # this frame's prediction capped the spreads (``tp_smooth`` cuts the chain there)
 
+    def mode_weighted(self) -> tuple[np.ndarray, np.ndarray]:
+        """The mode-weighted state [x, y, vx, vy] and its position's covariance (``mode_weighted``)."""
+        return mode_weighted(self.s, self.S, self.mu, self.xs, self.Ps)
+
     def estimate(self) -> np.ndarray:
         """The mode-weighted state [x, y, vx, vy] (a standing person's velocity is 0)."""
-        if self.xs is None:
-            return self.s
-        return np.r_[(1.0 - self.mu) * self.s[:2] + self.mu * self.xs, (1.0 - self.mu) * self.s[2:]]
+        return self.mode_weighted()[0]
 
     def position_cov(self) -> np.ndarray:
         """The covariance (2, 2) of ``estimate``'s position: the mode-weighted mixture's
         (``mixture_moments``)."""
-        if self.xs is None:
-            return self.S[:2, :2].copy()
-        return mixture_moments(self.mu, self.s[:2], self.S[:2, :2], self.xs, self.Ps)[1]
+        return self.mode_weighted()[1]
 
     @property
     def xy(self) -> np.ndarray:
@@ -1238,7 +1255,7 @@ class JointTracker:
         return w / w.sum()
 
     def edge_sigma(self, p: Projection) -> float:
-        return float(np.hypot(self.box_sigma, self.cfg.edge_sigma_frac * p.width))
+        return edge_noise(self.box_sigma, self.cfg.edge_sigma_frac, p.width)
 
     def outer_edge_sigma(self, p: Projection) -> float:
         """The noise of a window's edge used as a track's edge when the window is not the track

@@ -29,7 +29,7 @@ import pandas as pd
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_joint import Occluders
+from trackroom.estimators.tp_joint import Occluders, edge_noise
 
 BORDER_PX = 0.5  # a window this close to the image border may be cut by it
 
@@ -83,7 +83,7 @@ def recording_edges(folder: str) -> pd.DataFrame:
         win = geo.cylinder_window(Ps[c], xy, cfg.height, cfg.radius)[:, :2]
         vis = np.asarray(occ.visible_many(c, xy, whole=True), bool)
         for n, side, err, w in edge_errors(win, vis, g[["u_left", "u_right"]].to_numpy(float), float(rec.calibration.cameras[c].width)):
-            sigma = float(np.hypot(cfg.box_sigma_px, cfg.edge_sigma_frac * w))
+            sigma = edge_noise(cfg.box_sigma_px, cfg.edge_sigma_frac, w)
             rows.append((folder, float(t), c, n, side, err, err / sigma))
     return pd.DataFrame(rows, columns=["recording", "t", "camera", "members", "side", "err_px", "z"])
 
