@@ -6,19 +6,28 @@
 Recordings do not survive a new machine: issue 12's development and evaluation recordings are
 rendered again from their seeds (``trackroom generate occlusion_lab --seed N --duration 35
 --sensing rendered``). For one set of versions, rendering on the CPU gives the same files byte for
-byte (occlusion_lab 3220 rendered twice, issue 12's seventy-fifth session: every file of the
-manifest the same). This script checks a re-render against the record: each folder's files
-against its own manifest first (as ``read_recording`` verifies), then the digests of its tables
-(``TABLES``, the first 16 hex digits of the manifest's sha256) against those recorded for the
-same scene, seed, duration, overrides and sensing in ``--digests``. One line per recording:
-``same``, ``differs`` (naming the tables, and the versions where they differ from the recorded
-ones) or ``not recorded``; the exit status is 1 when any differs."""
+byte on one machine (occlusion_lab 3220 rendered twice, issue 12's seventy-fifth session: every
+file of the manifest the same). Across machines, truth's ``z`` and ``yaw`` and the IMU table may
+differ in the last bits: numpy computes some functions (``arctan2`` among them) with SIMD code
+that depends on the CPU (AVX-512 or not), as issue 12's eighty-fifth session found (3460 on an
+AVX-512 machine: ``x``, ``y``, ``vx``, ``vy`` and the camera tables the same, ``yaw`` within
+4e-15). This script checks a re-render against the record: each folder's files against its own
+manifest first (as ``read_recording`` verifies), then the digests of its tables (``TABLES``, the
+first 16 hex digits of the manifest's sha256) against those recorded for the same scene, seed,
+duration, overrides and sensing in ``--digests``. One line per recording: ``same``, ``differs``
+(naming the tables; their columns, where the record has column digests; and the versions and
+numpy SIMD targets where they differ from the recorded ones) or ``not recorded``; the exit status
+is 1 when any differs."""
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
+import pandas as pd
 
 from trackroom.dataset import read_manifest, recording_folders, verify_files
 from trackroom.recording import RecordingError
@@ -51,6 +60,42 @@ def digests(folder: Path) -> tuple[str, dict, dict]:
     return key(manifest), files, {k: versions[k] for k in VERSIONS if k in versions}
 
 
+def column_digests(folder: Path, table: str) -> dict[str, str]:
+    """{column: the first ``DIGITS`` hex digits of the sha256 of its values} of one table: float
+    and integer columns by their bytes, others by their values' text."""
+    df = pd.read_parquet(folder / table, engine="pyarrow")
+    out = {}
+    for c in df.columns:
+        v = df[c].to_numpy()
+        raw = np.ascontiguousarray(v).tobytes() if v.dtype.kind in "fiub" else "\0".join(map(str, v)).encode()
+        out[str(c)] = hashlib.sha256(raw).hexdigest()[:DIGITS]
+    return out
+
+
+def simd() -> list[str]:
+    """The SIMD targets numpy dispatches to on this machine (its results for some functions differ
+    between them)."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:  # another numpy layout: nothing to report
+        return []
+    return [t for t in __cpu_dispatch__ if __cpu_features__.get(t)]
+
+
+def differing(folder: Path, tables: list[str], old: dict) -> str:
+    """The differing tables, each with its differing columns where the record has them."""
+    cols = old.get("columns", {})
+    out = []
+    for t in tables:
+        if t in cols and (folder / t).is_file():
+            now = column_digests(folder, t)
+            bad = [c for c in sorted(set(now) | set(cols[t])) if now.get(c) != cols[t].get(c)]
+            out.append(f"{t} ({', '.join(bad)})")
+        else:
+            out.append(t)
+    return ", ".join(out)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR", help="recording folders (globs allowed)")
@@ -64,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     for d in folders:
         name, files, versions = digests(Path(d))
         if args.record:
-            record[name] = {"tables": files, "versions": versions}
+            columns = {t: column_digests(Path(d), t) for t in files}
+            record[name] = {"tables": files, "columns": columns, "versions": versions, "simd": simd()}
             continue
         old = record.get(name)
         if old is None:
@@ -76,7 +122,10 @@ def main(argv: list[str] | None = None) -> int:
             continue
         differs += 1
         moved = {k: (old["versions"].get(k), v) for k, v in versions.items() if old["versions"].get(k) != v}
-        print(f"{d}: {name}: differs in {', '.join(bad)}" + (f" (versions recorded -> now: {moved})" if moved else ""))
+        if "simd" in old and old["simd"] != simd():
+            moved["numpy SIMD"] = (" ".join(old["simd"]) or "none", " ".join(simd()) or "none")
+        print(f"{d}: {name}: differs in {differing(Path(d), bad, old)}"
+              + (f" (recorded -> now: {moved})" if moved else ""))
     if args.record:
         tmp = path.with_suffix(".tmp")
         lines = [f"{json.dumps(k)}: {json.dumps(v, sort_keys=True)}" for k, v in sorted(record.items())]  # one line a recording

@@ -1,5 +1,6 @@
 """scripts/check_rendered.py: a re-made recording is compared with the recorded digests of its
-tables (same, differs naming the tables, not recorded), and a folder whose files do not match its
+tables (same, differs naming the tables and, where recorded, their columns and the numpy SIMD
+targets; not recorded), and a folder whose files do not match its
 own manifest is one line naming the file."""
 from __future__ import annotations
 
@@ -17,7 +18,28 @@ def recordings(tmp_path_factory):
     scene = load_scene("occlusion_lab")
     for name, draw in (("a", 0), ("again", 0), ("redrawn", 1)):
         write_recording(simulate(scene, 3, 2.0, "analytic", perception_draw=draw), root / name)
+    rec = simulate(scene, 3, 2.0, "analytic")
+    rec.truth.tables["people"]["yaw"] += 1e-15  # as another CPU's arctan2 may give it
+    write_recording(rec, root / "other_cpu")
     return root
+
+
+def test_a_differing_table_names_its_columns_and_the_simd_targets(recordings, tmp_path, capsys):
+    import json
+
+    record = tmp_path / "digests.json"
+    assert main([str(recordings / "a"), "--digests", str(record), "--record"]) == 0
+    entry = next(iter(json.loads(record.read_text()).values()))
+    assert set(entry["columns"]["truth.parquet"]) >= {"x", "y", "yaw", "person_id"}
+    assert main([str(recordings / "other_cpu"), "--digests", str(record)]) == 1
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert line.endswith("differs in truth.parquet (yaw)"), line
+    data = json.loads(record.read_text())
+    next(iter(data.values()))["simd"] = ["ELSEWHERE"]
+    record.write_text(json.dumps(data))
+    assert main([str(recordings / "other_cpu"), "--digests", str(record)]) == 1
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert "differs in truth.parquet (yaw) (recorded -> now: {'numpy SIMD': ('ELSEWHERE', " in line, line
 
 
 def test_a_remade_recording_is_the_same_and_a_redrawn_one_differs(recordings, tmp_path, capsys):
