@@ -51,6 +51,17 @@ METRIC_UNITS: dict[str, str] = {
 }
 
 
+def robust_sigma(values) -> float:
+    """1.4826 times the median absolute deviation from the median: a normal sample's standard
+    deviation, little moved by outliers (the measurement scripts' "robust sigma"). NaN values are
+    left out, as pandas' median leaves them; NaN when none is left."""
+    x = np.asarray(values, float).ravel()
+    x = x[~np.isnan(x)]
+    if not x.size:
+        return float("nan")
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
 def metric_label(metric: str) -> str:
     """``metric (unit)`` for an axis or a header, e.g. ``rmse (m)``; the name alone when no unit is known."""
     unit = METRIC_UNITS.get(metric)

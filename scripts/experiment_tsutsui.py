@@ -50,6 +50,7 @@ import pandas as pd
 
 from trackroom.dataset import recording_folders
 from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
+from trackroom.metrics.aggregate import robust_sigma
 from trackroom.metrics.score import evaluate
 from trackroom.scenes.loader import load_scene
 from trackroom.sim.perception_flow import RENDERED_WINDOW_NOISE
@@ -238,7 +239,7 @@ def window_error_summary(E: pd.DataFrame, min_speed: float = 0.3) -> pd.DataFram
     for k in ("e_u", "e_top", "e_bottom", "e_left", "e_right", "e_flow_u", "e_flow_v"):
         x = mv[k].to_numpy(float)
         med = float(np.median(x))
-        out[k] = {"median": med, "robust_sigma": 1.4826 * float(np.median(np.abs(x - med))), "sd": float(x.std()),
+        out[k] = {"median": med, "robust_sigma": robust_sigma(x), "sd": float(x.std()),
                   "p90_abs": float(np.percentile(np.abs(x), 90))}
     per = mv.groupby(["t", "camera", "person"]).size()
     print(f"windows {len(E)}, on no person {int(E['person'].isna().sum())}, on walking people {len(mv)}; "

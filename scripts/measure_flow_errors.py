@@ -101,6 +101,7 @@ from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_frames import mean_flows
+from trackroom.metrics.aggregate import robust_sigma
 from trackroom.sim.perception_fit import lagged_products
 
 MOVERS = ("target", "distractor")
@@ -225,10 +226,6 @@ def corr_time(rho: np.ndarray) -> float:
     return float(1.0 + 2.0 * tail[: stop[0] if len(stop) else len(tail)].sum())
 
 
-def rsd(x: pd.Series) -> float:
-    return float(1.4826 * (x - x.median()).abs().median())
-
-
 def table(df: pd.DataFrame) -> pd.DataFrame:
     out = []
     for lo, hi in zip(SPEED_BINS[:-1], SPEED_BINS[1:]):
@@ -236,9 +233,9 @@ def table(df: pd.DataFrame) -> pd.DataFrame:
         if not len(g):
             continue
         out.append({"speed px/s": f"{lo}-{hi}", "n": len(g),
-                    "along median": g.along.median(), "along rsd": rsd(g.along), "along q90": g.along.abs().quantile(0.9),
-                    "across rsd": rsd(g.across), "across q90": g.across.abs().quantile(0.9),
-                    "along rsd / speed": rsd(g.along / g.speed), "across rsd / speed": rsd(g.across / g.speed)})
+                    "along median": g.along.median(), "along rsd": robust_sigma(g.along), "along q90": g.along.abs().quantile(0.9),
+                    "across rsd": robust_sigma(g.across), "across q90": g.across.abs().quantile(0.9),
+                    "along rsd / speed": robust_sigma(g.along / g.speed), "across rsd / speed": robust_sigma(g.across / g.speed)})
     return pd.DataFrame(out)
 
 
@@ -259,8 +256,8 @@ def share_table(df: pd.DataFrame, bins=SHARE_BINS) -> pd.DataFrame:
         g = g0[(g0.share > lo) & (g0.share <= hi)]
         if not len(g):
             continue
-        out.append({"share": f"{lo:g}-{hi:g}", "n": len(g), "flow_u rsd": rsd(g.e_u), "flow_u q90": g.e_u.abs().quantile(0.9),
-                    "flow_v rsd": rsd(g.e_v), "flow_v q90": g.e_v.abs().quantile(0.9),
+        out.append({"share": f"{lo:g}-{hi:g}", "n": len(g), "flow_u rsd": robust_sigma(g.e_u), "flow_u q90": g.e_u.abs().quantile(0.9),
+                    "flow_v rsd": robust_sigma(g.e_v), "flow_v q90": g.e_v.abs().quantile(0.9),
                     "flow_u q90 / speed": (g.e_u.abs() / g.speed).quantile(0.9),
                     "flow_u rms": float(np.sqrt((g.e_u**2).mean())), f"|e| > {BIG_ERROR:g}": float((np.hypot(g.e_u, g.e_v) > BIG_ERROR).mean())})
     return pd.DataFrame(out)
@@ -290,7 +287,7 @@ def cut_excess(df: pd.DataFrame, min_speed: float = CUT_MIN_SPEED, col: str = "b
     out = []
     for col in ("along", "across"):
         rc, ru = g.loc[cut, col] / g.loc[cut, "speed"], g.loc[~cut, col] / g.loc[~cut, "speed"]
-        out.append(float(np.sqrt(max(rsd(rc) ** 2 - rsd(ru) ** 2, 0.0) + (rc.median() - ru.median()) ** 2)))
+        out.append(float(np.sqrt(max(robust_sigma(rc) ** 2 - robust_sigma(ru) ** 2, 0.0) + (rc.median() - ru.median()) ** 2)))
     return out[0], out[1]
 
 

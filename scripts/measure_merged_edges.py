@@ -30,6 +30,7 @@ from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import Occluders, edge_noise
+from trackroom.metrics.aggregate import robust_sigma
 
 BORDER_PX = 0.5  # a window this close to the image border may be cut by it
 
@@ -86,11 +87,6 @@ def recording_edges(folder: str) -> pd.DataFrame:
             sigma = edge_noise(cfg.box_sigma_px, cfg.edge_sigma_frac, w)
             rows.append((folder, float(t), c, n, side, err, err / sigma))
     return pd.DataFrame(rows, columns=["recording", "t", "camera", "members", "side", "err_px", "z"])
-
-
-def robust_sigma(x) -> float:
-    x = np.asarray(x, float)
-    return float(1.4826 * np.median(np.abs(x - np.median(x))))
 
 
 def summarise(edges: pd.DataFrame) -> pd.DataFrame:

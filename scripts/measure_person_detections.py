@@ -42,6 +42,7 @@ from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import (VIS_FRACTIONS, Occluders, coincidence_chance, detection_gate, detector_sees,
                                           partly_in_image, wholly_in_image)
+from trackroom.metrics.aggregate import robust_sigma
 
 HEIGHT, RADIUS, CENTRE = TargetPlanes.Config.height, TargetPlanes.Config.radius, 0.9  # the tracker's person model (m) and the axis point it projects
 GHOSTS = 60
@@ -189,7 +190,7 @@ def main(argv: list[str]) -> int:
                   f"{int(runs.max()) if len(runs) else 0} frames, {int((runs >= LONG_RUN).sum())} runs of "
                   f"{LONG_RUN} or more")
     r = p.resid[p.hit]
-    mad = 1.4826 * float((r - r.median()).abs().median())
+    mad = robust_sigma(r)
     print(f"their detections' columns against the projected axis: mean {r.mean():+.2f} px, sd {r.std():.2f} px "
           f"(tails: another person's detection in the gate), robust sd (1.4826 MAD) {mad:.2f} px, within 3 px "
           f"{float((r.abs() <= 3.0).mean()):.3f}")

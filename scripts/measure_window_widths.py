@@ -21,6 +21,7 @@ import pandas as pd
 from scripts.experiment_tsutsui import window_errors
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
+from trackroom.metrics.aggregate import robust_sigma
 
 HEIGHT, RADIUS = 1.8, 0.2  # target_planes' person model (Config height, radius)
 BORDER_PX = 1.0  # a window or model this close to the image's side is cut by it
@@ -63,7 +64,7 @@ def summary(D: pd.DataFrame, bins=(0, 25, 40, 60, 1000)) -> pd.DataFrame:
             med = float(sel.median())
             out.append({"model": model, "model width px": f"{lo}-{hi}" if hi < bins[-1] or lo > bins[0] else "all",
                         "windows": len(sel), "median px": round(med, 2),
-                        "robust sigma px": round(1.4826 * float((sel - med).abs().median()), 2)})
+                        "robust sigma px": round(robust_sigma(sel), 2)})
     return pd.DataFrame(out)
 
 

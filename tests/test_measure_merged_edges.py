@@ -3,7 +3,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_merged_edges import edge_errors, robust_sigma, summarise
+from scripts.measure_merged_edges import edge_errors, summarise
+from trackroom.metrics.aggregate import robust_sigma
 
 W = 320.0
 
