@@ -106,11 +106,12 @@ def main(argv: list[str] | None = None) -> int:
     path = Path(args.digests)
     record = json.loads(path.read_text()) if path.is_file() else {}
     differs = 0
+    here = simd()  # this machine's, once for every recording
     for d in folders:
         name, files, versions = digests(Path(d))
         if args.record:
             columns = {t: column_digests(Path(d), t) for t in files}
-            record[name] = {"tables": files, "columns": columns, "versions": versions, "simd": simd()}
+            record[name] = {"tables": files, "columns": columns, "versions": versions, "simd": here}
             continue
         old = record.get(name)
         if old is None:
@@ -122,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         differs += 1
         moved = {k: (old["versions"].get(k), v) for k, v in versions.items() if old["versions"].get(k) != v}
-        if "simd" in old and old["simd"] != simd():
-            moved["numpy SIMD"] = (" ".join(old["simd"]) or "none", " ".join(simd()) or "none")
+        if "simd" in old and old["simd"] != here:
+            moved["numpy SIMD"] = (" ".join(old["simd"]) or "none", " ".join(here) or "none")
         print(f"{d}: {name}: differs in {differing(Path(d), bad, old)}"
               + (f" (recorded -> now: {moved})" if moved else ""))
     if args.record:

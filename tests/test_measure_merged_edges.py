@@ -4,7 +4,6 @@ import pandas as pd
 import pytest
 
 from scripts.measure_merged_edges import edge_errors, summarise
-from trackroom.metrics.aggregate import robust_sigma
 
 W = 320.0
 
@@ -41,4 +40,3 @@ def test_summary_per_window_kind():
     assert list(s.index) == ["one", "two or more"]
     assert s.loc["one", "edges"] == 4000
     assert abs(s.loc["one", "z_robust_sigma"] - 1.0) < 0.05 and abs(s.loc["two or more", "z_robust_sigma"] - 2.0) < 0.1
-    assert robust_sigma([1.0, 1.0, 1.0]) == 0.0
