@@ -1,0 +1,111 @@
+"""How the flow of a window cut by the image border follows its person (rendered recordings).
+
+    python -m scripts.measure_border_flow DIR [DIR ...]     # occlusion_lab recordings with truth labels
+
+For each oblique window that overlaps one labelled person only (``truth_labels``, at least
+``MIN_PIXELS`` visible pixels), the window's horizontal flow against the person's image motion
+from the labels between consecutive frames: for a person cut by the left (right) image border,
+the motion of the label's inner, right (left), edge, the only edge the image shows; for a person
+clear of both borders, the motion of the label's centre. Windows of cut people are split by
+whether they reach the border (an edge within ``BORDER_PX`` of it, as ``target_planes``'
+``cut_edges`` requires) or stop short of it. Printed per kind: windows, the error's median and
+robust sigma (px/s), and the gain (least-squares slope of the flow on the labels' motion). The
+truth is read here, by the experimenter.
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pandas as pd
+
+from trackroom.dataset import read_recording, recording_folders
+from trackroom.estimators.tp_joint import BORDER_PX
+from trackroom.metrics.aggregate import robust_sigma
+
+MIN_PIXELS = 200  # a label this small is a sliver whose box moves with the occluder, not the person
+CLEAR_PX = 3.0  # a label this far inside both borders is of a person seen whole across
+
+
+def label_motion(labels: pd.DataFrame, fps: dict[str, float]) -> pd.DataFrame:
+    """``labels`` with ``v_left``, ``v_right``, ``v_centre``: each label box's edge and centre
+    image velocities (px/s) since the same person's label in the camera's previous frame; rows
+    without a label one frame before are left out."""
+    L = labels[labels["pixels"] >= MIN_PIXELS].sort_values(["camera", "person_id", "t"]).copy()
+    g = L.groupby(["camera", "person_id"], sort=False)
+    dt = g["t"].diff()
+    L["v_left"] = g["x0"].diff() / dt
+    L["v_right"] = g["x1"].diff() / dt
+    L["v_centre"] = 0.5 * (L["v_left"] + L["v_right"])
+    frame = 1.0 / L["camera"].map(fps).astype(float)
+    return L[dt.notna() & (dt <= 1.5 * frame)]
+
+
+def border_windows(boxes: pd.DataFrame, motion: pd.DataFrame, widths: dict[str, float]) -> pd.DataFrame:
+    """One row per window over one labelled person only: ``kind`` (left-cut, right-cut, whole),
+    ``reach`` (reaches, short; "-" for whole), the window's ``flow`` and the label's ``motion``
+    (px/s; ``label_motion``), and ``gap``, the window's distance from the cutting border (px)."""
+    by_frame = {k: g for k, g in motion.groupby([motion["t"].round(6), "camera"])}
+    rows = []
+    for (t, c), g in boxes.groupby([boxes["t"].round(6), "camera"]):
+        lab = by_frame.get((t, c))
+        if lab is None:
+            continue
+        W = float(widths[c])
+        x0, x1 = lab["x0"].to_numpy(float), lab["x1"].to_numpy(float)
+        for ul, ur, fu in g[["u_left", "u_right", "flow_u"]].to_numpy(float):
+            over = np.minimum(ur, x1) - np.maximum(ul, x0) > 0
+            if over.sum() != 1:
+                continue
+            k = int(np.flatnonzero(over)[0])
+            p = lab.iloc[k]
+            if x0[k] <= BORDER_PX and x1[k] < W - BORDER_PX:
+                kind, v, gap = "left-cut", float(p["v_right"]), float(ul)
+            elif x1[k] >= W - BORDER_PX and x0[k] > BORDER_PX:
+                kind, v, gap = "right-cut", float(p["v_left"]), float(W - ur)
+            elif x0[k] > CLEAR_PX and x1[k] < W - CLEAR_PX:
+                kind, v, gap = "whole", float(p["v_centre"]), np.nan
+            else:
+                continue
+            reach = "-" if kind == "whole" else ("reaches" if gap <= BORDER_PX else "short")
+            rows.append((float(t), c, kind, reach, float(fu), v, gap))
+    return pd.DataFrame(rows, columns=["t", "camera", "kind", "reach", "flow", "motion", "gap"])
+
+
+def summary(windows: pd.DataFrame) -> pd.DataFrame:
+    """Per kind and reach: windows, the error (flow - motion) median and robust sigma, the gain."""
+    rows = []
+    for (kind, reach), g in windows.groupby(["kind", "reach"]):
+        err = g["flow"] - g["motion"]
+        gain = float(np.polyfit(g["motion"], g["flow"], 1)[0]) if len(g) >= 3 and g["motion"].std() > 0 else np.nan
+        rows.append({"kind": kind, "reach": reach, "windows": len(g), "error median px/s": float(err.median()),
+                     "error robust sigma px/s": robust_sigma(err), "gain": gain})
+    return pd.DataFrame(rows)
+
+
+def recording_windows(folder: str) -> pd.DataFrame:
+    """``border_windows`` of one recording; it must have truth labels (rendered ones do)."""
+    rec = read_recording(folder)
+    labels = rec.truth.tables.get("labels")
+    if labels is None or not len(labels):
+        raise SystemExit(f"measure_border_flow: {folder} has no segmentation labels (truth_labels): a rendered recording is needed")
+    cams = rec.calibration.cameras
+    motion = label_motion(labels, {c: float(cams[c].fps) for c in cams})
+    return border_windows(rec.observations["boxes"], motion, {c: float(cams[c].width) for c in cams})
+
+
+def main(argv: list[str]) -> int:
+    if not argv:
+        print("usage: python -m scripts.measure_border_flow DIR [DIR ...]", file=sys.stderr)
+        return 2
+    folders = recording_folders(argv, "measure_border_flow")
+    windows = pd.concat([recording_windows(f) for f in folders], ignore_index=True)
+    if windows.empty:
+        print("no window over one labelled person in these recordings", file=sys.stderr)
+        return 1
+    print(summary(windows).to_string(index=False, float_format=lambda x: f"{x:.2f}"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
