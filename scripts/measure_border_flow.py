@@ -19,7 +19,8 @@ import sys
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording, recording_folders
+from scripts.measure_pooled import run_pooled
+from trackroom.dataset import read_recording
 from trackroom.estimators.tp_joint import BORDER_PX
 from trackroom.metrics.aggregate import robust_sigma
 
@@ -95,17 +96,7 @@ def recording_windows(folder: str) -> pd.DataFrame:
 
 
 def main(argv: list[str]) -> int:
-    if not argv:
-        print("usage: python -m scripts.measure_border_flow DIR [DIR ...]", file=sys.stderr)
-        return 2
-    folders = recording_folders(argv, "measure_border_flow")
-    windows = pd.concat([recording_windows(f) for f in folders], ignore_index=True)
-    if windows.empty:
-        print("no window over one labelled person in these recordings", file=sys.stderr)
-        return 1
-    print(summary(windows).to_string(index=False, float_format=lambda x: f"{x:.2f}"))
-    return 0
-
+    return run_pooled(argv, "measure_border_flow", recording_windows, summary, "no window over one labelled person in these recordings")
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))

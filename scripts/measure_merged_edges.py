@@ -26,7 +26,8 @@ import sys
 import numpy as np
 import pandas as pd
 
-from trackroom.dataset import read_recording, recording_folders
+from scripts.measure_pooled import run_pooled
+from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import Occluders, edge_noise
@@ -101,17 +102,7 @@ def summarise(edges: pd.DataFrame) -> pd.DataFrame:
 
 
 def main(argv: list[str]) -> int:
-    if not argv:
-        print("usage: python -m scripts.measure_merged_edges DIR [DIR ...]", file=sys.stderr)
-        return 2
-    folders = recording_folders(argv, "measure_merged_edges")
-    edges = pd.concat([recording_edges(f) for f in folders], ignore_index=True)
-    if edges.empty:
-        print("no usable windows in these recordings", file=sys.stderr)
-        return 1
-    print(f"{len(folders)} recordings")
-    print(summarise(edges).to_string(index=False, float_format=lambda v: f"{v:.2f}"))
-    return 0
+    return run_pooled(argv, "measure_merged_edges", recording_edges, summarise, "no usable windows in these recordings", count=True)
 
 
 if __name__ == "__main__":
