@@ -12,6 +12,9 @@ mover is a track inside it) and reads each confirmed track it dropped (``TargetP
   person;
 - ``speed``: that person's speed over the half second before, m/s (a person stopping or standing
   makes no flow window);
+- ``apart``: that person's distance to the nearest other person in the frame of the end, m (inf:
+  nobody else): a duplicate dropped while the two people were more than two ``radius`` apart
+  (0.4 m) was a track drawn off its person onto the other's, not one person seen twice;
 - ``cover_now``, ``cover_1s``: the distance from that person to the track matched to it among the
   others the tracker held (confirmed or not), in the frame of the end and 1 s later, m (inf: none);
 - ``other``: for a duplicate, the track it duplicated (the one kept; in single-target mode the
@@ -136,9 +139,11 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
         earlier = _people(people, e.t - SPEED_S)
         speed = float(np.hypot(*(now.loc[who] - earlier.loc[who]))) / SPEED_S if who in earlier.index else float("nan")
         c0, c1 = covers[0].get(who, np.inf), covers[1].get(who, np.inf)
+        rest = now.drop(index=who)
+        apart = float(np.hypot(rest["x"] - now.at[who, "x"], rest["y"] - now.at[who, "y"]).min()) if len(rest) else np.inf
         other = int(e.other) if e.reason == "duplicate" and pd.notna(e.other) else None  # the track it duplicated
         rows.append({"t": round(float(e.t), 1), "track": int(e.track_id), "reason": e.reason, "other": other, "x": round(float(e.x), 2),
-                     "y": round(float(e.y), 2), "who": who, "dist": round(float(d[who]), 2), "speed": round(speed, 2),
+                     "y": round(float(e.y), 2), "who": who, "dist": round(float(d[who]), 2), "speed": round(speed, 2), "apart": round(apart, 2),
                      "cover_now": round(c0, 2), "cover_1s": round(c1, 2), "views": views_at(visibility, cameras, who, e.t),
                      "views_1s": views_at(visibility, cameras, who, e.t + LATER_S), "class": classify(float(d.min()), bool(left))})
     return rows
@@ -172,7 +177,8 @@ def main(argv=None) -> int:
             why = f"duplicate of track {int(r.other)}" if pd.notna(r.other) else r.reason  # other: set for duplicates only
             seen = "" if pd.isna(r.views) else f"; seen by {r.views} cameras, 1 s later {r.views_1s}"
             print(f"seed {r.seed!s:>4} t {r.t:5.1f} s  track {r.track} ({why}) at ({r.x:.2f}, {r.y:.2f})  {r.who} {r.dist:.2f} m "
-                  f"away, {r.speed:.2f} m/s; nearest other track {r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m{seen}")
+                  f"away, {r.speed:.2f} m/s, {r.apart:.2f} m from the nearest other person; nearest other track "
+                  f"{r.cover_now:.2f} m, 1 s later {r.cover_1s:.2f} m{seen}")
     return 0
 
 

@@ -55,6 +55,7 @@ def test_a_second_track_on_a_person_still_followed_is_no_loss():
     truth = people(target=tgt, standing=still([2.5, 2.0]))
     rows = ends_against_truth(truth, tracks(t0=(tgt, 59), t2=(tgt + [0.05, 0.0], 30)), end(2, 30, tgt[30]))
     assert [(r["class"], r["who"]) for r in rows] == [("second track", "target")]
+    assert rows[0]["apart"] == round(float(np.hypot(2.5 - tgt[30, 0], 2.0 - tgt[30, 1])), 2)
     assert rows[0]["cover_1s"] < 0.01
 
 
@@ -70,6 +71,7 @@ def test_two_tracks_drawn_onto_one_person_leave_the_other_untracked():
     rows = ends_against_truth(truth, tracks(t0=(drawn, 59), t1=(look, 30)), end(1, 30, look[30]))
     assert [(r["class"], r["who"], r["other"]) for r in rows] == [("person untracked", "target", 0)]  # a duplicate of track 0
     assert np.isinf(rows[0]["cover_1s"])
+    assert rows[0]["apart"] == 0.72  # the people 0.72 m apart at 3 s: a track drawn over, not one person seen twice
     # the same with track 0 staying on the target: the look-alike is left untracked instead
     rows = ends_against_truth(truth, tracks(t0=(tgt, 59), t1=(look, 30)), end(1, 30, look[30], "existence"))
     assert [(r["class"], r["who"], r["speed"], r["other"]) for r in rows] == [("person untracked", "distractor", 0.0, None)]
