@@ -1,6 +1,7 @@
 """How the flow of a window cut by the image border follows its person (rendered recordings).
 
     python -m scripts.measure_border_flow DIR [DIR ...]     # occlusion_lab recordings with truth labels
+    python -m scripts.measure_border_flow --projection DIR [DIR ...]   # either mode: the truth's cylinders
 
 For each oblique window that overlaps one labelled person only (``truth_labels``, at least
 ``MIN_PIXELS`` visible pixels), the window's horizontal flow against the person's image motion
@@ -9,8 +10,11 @@ the motion of the label's inner, right (left), edge, the only edge the image sho
 clear of both borders, the motion of the label's centre. Windows of cut people are split by
 whether they reach the border (an edge within ``BORDER_PX`` of it, as ``target_planes``'
 ``cut_edges`` requires) or stop short of it. Printed per kind: windows, the error's median and
-robust sigma (px/s), and the gain (least-squares slope of the flow on the labels' motion). The
-truth is read here, by the experimenter.
+robust sigma (px/s), and the gain (least-squares slope of the flow on the labels' motion). With
+``--projection`` the labels are the truth's people projected as the tracker's cylinders
+(``height``, ``radius``), clipped to the image, in the frames where the truth says each is visible
+(``truth_visibility``): analytic recordings have no segmentation labels. The truth is read here,
+by the experimenter.
 """
 from __future__ import annotations
 
@@ -21,9 +25,12 @@ import pandas as pd
 
 from scripts.measure_pooled import run_pooled
 from trackroom.dataset import read_recording
+from trackroom.estimators import tp_geometry as geo
+from trackroom.estimators.target_planes import TargetPlanes
 from trackroom.estimators.tp_joint import BORDER_PX
 from trackroom.metrics.aggregate import robust_sigma
 
+HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 MIN_PIXELS = 200  # a label this small is a sliver whose box moves with the occluder, not the person
 CLEAR_PX = 3.0  # a label this far inside both borders is of a person seen whole across
 
@@ -84,19 +91,49 @@ def summary(windows: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def recording_windows(folder: str) -> pd.DataFrame:
-    """``border_windows`` of one recording; it must have truth labels (rendered ones do)."""
+def projected_labels(rec) -> pd.DataFrame:
+    """Label boxes (t, camera, person_id, pixels, x0, x1) from the truth: each person's cylinder
+    (the tracker's ``height``, ``radius``) projected into each oblique camera at its window times,
+    clipped to the image, where ``truth_visibility`` says the person is visible (``pixels`` then
+    ``MIN_PIXELS``)."""
+    from scripts.experiment_tsutsui import people_at
+
+    cams = rec.calibration.cameras
+    boxes = rec.observations["boxes"]
+    vis = rec.truth.visibility
+    if vis is None or not len(vis):
+        raise SystemExit("measure_border_flow: --projection needs the truth's visibility (truth_visibility)")
+    seen = {(round(float(t), 6), str(c), str(p)) for t, c, p in vis.loc[vis["visible"].astype(bool), ["t", "camera", "person_id"]].to_numpy()}
+    rows = []
+    for c, g in boxes.groupby("camera"):
+        times = np.unique(np.round(g["t"].to_numpy(float), 6))
+        at = people_at(rec.truth.people, times, ("x", "y"))
+        P, W = np.asarray(cams[c].P, float), float(cams[c].width)
+        win = geo.cylinder_window(P, at[["x", "y"]].to_numpy(float), HEIGHT, RADIUS)
+        for (t, pid), (ul, ur) in zip(at[["t", "person_id"]].to_numpy(), win[:, :2]):
+            if (round(float(t), 6), str(c), str(pid)) in seen and np.isfinite(ul) and ur > 0.0 and ul < W:
+                rows.append((float(t), str(c), str(pid), MIN_PIXELS, max(float(ul), 0.0), min(float(ur), W)))
+    return pd.DataFrame(rows, columns=["t", "camera", "person_id", "pixels", "x0", "x1"])
+
+
+def recording_windows(folder: str, projection: bool = False) -> pd.DataFrame:
+    """``border_windows`` of one recording: against its truth labels (rendered recordings have
+    them), or with ``projection`` against ``projected_labels``."""
     rec = read_recording(folder)
-    labels = rec.truth.tables.get("labels")
+    labels = projected_labels(rec) if projection else rec.truth.tables.get("labels")
     if labels is None or not len(labels):
-        raise SystemExit(f"measure_border_flow: {folder} has no segmentation labels (truth_labels): a rendered recording is needed")
+        raise SystemExit(f"measure_border_flow: {folder} has no segmentation labels (truth_labels): a rendered recording "
+                         "is needed, or --projection")
     cams = rec.calibration.cameras
     motion = label_motion(labels, {c: float(cams[c].fps) for c in cams})
     return border_windows(rec.observations["boxes"], motion, {c: float(cams[c].width) for c in cams})
 
 
 def main(argv: list[str]) -> int:
-    return run_pooled(argv, "measure_border_flow", recording_windows, summary, "no window over one labelled person in these recordings")
+    projection = "--projection" in argv
+    dirs = [a for a in argv if a != "--projection"]
+    return run_pooled(dirs, "measure_border_flow", lambda f: recording_windows(f, projection), summary,
+                      "no window over one labelled person in these recordings")
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))

@@ -54,3 +54,23 @@ def test_a_window_over_two_people_is_left_out():
                                             "flow_u": [0.0]})], ignore_index=True)
     w = border_windows(boxes, label_motion(labels, {"c": 10.0}), {"c": 320.0})
     assert len(w) == 4
+
+
+def test_projected_labels_stand_in_for_segmentation_labels_on_an_analytic_recording(occlusion_lab_6s, capsys):
+    """An analytic recording has no segmentation labels: the command says so, and with
+    ``--projection`` it measures against the truth's cylinders, clipped to each image, only where
+    the truth has the person visible."""
+    from scripts.measure_border_flow import main, projected_labels
+    from trackroom.dataset import read_recording
+
+    with pytest.raises(SystemExit, match="no segmentation labels"):
+        main([occlusion_lab_6s])
+    rec = read_recording(occlusion_lab_6s)
+    L = projected_labels(rec)
+    widths = {c: float(rec.calibration.cameras[c].width) for c in rec.calibration.cameras}
+    assert len(L) and (L["x0"] >= 0.0).all() and (L["x1"] <= L["camera"].map(widths)).all() and (L["x0"] < L["x1"]).all()
+    vis = rec.truth.visibility
+    seen = set(map(tuple, vis.loc[vis["visible"].astype(bool), ["camera", "person_id"]].astype(str).to_numpy()))
+    assert set(map(tuple, L[["camera", "person_id"]].to_numpy())) <= seen
+    assert main(["--projection", occlusion_lab_6s]) == 0
+    assert "whole" in capsys.readouterr().out
