@@ -1,4 +1,4 @@
-"""How the flow of a window cut by the image border follows its person (rendered recordings).
+"""How the flow of a window cut by the image border follows its person.
 
     python -m scripts.measure_border_flow DIR [DIR ...]     # occlusion_lab recordings with truth labels
     python -m scripts.measure_border_flow --projection DIR [DIR ...]   # either mode: the truth's cylinders
@@ -134,6 +134,7 @@ def main(argv: list[str]) -> int:
     dirs = [a for a in argv if a != "--projection"]
     return run_pooled(dirs, "measure_border_flow", lambda f: recording_windows(f, projection), summary,
                       "no window over one labelled person in these recordings")
+
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))

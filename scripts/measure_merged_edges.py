@@ -30,10 +30,8 @@ from scripts.measure_pooled import run_pooled
 from trackroom.dataset import read_recording
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes
-from trackroom.estimators.tp_joint import Occluders, edge_noise
+from trackroom.estimators.tp_joint import BORDER_PX, Occluders, edge_noise
 from trackroom.metrics.aggregate import robust_sigma
-
-BORDER_PX = 0.5  # a window this close to the image border may be cut by it
 
 
 def edge_errors(people: np.ndarray, visible: np.ndarray, windows: np.ndarray, width: float) -> list:
