@@ -297,6 +297,26 @@ def has_flow_frame(m) -> bool:
     return "flow_along_s0" in m.errors
 
 
+# the kinds of window whose flow errors a model fitted with ``flow_by_kind`` (the sixteenth fit)
+# draws from tables of their own (``flow_kind``): rendered development 110-114, own windows under
+# 40 px/s, the horizontal flow's robust sigma against the person's image velocity is 1.8 px/s for
+# plain windows inside the image, 4.3 crowded, 1.5 cut by a box, and the border-cut ones follow
+# their person at a gain of 0.7-0.8 (``Border``): one pooled table gave every window the mixture
+FLOW_KINDS = ("", "_crowded", "_cut", "_border")
+
+
+def flow_kind(tag: str, at_border: bool) -> str:
+    """A window's kind for its flow errors: ``"_border"`` where the image border cuts a member,
+    else its ``edge_tables`` tag ``tag``."""
+    return "_border" if at_border else tag
+
+
+def has_flow_kinds(m) -> bool:
+    """Whether a model draws its windows' flow errors by kind of window (``flow_along_s<k>_crowded``
+    and the other ``FLOW_KINDS`` tables besides the plain ones; the sixteenth fit)."""
+    return "flow_along_s0_crowded" in m.errors
+
+
 # windows: a window whose span comes within this many px of another moving person's image span
 # (vertical spans overlapping), or whose people are not all wholly seen, is "crowded": its edge
 # errors come from the ``*_crowded`` tables where a model has them (the rendered detector's large
@@ -396,9 +416,10 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     grids = error_uniforms(rng, det.shape, m, 6)
     if m.flow_persist is not None:  # the flows' errors persist on two time scales (drawn after: older models' stream as before)
         grids[4:6] = [ndtr(two_timescale_normals(rng, det.shape, *m.flow_persist)) for _ in range(2)]
-    out_f, out_p, out_e, out_fl, out_id, out_c, out_cut, out_k = [], [], [], [], [], [], [], []
+    out_f, out_p, out_e, out_fl, out_id, out_c, out_cut, out_k, out_n = [], [], [], [], [], [], [], [], []
     has_cut, has_crowded = "u_left_cut" in m.errors, "u_left_crowded" in m.errors  # the model's edge tables (older fits: fewer)
     moving = cand & (speed >= MOVING_PX_S)
+    flow_kinds = has_flow_kinds(m)
     for f in range(F):
         groups = {}
         for p in np.nonzero(det[f])[0]:
@@ -413,9 +434,10 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
             out_fl.append(g.flow[f, mem].mean(axis=0))
             out_id.append(tid)
             out_c.append(edge_tables(g, e, frac, moving, f, mem, has_cut, has_crowded))
-            if m.edge_corr is not None:  # the kind of window its edges' correlation is fitted for, whatever tables the model has
+            if m.edge_corr is not None or flow_kinds:  # the kind of window its edges' correlation and flow are fitted for, whatever tables the model has
                 out_k.append(out_c[-1] if has_cut and has_crowded else edge_tables(g, e, frac, moving, f, mem, True, True))
             out_cut.append((g.span[f, mem, 0].min() <= 0.0, g.span[f, mem, 1].max() >= cam.width))
+            out_n.append(len(mem))
     n = len(out_f)
     f = np.asarray(out_f, int)
     edges = np.asarray(out_e, float).reshape(n, 4)
@@ -444,13 +466,19 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     cut = np.asarray(out_cut, bool).reshape(n, 2)
     edges[cut[:, 0], 0] = 0.0
     edges[cut[:, 1], 1] = cam.width
+    true_flow = flow.copy()
     if has_flow_frame(m):  # along and across the people's image velocity, by its speed
         k, d = flow_frame(flow)
         along, across = np.zeros(n), np.zeros(n)
+        if flow_kinds:
+            kinds = np.asarray([flow_kind(t, c[0] or c[1]) for t, c in zip(out_k, out_cut)], dtype=object)
+        else:
+            kinds = np.full(n, "", dtype=object)
         for b in np.unique(k):
-            on = k == b
-            along[on] = m.error(f"flow_along_s{b}").at(grids[4][f[on], pp[on]])
-            across[on] = m.error(f"flow_across_s{b}").at(grids[5][f[on], pp[on]])
+            for tag in np.unique(kinds[k == b]):
+                on = (k == b) & (kinds == tag)
+                along[on] = m.error(f"flow_along_s{b}{tag}").at(grids[4][f[on], pp[on]])
+                across[on] = m.error(f"flow_across_s{b}{tag}").at(grids[5][f[on], pp[on]])
         flow += along[:, None] * d + across[:, None] * np.column_stack([-d[:, 1], d[:, 0]])
     else:
         flow[:, 0] += m.error("flow_u").at(grids[4][f, pp])
@@ -459,6 +487,8 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     ff, fe, ffl, fid = ids.fragments(det, e, g.flow)
     # drawn last: a model without partial windows samples the same stream as before
     pf, pe, pfl, pid = ids.partials(moving & ~det, frac, e, g.flow, head)
+    if m.border is not None:  # drawn after the rest: a model without it samples the same stream as before
+        border_short(rng, m, cam.width, f, pp, cut, np.asarray(out_n) == 1, true_flow, edges, flow, det.shape)
     f, edges, flow, tid = (np.concatenate(x) for x in ((f, cf, ff, pf), (edges, ce, fe, pe), (flow, cfl, ffl, pfl), (tid, cid, fid, pid)))
     edges[:, [0, 1]] = np.clip(np.sort(edges[:, [0, 1]], axis=1), 0, cam.width)
     edges[:, [2, 3]] = np.clip(np.sort(edges[:, [2, 3]], axis=1), 0, cam.height)
@@ -471,6 +501,33 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
         "u_left": edges[:, 0], "u_right": edges[:, 1], "v_top": edges[:, 2], "v_bottom": edges[:, 3],
         "flow_u": flow[keep, 0], "flow_v": flow[keep, 1],
     })
+
+
+def border_short(rng: np.random.Generator, m: DetectorModel, width: float, f: np.ndarray, pp: np.ndarray, cut: np.ndarray,
+                 single: np.ndarray, true_flow: np.ndarray, edges: np.ndarray, flow: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Which windows stop short of the image border that cuts their person (``m.border``,
+    ``perception_model.Border``), in place: windows of one person (``single``) cut by one border
+    (``cut`` (n, 2): left, right) stop short in runs (``run_events`` per person over the frames
+    ``f``, people ``pp``, ``shape`` (F, P)); a short window's cut edge moves ``border_gap_<side>``
+    inside the image (a window left with no width is dropped later) and its horizontal flow
+    becomes ``gain`` times the person's (``true_flow``) plus ``border_flow_<side>``. Returns the
+    short windows' mask."""
+    b = m.border
+    side = np.where(cut[:, 0], 0, 1)
+    on = single & (cut[:, 0] != cut[:, 1])
+    p, eligible = np.zeros(shape), np.zeros(shape, bool)
+    p[f[on], pp[on]] = b.short(side[on], true_flow[on, 0])
+    eligible[f[on], pp[on]] = True
+    short = run_events(rng, p, b.stay, eligible)[f, pp] & on
+    u_gap, u_flow = (correlated_uniforms(rng, shape, m.err_rho)[f, pp] for _ in range(2))
+    for k, name in enumerate("lr"):
+        s = short & (side == k)
+        gap = m.error(f"border_gap_{name}").at(u_gap[s])
+        edges[s, k] = gap if k == 0 else width - gap
+        flow[s, 0] = b.gain[k] * true_flow[s, 0] + m.error(f"border_flow_{name}").at(u_flow[s])
+    gone = short & (edges[:, 1] <= edges[:, 0])
+    edges[gone] = 0.0
+    return short
 
 
 def _episode_frames(start: np.ndarray, life: np.ndarray, n_frames: int):

@@ -29,9 +29,9 @@ from scipy.optimize import linear_sum_assignment
 
 from trackroom.scenes.spec import Scene
 
-from .analytic_detectors import (WHOLE, EDGE_HEIGHT_PX, FLOOR_TABLES, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, height_bin, height_table, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
+from .analytic_detectors import (WHOLE, EDGE_HEIGHT_PX, FLOOR_TABLES, FLOW_KINDS, FLOW_SPEED_EDGES, MOVING_PX_S, edge_tables, flow_frame, flow_kind, height_bin, height_table, seen_share, blob_candidates, floor_state, nearest_gap, radial_frame, silhouette_pairs, span_pairs,
                                  window_candidates)
-from .perception_model import DETECTORS, EDGE_CORR_KINDS, LEVELS, NEAR_GAP, TAIL_M, DetectorModel, EdgeCorr, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
+from .perception_model import BORDER_EDGES, DETECTORS, EDGE_CORR_KINDS, LEVELS, NEAR_GAP, TAIL_M, Border, DetectorModel, EdgeCorr, PerceptionModel, Quantiles, Table, Tail, correlated_uniforms, run_events
 
 INF = float("inf")
 SEEN_EDGES = [-INF, 1 / 6, 1 / 2, 5 / 6, INF]  # 0, 1/3, 2/3, 1 of the rays
@@ -112,6 +112,10 @@ class DetectorStats:
     tail_eps: list = field(default_factory=list)
     tail_feat: list = field(default_factory=list)
     tail_hit: list = field(default_factory=list)
+    # windows: own windows of a person the image border cuts (one border): (side 0 left / 1 right,
+    # gap of the window's cut edge from that border px, window flow u, the person's image flow u,
+    # image speed px/s, visible share of the span, sequence key, person, frame)
+    border: list = field(default_factory=list)
 
     def partial_columns(self) -> list[np.ndarray]:
         """The partial-window features as columns: the axis rays' seen share, the head ray's."""
@@ -272,7 +276,7 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
     frac = seen_share(frac, WINDOW_SEEN_FRAMES)
     head = seen_share(head, WINDOW_SEEN_FRAMES)
     e = g.edges
-    _, speed, cand = window_candidates(g, cam.width)
+    clip, speed, cand = window_candidates(g, cam.width)
     moving = cand & (speed >= MOVING_PX_S)
     F, P = cand.shape
     by_frame = _frames(boxes, cam, F)
@@ -329,6 +333,14 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
                 s.errors[f"flow_along_s{k}"].append(float(ef @ d))
                 s.flow_seq.append((cam.name, p, f, float(ef @ d)))
                 s.errors[f"flow_across_s{k}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
+                kind = flow_kind(tag, g.span[f, p, 0] <= 0.0 or g.span[f, p, 1] >= cam.width)  # (``fit``'s flow_by_kind)
+                s.errors[f"kflow_along_s{k}{kind}"].append(float(ef @ d))
+                s.errors[f"kflow_across_s{k}{kind}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
+                left, right = g.span[f, p, 0] <= 0.0, g.span[f, p, 1] >= cam.width
+                if left != right:
+                    gap = W[rr, 0] if left else cam.width - W[rr, 1]
+                    s.border.append((int(right), float(gap), float(fl[rr, 0]), float(g.flow[f, p, 0]), float(speed[f, p]),
+                                     float(clip[f, p]), cam.name, int(p), int(f)))
         used = set(match.values())
         for rr in range(len(W)):
             if rr in used:
@@ -530,6 +542,7 @@ def merge_stats(many: list[dict[str, DetectorStats]]) -> dict[str, DetectorStats
             o.partial_ids |= {(i, *c) for c in s.partial_ids}
             o.partial_feat += s.partial_feat
             o.partial_hit += s.partial_hit
+            o.border += [(*b[:6], (i, b[6]), *b[7:]) for b in s.border]
             for a in ("frames", "clutter", "clutter_unlabelled", "fragments", "fragment_labelled", "continuing", "restarts", "splits", "swaps",
                       "partials"):
                 setattr(o, a, getattr(o, a) + getattr(s, a))
@@ -836,8 +849,35 @@ def height_of(name: str) -> tuple[str, int] | None:
     return (base, int(k)) if base.startswith(EDGE_NAMES) and k.isdigit() else None
 
 
+# a rendered window's cut edge farther than this from the image border stops short of it
+# (``tp_joint.BORDER_PX``, the tracker's own test of a window reaching the border)
+BORDER_SHORT_PX = 0.5
+
+
+def fit_border(s: DetectorStats) -> tuple[Border | None, dict[str, Quantiles]]:
+    """(``Border``, its error tables) from the border-cut people's own windows (``s.border``):
+    P(short) by side and the person's image velocity u, the stay that gives the measured mean run
+    of short windows, and per side the gap's quantiles and the short windows' flow u as a gain on
+    the person's (least squares) and the rest's quantiles; (None, {}) without such windows."""
+    if not s.border:
+        return None, {}
+    side, gap, flow, motion = (np.asarray([b[i] for b in s.border], float) for i in range(4))
+    short = gap > BORDER_SHORT_PX
+    table = Table.fit(BORDER_EDGES, [side, motion], short)
+    seqs = _sequences([(b[6], b[7], b[8], i) for i, b in enumerate(s.border)])
+    stay = fit_run_stay(seqs, table(side, motion), mean_run(seqs, short))
+    gains, errors = [], {}
+    for k, name in enumerate(("l", "r")):
+        on = short & (side == k)
+        gain = float(np.polyfit(motion[on], flow[on], 1)[0]) if on.sum() >= 30 and motion[on].std() > 0 else 1.0
+        gains.append(gain)
+        errors[f"border_gap_{name}"] = Quantiles.fit(gap[on], fallback=Quantiles.gaussian(0.0, 6.0))
+        errors[f"border_flow_{name}"] = Quantiles.fit(flow[on] - gain * motion[on])
+    return Border(table, stay, tuple(gains)), errors
+
+
 def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = True, flow_persist: bool = False,
-        by_height: bool = False, edge_corr: bool = False) -> PerceptionModel:
+        by_height: bool = False, edge_corr: bool = False, border: bool = False, flow_by_kind: bool = False) -> PerceptionModel:
     """A perception model from rendered statistics (``merge_stats`` of several recordings);
     ``crowded`` False: the windows' edge errors in one table each, crowded or not (no
     ``*_crowded`` tables, as the bundled eighth and tenth fits); ``flow_persist``: the windows'
@@ -846,7 +886,12 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
     person's image height (``analytic_detectors.EDGE_HEIGHT_PX``; a bin with under 30 windows
     takes its edge's table over every height; the thirteenth fit, not bundled); ``edge_corr``: the
     windows' top and bottom edge errors correlated by kind of window and height bin
-    (``fit_edge_corr``; the fourteenth fit, not bundled)."""
+    (``fit_edge_corr``; the fourteenth fit, not bundled); ``border``: windows of a person cut by
+    the image border stop short of it in runs, their flow falling behind (``fit_border``; the
+    fifteenth fit); ``flow_by_kind``: the windows' flow errors in tables per kind of window too
+    (``flow_along_s<k>`` of plain windows, ``..._crowded``, ``..._cut``, ``..._border``:
+    ``analytic_detectors.flow_kind``; a kind's bin with under 30 windows takes the table of every
+    kind; the sixteenth fit)."""
     from .perception_flow import FlowParams
 
     out = {}
@@ -868,6 +913,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
                 head_gain[name] = float(r @ h / (h @ h)) if h @ h > 0 else 0.0
                 errors[name + "_r"] = Quantiles.fit(r - head_gain[name] * h)
         samples = dict(s.errors)
+        by_kind = {n: samples.pop(n) for n in list(samples) if n.startswith("kflow_")}  # the flow errors per kind of window
         by_h = {}  # the edge tables per height bin: name -> its table over every height
         for name, (base, hk) in [(n, height_of(n)) for n in list(samples) if height_of(n)]:
             if not by_height:
@@ -893,11 +939,22 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
                 for axis in ("along", "across"):
                     if len(s.errors.get(f"flow_{axis}_s{b}", ())) < 30:
                         errors[f"flow_{axis}_s{b}"] = errors[f"flow_{axis}_s{b - 1}"]
+        if flow_by_kind and "flow_along_s0" in errors:  # each kind's table per speed bin; too few windows: the bin's table of every kind
+            for b in range(len(FLOW_SPEED_EDGES) + 1):
+                for axis in ("along", "across"):
+                    pooled = errors[f"flow_{axis}_s{b}"]
+                    for tag in FLOW_KINDS:
+                        errors[f"flow_{axis}_s{b}{tag}"] = Quantiles.fit(np.asarray(by_kind.get(f"kflow_{axis}_s{b}{tag}", ()), float),
+                                                                         fallback=pooled)
         if k in ("horizontal", "oblique") and "u_clip" not in errors and "u" in errors:
             errors["u_clip"] = errors["u"]
         for name in FLOOR_TABLES.values():  # too few blobs in a state: they take another state's tables (floor_table)
             if len(s.errors.get(name + "_r", ())) < 30:
                 errors.pop(name + "_r", None), errors.pop(name + "_t", None)
+        border_model = None
+        if k == "windows" and border:
+            border_model, border_errors = fit_border(s)
+            errors.update(border_errors)
         n_clutter_ids = max(len(s.clutter_ids), 1)
         # the oblique blob detector: people seen whole miss for short runs of their own, the partly
         # hidden for as long as they stay so (one stay for both made the first run for seconds)
@@ -922,6 +979,7 @@ def fit(stats: dict[str, DetectorStats], fitted_on: list[str], crowded: bool = T
             tail=fit_tail(s) if k in ("overhead", "privacy") else None,
             edge_heights=list(EDGE_HEIGHT_PX) if k == "windows" and by_h else None,
             edge_corr=fit_edge_corr(s) if k == "windows" and edge_corr else None,
+            border=border_model,
         )
     return PerceptionModel(out, list(fitted_on))
 

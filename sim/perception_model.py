@@ -296,6 +296,42 @@ class Tail:
         return t
 
 
+# (windows) the bins of a border-cut window's P(short): the cut side (left / right) and the
+# person's horizontal image velocity (px/s): on rendered development 100-159 the windows stopping
+# short are mostly of people moving left fast (left border, leaving at over 40 px/s: 32-52 %;
+# right border, entering: 9-21 %; against 0-3 % moving right) or barely moving (6-18 %)
+BORDER_EDGES = [[-math.inf, 0.5, math.inf], [-math.inf, -40.0, -10.0, 10.0, 40.0, math.inf]]
+
+
+@dataclass
+class Border:
+    """(windows) A person cut by one image border has a window reaching that border, as the
+    rendered flow tracker's box does, except in runs of frames where the window stops short of
+    it (the fifteenth fit): P(short) per bin of ``BORDER_EDGES`` (``short``), runs of mean length
+    set by ``stay`` (``run_events``); a short window's cut edge lies ``border_gap_<side>`` px
+    inside the border and its horizontal flow is ``gain[side]`` times the person's plus
+    ``border_flow_<side>`` (error tables; side ``l`` / ``r``): the flow of a window stopping short
+    falls behind its person (rendered development 100-159: gain 0.61 left, 0.29 right)."""
+
+    short: Table
+    stay: float = 0.0
+    gain: tuple[float, float] = (1.0, 1.0)
+
+    def to_dict(self) -> dict:
+        return {"short": self.short.to_dict(), "stay": round(self.stay, 5), "gain": [round(float(g), 4) for g in self.gain]}
+
+    @classmethod
+    def from_dict(cls, d) -> "Border":
+        if not isinstance(d, dict) or "short" not in d:
+            raise ValueError(f"border must be {{\"short\": table, \"stay\": s, \"gain\": [left, right]}}, got {d!r}")
+        b = cls(Table.from_dict(d["short"]), float(d.get("stay", 0.0)), tuple(float(g) for g in d.get("gain", (1.0, 1.0))))
+        if not 0.0 <= b.stay < 1.0 or len(b.gain) != 2 or not all(np.isfinite(b.gain)):
+            raise ValueError(f"border: stay must lie in [0, 1) and gain be two finite numbers, got {b.stay}, {list(b.gain)}")
+        if len(b.short.edges) != len(BORDER_EDGES):
+            raise ValueError(f"border: short must be a table over {len(BORDER_EDGES)} features (side, image velocity u), got {len(b.short.edges)}")
+        return b
+
+
 @dataclass
 class DetectorModel:
     """One detector's fitted behaviour (see the module docstring; unused parts stay default)."""
@@ -346,6 +382,9 @@ class DetectorModel:
     # (windows) the top and bottom edge errors' correlation (``EdgeCorr``; the fourteenth fit,
     # not bundled); None: drawn independently (models before it draw as before)
     edge_corr: EdgeCorr | None = None
+    # (windows) windows of a border-cut person stopping short of the border (``Border``; the
+    # fifteenth fit); None: every such window reaches it (models before it draw as before)
+    border: Border | None = None
 
     def error(self, name: str) -> Quantiles:
         return self.errors.get(name) or Quantiles.gaussian(0.0)
@@ -380,6 +419,7 @@ class DetectorModel:
             **({"flow_persist": [round(x, 4) for x in self.flow_persist]} if self.flow_persist is not None else {}),
             **({"edge_heights": [float(x) for x in self.edge_heights]} if self.edge_heights is not None else {}),
             **({"edge_corr": self.edge_corr.to_dict()} if self.edge_corr is not None else {}),
+            **({"border": self.border.to_dict()} if self.border is not None else {}),
         }
 
     @classmethod
@@ -400,7 +440,8 @@ class DetectorModel:
                 tail=Tail.from_dict(d["tail"]) if "tail" in d else None,
                 flow_persist=tuple(float(x) for x in d["flow_persist"]) if "flow_persist" in d else None,
                 edge_heights=[float(x) for x in d["edge_heights"]] if "edge_heights" in d else None,
-                edge_corr=EdgeCorr.from_dict(d["edge_corr"]) if "edge_corr" in d else None)
+                edge_corr=EdgeCorr.from_dict(d["edge_corr"]) if "edge_corr" in d else None,
+                border=Border.from_dict(d["border"]) if "border" in d else None)
         if m.edge_heights is not None:
             check_heights(m.edge_heights, "edge_heights")
         if m.flow_persist is not None and (len(m.flow_persist) != 3 or not all(0.0 <= x <= 1.0 for x in m.flow_persist)

@@ -1233,3 +1233,92 @@ def test_a_person_seen_whole_is_detected_about_the_projected_body_centre():
     assert median_offset(m, 0.5) > 2.0  # partly hidden: about the span's centre
     m.errors.pop("u_whole")
     assert median_offset(m, 1.0) > 2.0  # a model without the table: as before
+
+
+def test_windows_stopping_short_of_the_image_border_are_drawn_in_runs_and_the_fit_finds_them_back(tmp_path):
+    """A windows model with ``border`` (the fifteenth fit) makes the window of a person cut by one
+    image border stop short of it in runs: here 30 % of the left-cut windows and 60 % of the
+    right-cut ones, the gap 8 px (left) and 12 px (right), and the flow 0.5 (left) and 0.2 (right)
+    of the person's; the fit measures them back and finds the stay, and a model without it leaves
+    every such window on the border."""
+    from trackroom.sim.perception_model import BORDER_EDGES, Border, Quantiles
+
+    def edit(border):
+        def f(m):
+            w = m["windows"]
+            w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+            for name in list(w.errors):
+                if name.startswith(("u_", "v_", "flow_")):
+                    w.errors[name] = Quantiles.gaussian(0.3)
+            w.errors.update({"border_gap_l": Quantiles.gaussian(0.5, 4.0), "border_gap_r": Quantiles.gaussian(0.5, 6.0),
+                             "border_flow_l": Quantiles.gaussian(0.5), "border_flow_r": Quantiles.gaussian(0.5)})
+            w.border = border
+        return f
+
+    n_bins = len(BORDER_EDGES[1]) - 1
+    border = Border(Table([list(e) for e in BORDER_EDGES], np.array([[0.3] * n_bins, [0.6] * n_bins])), stay=0.6, gain=(0.5, 0.2))
+    stats = {}
+    for name, b in (("border", border), ("none", None)):
+        (tmp_path / name).mkdir()
+        scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path / name, edit(b))}"])
+        stats[name] = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=30.0), scene) for seed in (0, 1, 2, 3)])["windows"]
+    rec = np.asarray([b[:6] for b in stats["border"].border], float)
+    side, gap, flow, motion, _, clip = rec.T
+    short = gap > pf.BORDER_SHORT_PX
+    for k, share, want_gap in ((0, 0.3, 4.0), (1, 0.6, 6.0)):
+        on = (side == k) & (clip > 0.5)
+        assert on.sum() > 100
+        assert short[on].mean() == pytest.approx(share, abs=0.1)
+        assert np.median(gap[on & short]) == pytest.approx(want_gap, abs=1.0)
+    assert max(b[1] for b in stats["none"].border) <= pf.BORDER_SHORT_PX
+    fitted = pf.fit({k: stats["border"] if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"], border=True)["windows"]
+    assert fitted.border.gain == pytest.approx((0.5, 0.2), abs=0.1)
+    assert fitted.border.stay == pytest.approx(0.6, abs=0.15)
+    t = fitted.border.short  # per side, the share over its bins of image velocity
+    assert (t.p * t.n).sum(axis=1) / t.n.sum(axis=1) == pytest.approx((0.3, 0.6), abs=0.1)
+    assert fitted.error("border_gap_r").bias == pytest.approx(6.0, abs=1.0)
+    assert pf.fit({k: stats["border"] if k == "windows" else pf.DetectorStats() for k in DETECTORS}, ["test"])["windows"].border is None
+    back = type(fitted).from_dict(json.loads(json.dumps(fitted.to_dict())))
+    assert back.border.gain == pytest.approx(fitted.border.gain, abs=1e-4) and back.border.stay == pytest.approx(fitted.border.stay, abs=1e-4)
+
+
+def test_a_bad_border_block_names_the_detector(tmp_path):
+    path = tmp_path / "m.json"
+    for bad, problem in (({"stay": 0.5}, "windows.*border must be"),
+                         ({"short": {"edges": [[0, 1]], "p": [0.5]}, "stay": 0.5, "gain": [1, 1]}, "windows.*border: short must be a table over 2 features"),
+                         ({"short": {"edges": [[0, 1], [0, 1]], "p": [[0.5]]}, "stay": 1.0, "gain": [1, 1]}, "windows.*border: stay")):
+        d = load_model("fitted").to_dict()
+        d["detectors"]["windows"]["border"] = bad
+        path.write_text(json.dumps(d))
+        with pytest.raises(ModelError, match=problem):
+            load_model(path)
+
+
+def test_window_flow_errors_are_drawn_by_kind_of_window_and_fitted_back(tmp_path):
+    """A windows model with ``flow_along_s<k>_crowded`` / ``_cut`` tables (the sixteenth fit) draws
+    a crowded window's flow error from them (here short by 6 px/s against 1 px/s for plain
+    windows); the fit with ``flow_by_kind`` measures both back, and without it keeps one table per
+    speed bin."""
+    from trackroom.sim.analytic_detectors import FLOW_SPEED_EDGES, has_flow_kinds
+    from trackroom.sim.perception_model import Quantiles
+
+    def edit(m):
+        w = m["windows"]
+        w.detect, w.miss_stay, w.merge, w.clutter, w.fragment, w.partial = constant(1.0), 0.0, constant(0.0), 0.0, 0.0, None
+        for b in range(len(FLOW_SPEED_EDGES) + 1):
+            for tag, shortfall in (("", 1.0), ("_crowded", 6.0), ("_cut", 1.0), ("_border", 1.0)):
+                w.errors[f"flow_along_s{b}{tag}"] = Quantiles.gaussian(0.5, -shortfall)
+                w.errors[f"flow_across_s{b}{tag}"] = Quantiles.gaussian(0.5)
+    scene = load_scene("occlusion_lab", [f"sensors.perception={_model_file(tmp_path, edit)}"])
+    s = pf.merge_stats([pf.measure(simulate(scene, seed=seed, duration=20.0), scene) for seed in (0, 1)])["windows"]
+    plain, crowded = np.asarray(s.errors["kflow_along_s0"]), np.asarray(s.errors["kflow_along_s0_crowded"])
+    assert len(plain) > 100 and len(crowded) > 100
+    assert np.median(plain) == pytest.approx(-1.0, abs=0.5) and np.median(crowded) == pytest.approx(-6.0, abs=0.5)
+    stats = {k: s if k == "windows" else pf.DetectorStats() for k in DETECTORS}
+    fitted = pf.fit(stats, ["test"], flow_by_kind=True)["windows"]
+    assert has_flow_kinds(fitted)
+    assert fitted.error("flow_along_s0").bias == pytest.approx(-1.0, abs=0.5)
+    assert fitted.error("flow_along_s0_crowded").bias == pytest.approx(-6.0, abs=0.5)
+    pooled = pf.fit(stats, ["test"])["windows"]
+    assert not has_flow_kinds(pooled) and not any(k.startswith("kflow") for k in pooled.errors)
+    assert -6.0 < pooled.error("flow_along_s0").bias < -1.0

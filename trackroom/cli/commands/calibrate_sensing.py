@@ -49,6 +49,13 @@ def add_arguments(p) -> None:
                    help="fit the correlation of the flow windows' top and bottom edge errors by kind of window (plain, "
                         "crowded) and the person's image height (the rendered window grows or shrinks as a whole; the "
                         "fourteenth fit, not bundled)")
+    p.add_argument("--border", action="store_true",
+                   help="fit the flow windows of a person cut by the image border that stop short of it: how often "
+                        "and for how long by side and image velocity, the gap, and their flow falling behind the "
+                        "person's (the fifteenth fit)")
+    p.add_argument("--flow-by-kind", action="store_true",
+                   help="fit the flow windows' flow errors per kind of window too (plain, crowded, cut by a box: the "
+                        "rendered crowded windows' flow falls far shorter; the sixteenth fit)")
     p.add_argument("--flow-persist", action="store_true",
                    help="fit the flow windows' flow errors as persisting on two time scales (a slow and a fast part: "
                         "the rendered flow detector's long shortfalls; the eleventh fit, not bundled)")
@@ -130,7 +137,8 @@ def run(args) -> int:
         print(f"measured {d}", flush=True)
     rendered = pf.merge_stats([m[-1] for m in measured])
     model = pf.fit(rendered, names, crowded=not args.pooled_edges, flow_persist=args.flow_persist, by_height=args.by_height,
-                   edge_corr=args.edge_corr)
+                   edge_corr=args.edge_corr, border=args.border,
+                   flow_by_kind=args.flow_by_kind)
     if args.only:
         from trackroom.sim.perception_model import DETECTORS, ModelError, load_model
 
@@ -215,6 +223,10 @@ def parameter_text(model) -> str:
             lines.append("      top/bottom edge correlation by image height (bins at "
                          + ", ".join(f"{h:g}" for h in c.heights) + " px): "
                          + "; ".join(f"{k} " + " ".join(f"{r:+.2f}" for r in v) for k, v in c.rho.items()))
+        if m.border is not None:
+            b = m.border
+            lines.append(f"      border-cut windows stopping short: P {float(b.short.p.min()):.3f}-{float(b.short.p.max()):.3f} "
+                         f"(stay {b.stay:.3f}), flow gain left {b.gain[0]:.2f} right {b.gain[1]:.2f}")
         if m.tail is not None:
             t = m.tail
             starts = " ".join(f"{v:.2g}" for v in t.start.p.ravel())
