@@ -300,8 +300,9 @@ def has_flow_frame(m) -> bool:
 # the kinds of window whose flow errors a model fitted with ``flow_by_kind`` (the sixteenth fit)
 # draws from tables of their own (``flow_kind``): rendered development 110-114, own windows under
 # 40 px/s, the horizontal flow's robust sigma against the person's image velocity is 1.8 px/s for
-# plain windows inside the image, 4.3 crowded, 1.5 cut by a box, and the border-cut ones follow
-# their person at a gain of 0.7-0.8 (``Border``): one pooled table gave every window the mixture
+# plain windows inside the image, 4.3 crowded, 1.5 cut by a box; the flow of the border-cut ones
+# follows their person at a gain of 0.7-0.8 (100-159; lower where the window stops short of the
+# border, ``perception_model.Border``): one pooled table gave every window the mixture
 FLOW_KINDS = ("", "_crowded", "_cut", "_border")
 
 

@@ -333,10 +333,10 @@ def _measure_windows(s: DetectorStats, cam, g, frac, boxes, head):
                 s.errors[f"flow_along_s{k}"].append(float(ef @ d))
                 s.flow_seq.append((cam.name, p, f, float(ef @ d)))
                 s.errors[f"flow_across_s{k}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
-                kind = flow_kind(tag, g.span[f, p, 0] <= 0.0 or g.span[f, p, 1] >= cam.width)  # (``fit``'s flow_by_kind)
+                left, right = g.span[f, p, 0] <= 0.0, g.span[f, p, 1] >= cam.width  # the image border cuts the person
+                kind = flow_kind(tag, left or right)  # (``fit``'s flow_by_kind)
                 s.errors[f"kflow_along_s{k}{kind}"].append(float(ef @ d))
                 s.errors[f"kflow_across_s{k}{kind}"].append(float(ef[1] * d[0] - ef[0] * d[1]))
-                left, right = g.span[f, p, 0] <= 0.0, g.span[f, p, 1] >= cam.width
                 if left != right:
                     gap = W[rr, 0] if left else cam.width - W[rr, 1]
                     s.border.append((int(right), float(gap), float(fl[rr, 0]), float(g.flow[f, p, 0]), float(speed[f, p]),
