@@ -467,7 +467,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
     cut = np.asarray(out_cut, bool).reshape(n, 2)
     edges[cut[:, 0], 0] = 0.0
     edges[cut[:, 1], 1] = cam.width
-    true_flow = flow.copy()
+    true_flow = flow.copy() if m.border is not None else None  # the people's own flow, for ``border_short``
     if has_flow_frame(m):  # along and across the people's image velocity, by its speed
         k, d = flow_frame(flow)
         along, across = np.zeros(n), np.zeros(n)

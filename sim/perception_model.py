@@ -299,7 +299,8 @@ class Tail:
 # (windows) the bins of a border-cut window's P(short): the cut side (left / right) and the
 # person's horizontal image velocity (px/s): on rendered development 100-159 the windows stopping
 # short are mostly of people moving left fast (left border, leaving at over 40 px/s: 32-52 %;
-# right border, entering: 9-21 %; against 0-3 % moving right) or barely moving (6-18 %)
+# right border, entering: 9-21 %; against 0-3 % moving right at 10 px/s or more) or standing
+# (within 5 px/s: 15-18 %)
 BORDER_EDGES = [[-math.inf, 0.5, math.inf], [-math.inf, -40.0, -10.0, 10.0, 40.0, math.inf]]
 
 

@@ -52,10 +52,11 @@ def add_arguments(p) -> None:
     p.add_argument("--border", action="store_true",
                    help="fit the flow windows of a person cut by the image border that stop short of it: how often "
                         "and for how long by side and image velocity, the gap, and their flow falling behind the "
-                        "person's (the fifteenth fit)")
+                        "person's (the fifteenth fit, not bundled)")
     p.add_argument("--flow-by-kind", action="store_true",
-                   help="fit the flow windows' flow errors per kind of window too (plain, crowded, cut by a box: the "
-                        "rendered crowded windows' flow falls far shorter; the sixteenth fit)")
+                   help="fit the flow windows' flow errors per kind of window too (plain, crowded, cut by a box, cut by "
+                        "the image border: the rendered crowded windows' flow falls far shorter; the sixteenth fit, not "
+                        "bundled)")
     p.add_argument("--flow-persist", action="store_true",
                    help="fit the flow windows' flow errors as persisting on two time scales (a slow and a fast part: "
                         "the rendered flow detector's long shortfalls; the eleventh fit, not bundled)")
