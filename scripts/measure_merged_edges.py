@@ -16,7 +16,10 @@ member's ``edge_sigma``.
 
 Printed, for windows of one member and of two or more: the number of edges, the median, the
 robust sigma (1.4826 MAD) and the standard deviation of the errors in ``edge_sigma`` units, and
-the median and robust sigma in px. The truth is read here, by the experimenter (issue 12's
+the median and robust sigma in px; and how the errors persist from frame to frame: the number of
+edges also measured in the next frame (the same camera track's same side, of the same kind),
+the rank correlation of the two errors and the sd of their change (errors independent from frame
+to frame: 0 and sqrt(2) sd; a Kalman filter takes an edge's change between frames as motion). The truth is read here, by the experimenter (issue 12's
 eighty-fourth session: is the merged edges' doubled noise what the windows show?).
 """
 from __future__ import annotations
@@ -82,20 +85,39 @@ def recording_edges(folder: str) -> pd.DataFrame:
             continue
         win = geo.cylinder_window(Ps[c], xy, cfg.height, cfg.radius)[:, :2]
         vis = np.asarray(occ.visible_many(c, xy, whole=True), bool)
-        for n, side, err, w in edge_errors(win, vis, g[["u_left", "u_right"]].to_numpy(float), float(rec.calibration.cameras[c].width)):
-            sigma = edge_noise(cfg.box_sigma_px, cfg.edge_sigma_frac, w)
-            rows.append((folder, float(t), c, n, side, err, err / sigma))
-    return pd.DataFrame(rows, columns=["recording", "t", "camera", "members", "side", "err_px", "z"])
+        width = float(rec.calibration.cameras[c].width)
+        for track, lr in zip(g["track"].to_numpy(), g[["u_left", "u_right"]].to_numpy(float)):
+            for n, side, err, w in edge_errors(win, vis, lr[None], width):
+                sigma = edge_noise(cfg.box_sigma_px, cfg.edge_sigma_frac, w)
+                rows.append((folder, float(t), c, int(track), n, side, err, err / sigma))
+    return pd.DataFrame(rows, columns=["recording", "t", "camera", "track", "members", "side", "err_px", "z"])
+
+
+def lag_pairs(edges: pd.DataFrame, dt: float = 0.1) -> pd.DataFrame:
+    """The same edge (recording, camera, camera track, side, one member or more) in two frames
+    ``dt`` apart: columns z0 (the earlier frame's error in ``edge_sigma`` units), z1 and kind."""
+    e = edges.assign(kind=np.where(edges["members"] >= 2, "two or more", "one"), tk=np.round(edges["t"] / dt).astype(int))
+    keys = ["recording", "camera", "track", "side", "kind"]
+    nxt = e.assign(tk=e["tk"] - 1)[keys + ["tk", "z"]]
+    return e[keys + ["tk", "z"]].merge(nxt, on=keys + ["tk"], suffixes=("0", "1"))
 
 
 def summarise(edges: pd.DataFrame) -> pd.DataFrame:
     """Per window kind (one member, two or more): edges, median / robust sigma / sd of ``z``, and
     median / robust sigma of the error in px."""
     kind = np.where(edges["members"] >= 2, "two or more", "one")
+    pairs = lag_pairs(edges) if {"recording", "camera", "track", "side"} <= set(edges.columns) else None
     rows = []
     for k, g in edges.groupby(kind):
-        rows.append({"members": k, "edges": len(g), "z_median": g["z"].median(), "z_robust_sigma": robust_sigma(g["z"]),
-                     "z_sd": g["z"].std(), "px_median": g["err_px"].median(), "px_robust_sigma": robust_sigma(g["err_px"])})
+        row = {"members": k, "edges": len(g), "z_median": g["z"].median(), "z_robust_sigma": robust_sigma(g["z"]),
+               "z_sd": g["z"].std(), "px_median": g["err_px"].median(), "px_robust_sigma": robust_sigma(g["err_px"])}
+        if pairs is not None:
+            pk = pairs[pairs["kind"] == k]
+            row["next_frame_pairs"] = len(pk)
+            # Spearman's rank correlation: the errors' tails are heavy
+            row["next_frame_r"] = float(pk["z0"].corr(pk["z1"], method="spearman")) if len(pk) > 2 else float("nan")
+            row["change_sd"] = float((pk["z1"] - pk["z0"]).std()) if len(pk) > 2 else float("nan")
+        rows.append(row)
     return pd.DataFrame(rows)
 
 

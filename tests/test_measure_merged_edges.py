@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scripts.measure_merged_edges import edge_errors, summarise
+from scripts.measure_merged_edges import edge_errors, lag_pairs, summarise
 
 W = 320.0
 
@@ -40,3 +40,27 @@ def test_summary_per_window_kind():
     assert list(s.index) == ["one", "two or more"]
     assert s.loc["one", "edges"] == 4000
     assert abs(s.loc["one", "z_robust_sigma"] - 1.0) < 0.05 and abs(s.loc["two or more", "z_robust_sigma"] - 2.0) < 0.1
+
+
+def test_the_same_edge_in_the_next_frame_is_paired_and_its_persistence_measured():
+    """An edge is paired with the same camera track's same side in the frame after, of the same
+    kind (one member, or more); errors that persist (an AR(1) of coefficient 0.8) give a rank
+    correlation near 0.8 and a frame-to-frame change of sd sqrt(2 (1 - 0.8)), independent ones
+    near 0 and sqrt(2)."""
+    rng = np.random.default_rng(1)
+    n = 4000
+    ar = np.empty(n)
+    ar[0] = rng.normal()
+    for k in range(1, n):
+        ar[k] = 0.8 * ar[k - 1] + np.sqrt(1 - 0.8**2) * rng.normal()
+    t = np.round(0.1 * np.arange(1, n + 1), 1)
+    common = {"recording": "r", "camera": "obl_ne", "side": "left", "t": np.r_[t, t]}
+    edges = pd.DataFrame({**common, "track": [0] * n + [1] * n, "members": [2] * n + [1] * n,
+                          "z": np.r_[ar, rng.normal(size=n)], "err_px": 0.0})
+    # a right edge in the same frames is another edge, and a frame missing breaks the pair
+    edges = pd.concat([edges, edges.iloc[:3].assign(side="right")], ignore_index=True).drop(index=[10])
+    pairs = lag_pairs(edges)
+    assert len(pairs) == 2 * (n - 1) - 2 + 2
+    s = summarise(edges).set_index("members")
+    assert abs(s.loc["two or more", "next_frame_r"] - 0.8) < 0.05 and abs(s.loc["one", "next_frame_r"]) < 0.05
+    assert abs(s.loc["two or more", "change_sd"] - np.sqrt(0.4)) < 0.05 and abs(s.loc["one", "change_sd"] - np.sqrt(2)) < 0.1
