@@ -12,7 +12,12 @@ error squared e^T S^-1 e of the position and of the velocity: a consistent filte
 (chi^2 with 2 degrees of freedom; median 1.39). Also by the target's true turn rate (frames
 within 0.5 s of a turn), and, for each kind of update the track took (a window's centroid
 plane, an edge plane, a flow), the true measurement error against the sigma the tracker gave
-it: mean z^2 is 1 for a calibrated sigma. The truth is read here, by the experimenter.
+it: mean z^2 is 1 for a calibrated sigma. And the whiteness of the track's own centroid-plane
+innovations (a window of the track alone: the column's plane against the prediction, over its
+predicted sd): their mean square (1 for a consistent filter) and the correlation of one camera's
+innovation with the same camera's in the next frame (0 for a filter whose model of the
+measurements and the motion is right: persistent window errors, or a filter that reacts too
+little, make it positive). The truth is read here, by the experimenter.
 """
 import numpy as np
 
@@ -33,12 +38,15 @@ class Probe:
         self.t = 0.0
         self.frames: list = []  # (NEES position, NEES velocity, position error, reported sd, along-track error, turn rate)
         self.updates: list = []  # (kind, z = true error / sigma)
+        self.innovations: list = []  # (recording, camera, frame, innovation / its predicted sd) of the target track's own centroid planes
+        self.frame, self.rec = 0, 0
         JT = tp_joint.JointTracker
         self.orig = JT.step, JT.update_plane, JT.update_flow
         probe = self
 
         def step(jt, tracks, frame, dt, *args):
             probe.t += dt
+            probe.frame += 1
             out = probe.orig[0](jt, tracks, frame, dt, *args)
             x = probe.now()
             for tr in tracks:
@@ -57,6 +65,9 @@ class Probe:
                 if row is not None:
                     a, b, g = row
                     probe.updates.append(("edge plane" if offset_sign else "centroid plane", float(b - a @ x[:2]) / (sigma_px / g)))
+                    if not offset_sign and kw.get("own", True) and kw.get("weight", 1.0) == 1.0:
+                        sy = float(a @ tr.S[:2, :2] @ a) + (sigma_px / g) ** 2
+                        probe.innovations.append((probe.rec, c, probe.frame, float(b - a @ tr.s[:2]) / np.sqrt(sy)))
             return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign, **kw)
 
         def update_flow(jt, tr, c, p, flow, extra_var=0.0, **kw):
@@ -86,7 +97,21 @@ class Probe:
         turn = np.convolve(turn, np.ones(2 * k + 1) / (2 * k + 1), mode="same")  # within 0.5 s of a turn
         self.truth = {round(float(a), 2): np.r_[p, q, w] for a, p, q, w in zip(t, xy, v, turn)}
         self.t = 0.0
+        self.rec += 1
         ts.run_target(rec, params)
+
+
+def whiteness(innovations: list) -> tuple[int, float, float, int]:
+    """(count, mean square, lag-one correlation, pairs) of normalised innovations given as
+    (recording, camera, frame, z): the correlation of z with the same recording's and camera's
+    z in the next frame (NaN with fewer than three pairs)."""
+    if not innovations:
+        return 0, float("nan"), float("nan"), 0
+    z = {(r, c, k): v for r, c, k, v in innovations}
+    pairs = np.array([(v, z[(r, c, k + 1)]) for (r, c, k), v in z.items() if (r, c, k + 1) in z]).reshape(-1, 2)
+    vals = np.array(list(z.values()))
+    rho = float(np.corrcoef(pairs[:, 0], pairs[:, 1])[0, 1]) if len(pairs) > 2 else float("nan")
+    return len(vals), float(np.mean(vals**2)), rho, len(pairs)
 
 
 def main(argv=None) -> int:
@@ -112,6 +137,10 @@ def main(argv=None) -> int:
         if m.any():
             print(f"  turn rate {lo:g}-{hi:g} rad/s: {m.sum()} frames, error median {np.median(f[m, 2]):.3f} m, q90 {np.quantile(f[m, 2], 0.9):.3f} m, "
                   f"NEES position mean {f[m, 0].mean():.1f}")
+    n, ms, rho, npairs = whiteness(probe.innovations)
+    if n:
+        print(f"  own centroid-plane innovations {n}: mean square {ms:.2f} (1 if consistent), correlation with the same camera's "
+              f"next frame {rho:+.2f} over {npairs} pairs (0 if white)")
     kinds = sorted({k for k, _ in probe.updates})
     for kind in kinds:
         z = np.array([v for k, v in probe.updates if k == kind])

@@ -74,7 +74,31 @@ def test_the_consistency_probe_reads_the_target_track_and_puts_the_tracker_back(
     assert mc.main([str(out)]) == 0
     text = capsys.readouterr().out
     assert "NEES position mean" in text and "centroid plane updates" in text and "flow updates" in text
+    assert "own centroid-plane innovations" in text
     assert (tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow) == before
+
+
+def test_innovations_whiteness_pairs_one_camera_frame_by_frame():
+    """``measure_tp_consistency.whiteness``: innovations that persist (an AR(1) of coefficient 0.8)
+    give a lag-one correlation near 0.8, white ones near 0; a frame missing breaks a pair, and
+    another camera's or recording's innovation in the next frame is no pair."""
+    from scripts.measure_tp_consistency import whiteness
+
+    rng = np.random.default_rng(3)
+    n = 5000
+    ar = np.empty(n)
+    ar[0] = rng.normal()
+    for k in range(1, n):
+        ar[k] = 0.8 * ar[k - 1] + 0.6 * rng.normal()
+    persistent = [(0, "obl_ne", k, float(v)) for k, v in enumerate(ar)]
+    white = [(1, "obl_ne", k, float(v)) for k, v in enumerate(rng.normal(size=n))]
+    count, ms, rho, pairs = whiteness(persistent)
+    assert count == n and pairs == n - 1 and abs(ms - 1.0) < 0.1 and abs(rho - 0.8) < 0.03
+    count, ms, rho, pairs = whiteness(white)
+    assert abs(rho) < 0.04
+    gaps = [(0, "obl_ne", 0, 1.0), (0, "obl_ne", 2, 1.0), (0, "obl_se", 1, 1.0), (1, "obl_ne", 1, 1.0)]
+    assert whiteness(gaps)[3] == 0
+    assert whiteness([])[0] == 0
 
 
 def test_gain_is_the_median_flow_over_the_motion_within_the_speed_band():
