@@ -19,8 +19,9 @@ robust sigma (1.4826 MAD) and the standard deviation of the errors in ``edge_sig
 the median and robust sigma in px; and how the errors persist from frame to frame: the number of
 edges also measured in the next frame (the same camera track's same side, of the same kind),
 the rank correlation of the two errors and the sd of their change (errors independent from frame
-to frame: 0 and sqrt(2) sd; a Kalman filter takes an edge's change between frames as motion). The truth is read here, by the experimenter (issue 12's
-eighty-fourth session: is the merged edges' doubled noise what the windows show?).
+to frame: 0 and sqrt(2) sd; a Kalman filter takes an edge's change between frames as motion).
+The truth is read here, by the experimenter (issue 12's eighty-fourth session: is the merged
+edges' doubled noise what the windows show? eighty-eighth: do their errors persist?).
 """
 from __future__ import annotations
 
@@ -72,6 +73,7 @@ def recording_edges(folder: str) -> pd.DataFrame:
     cfg = TargetPlanes(initial_xy=[0.0, 0.0], **estimator_config(rec)).resolved_config(rec.calibration)
     cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(rec.calibration.cameras[c].P, float) for c in cams}
+    fps = {c: float(rec.calibration.cameras[c].fps) for c in cams}
     occ = Occluders(rec.calibration.floorplan, Ps, cfg.height)
     boxes = rec.observations["boxes"]
     times = np.sort(boxes["t"].unique())
@@ -89,14 +91,15 @@ def recording_edges(folder: str) -> pd.DataFrame:
         for track, lr in zip(g["track"].to_numpy(), g[["u_left", "u_right"]].to_numpy(float)):
             for n, side, err, w in edge_errors(win, vis, lr[None], width):
                 sigma = edge_noise(cfg.box_sigma_px, cfg.edge_sigma_frac, w)
-                rows.append((folder, float(t), c, int(track), n, side, err, err / sigma))
-    return pd.DataFrame(rows, columns=["recording", "t", "camera", "track", "members", "side", "err_px", "z"])
+                rows.append((folder, float(t), int(round(float(t) * fps[c])), c, int(track), n, side, err, err / sigma))
+    return pd.DataFrame(rows, columns=["recording", "t", "frame", "camera", "track", "members", "side", "err_px", "z"])
 
 
-def lag_pairs(edges: pd.DataFrame, dt: float = 0.1) -> pd.DataFrame:
-    """The same edge (recording, camera, camera track, side, one member or more) in two frames
-    ``dt`` apart: columns z0 (the earlier frame's error in ``edge_sigma`` units), z1 and kind."""
-    e = edges.assign(kind=np.where(edges["members"] >= 2, "two or more", "one"), tk=np.round(edges["t"] / dt).astype(int))
+def lag_pairs(edges: pd.DataFrame) -> pd.DataFrame:
+    """The same edge (recording, camera, camera track, side, one member or more) in two
+    consecutive frames (``frame``: the camera's frame number): columns z0 (the earlier frame's
+    error in ``edge_sigma`` units), z1 and kind."""
+    e = edges.assign(kind=np.where(edges["members"] >= 2, "two or more", "one"), tk=edges["frame"].astype(int))
     keys = ["recording", "camera", "track", "side", "kind"]
     nxt = e.assign(tk=e["tk"] - 1)[keys + ["tk", "z"]]
     return e[keys + ["tk", "z"]].merge(nxt, on=keys + ["tk"], suffixes=("0", "1"))
@@ -106,7 +109,7 @@ def summarise(edges: pd.DataFrame) -> pd.DataFrame:
     """Per window kind (one member, two or more): edges, median / robust sigma / sd of ``z``, and
     median / robust sigma of the error in px."""
     kind = np.where(edges["members"] >= 2, "two or more", "one")
-    pairs = lag_pairs(edges) if {"recording", "camera", "track", "side"} <= set(edges.columns) else None
+    pairs = lag_pairs(edges) if {"recording", "frame", "camera", "track", "side"} <= set(edges.columns) else None
     rows = []
     for k, g in edges.groupby(kind):
         row = {"members": k, "edges": len(g), "z_median": g["z"].median(), "z_robust_sigma": robust_sigma(g["z"]),

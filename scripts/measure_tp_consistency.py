@@ -13,8 +13,8 @@ error squared e^T S^-1 e of the position and of the velocity: a consistent filte
 within 0.5 s of a turn), and, for each kind of update the track took (a window's centroid
 plane, an edge plane, a flow), the true measurement error against the sigma the tracker gave
 it: mean z^2 is 1 for a calibrated sigma. And the whiteness of the track's own centroid-plane
-innovations (a window of the track alone: the column's plane against the prediction, over its
-predicted sd): their mean square (1 for a consistent filter) and the correlation of one camera's
+innovations (a window of the track alone: the column's plane against the state before that
+update, over the innovation's predicted sd): their mean square (1 for a consistent filter) and the correlation of one camera's
 innovation with the same camera's in the next frame (0 for a filter whose model of the
 measurements and the motion is right: persistent window errors, or a filter that reacts too
 little, make it positive). The truth is read here, by the experimenter.

@@ -54,7 +54,7 @@ def test_the_same_edge_in_the_next_frame_is_paired_and_its_persistence_measured(
     for k in range(1, n):
         ar[k] = 0.8 * ar[k - 1] + np.sqrt(1 - 0.8**2) * rng.normal()
     t = np.round(0.1 * np.arange(1, n + 1), 1)
-    common = {"recording": "r", "camera": "obl_ne", "side": "left", "t": np.r_[t, t]}
+    common = {"recording": "r", "camera": "obl_ne", "side": "left", "t": np.r_[t, t], "frame": np.r_[np.arange(1, n + 1), np.arange(1, n + 1)]}
     edges = pd.DataFrame({**common, "track": [0] * n + [1] * n, "members": [2] * n + [1] * n,
                           "z": np.r_[ar, rng.normal(size=n)], "err_px": 0.0})
     # a right edge in the same frames is another edge, and a frame missing breaks the pair
