@@ -95,11 +95,16 @@ def recording_edges(folder: str) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["recording", "t", "frame", "camera", "track", "members", "side", "err_px", "z"])
 
 
+def window_kind(members) -> np.ndarray:
+    """Each edge's kind of window by its members' count: "one" or "two or more"."""
+    return np.where(np.asarray(members) >= 2, "two or more", "one")
+
+
 def lag_pairs(edges: pd.DataFrame) -> pd.DataFrame:
     """The same edge (recording, camera, camera track, side, one member or more) in two
     consecutive frames (``frame``: the camera's frame number): columns z0 (the earlier frame's
     error in ``edge_sigma`` units), z1 and kind."""
-    e = edges.assign(kind=np.where(edges["members"] >= 2, "two or more", "one"), tk=edges["frame"].astype(int))
+    e = edges.assign(kind=window_kind(edges["members"]), tk=edges["frame"].astype(int))
     keys = ["recording", "camera", "track", "side", "kind"]
     nxt = e.assign(tk=e["tk"] - 1)[keys + ["tk", "z"]]
     return e[keys + ["tk", "z"]].merge(nxt, on=keys + ["tk"], suffixes=("0", "1"))
@@ -108,7 +113,7 @@ def lag_pairs(edges: pd.DataFrame) -> pd.DataFrame:
 def summarise(edges: pd.DataFrame) -> pd.DataFrame:
     """Per window kind (one member, two or more): edges, median / robust sigma / sd of ``z``, and
     median / robust sigma of the error in px."""
-    kind = np.where(edges["members"] >= 2, "two or more", "one")
+    kind = window_kind(edges["members"])
     pairs = lag_pairs(edges) if {"recording", "frame", "camera", "track", "side"} <= set(edges.columns) else None
     rows = []
     for k, g in edges.groupby(kind):

@@ -472,7 +472,7 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
         k, d = flow_frame(flow)
         along, across = np.zeros(n), np.zeros(n)
         if flow_kinds:
-            kinds = np.asarray([flow_kind(t, c[0] or c[1]) for t, c in zip(out_k, out_cut)], dtype=object)
+            kinds = np.asarray([flow_kind(tag, c[0] or c[1]) for tag, c in zip(out_k, out_cut)], dtype=object)
         else:
             kinds = np.full(n, "", dtype=object)
         for b in np.unique(k):
@@ -505,14 +505,13 @@ def windows(cam: Camera, g, frac: np.ndarray, t: np.ndarray, m: DetectorModel, r
 
 
 def border_short(rng: np.random.Generator, m: DetectorModel, width: float, f: np.ndarray, pp: np.ndarray, cut: np.ndarray,
-                 single: np.ndarray, true_flow: np.ndarray, edges: np.ndarray, flow: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+                 single: np.ndarray, true_flow: np.ndarray, edges: np.ndarray, flow: np.ndarray, shape: tuple[int, int]) -> None:
     """Which windows stop short of the image border that cuts their person (``m.border``,
     ``perception_model.Border``), in place: windows of one person (``single``) cut by one border
     (``cut`` (n, 2): left, right) stop short in runs (``run_events`` per person over the frames
     ``f``, people ``pp``, ``shape`` (F, P)); a short window's cut edge moves ``border_gap_<side>``
     inside the image (a window left with no width is dropped later) and its horizontal flow
-    becomes ``gain`` times the person's (``true_flow``) plus ``border_flow_<side>``. Returns the
-    short windows' mask."""
+    becomes ``gain`` times the person's (``true_flow``) plus ``border_flow_<side>``."""
     b = m.border
     side = np.where(cut[:, 0], 0, 1)
     on = single & (cut[:, 0] != cut[:, 1])
@@ -528,7 +527,6 @@ def border_short(rng: np.random.Generator, m: DetectorModel, width: float, f: np
         flow[s, 0] = b.gain[k] * true_flow[s, 0] + m.error(f"border_flow_{name}").at(u_flow[s])
     gone = short & (edges[:, 1] <= edges[:, 0])
     edges[gone] = 0.0
-    return short
 
 
 def _episode_frames(start: np.ndarray, life: np.ndarray, n_frames: int):
