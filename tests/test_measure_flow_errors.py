@@ -74,7 +74,8 @@ def test_the_consistency_probe_reads_the_target_track_and_puts_the_tracker_back(
     assert mc.main([str(out)]) == 0
     text = capsys.readouterr().out
     assert "NEES position mean" in text and "centroid plane updates" in text and "flow updates" in text
-    assert "own centroid-plane innovations" in text
+    assert "own centroid-plane innovations" in text and "along-track offset (least squares)" in text
+    assert "along-track velocity error median" in text
     assert (tp_joint.JointTracker.step, tp_joint.JointTracker.update_plane, tp_joint.JointTracker.update_flow) == before
 
 
@@ -99,6 +100,22 @@ def test_innovations_whiteness_pairs_one_camera_frame_by_frame():
     gaps = [(0, "obl_ne", 0, 1.0), (0, "obl_ne", 2, 1.0), (0, "obl_se", 1, 1.0), (1, "obl_ne", 1, 1.0)]
     assert whiteness(gaps)[3] == 0
     assert whiteness([])[0] == 0
+
+
+def test_along_offset_recovers_a_lag_from_displacements_along_the_plane_normals():
+    """``measure_tp_consistency.along_offset``: planes displaced by (a . m) L plus noise, at every
+    angle to the motion, give L back; planes that lag by 0.06 m against states on the truth tell
+    the two apart; planes parallel to the motion (a . m = 0) say nothing."""
+    from scripts.measure_tp_consistency import along_offset
+
+    rng = np.random.default_rng(5)
+    c = np.cos(rng.uniform(0.0, np.pi, 4000))
+    planes = -0.06 * c + rng.normal(0.0, 0.03, c.size)
+    states = rng.normal(0.0, 0.01, c.size)
+    n, lw, ls = along_offset(list(zip(c, planes, states)))
+    assert n == 4000 and lw == pytest.approx(-0.06, abs=0.003) and abs(ls) < 0.002
+    assert np.isnan(along_offset([(0.0, 0.1, 0.2)])[1])
+    assert along_offset([])[0] == 0
 
 
 def test_gain_is_the_median_flow_over_the_motion_within_the_speed_band():
