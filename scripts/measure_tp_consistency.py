@@ -73,12 +73,13 @@ class Probe:
                 if row is not None:
                     a, b, g = row
                     probe.updates.append(("edge plane" if offset_sign else "centroid plane", float(b - a @ x[:2]) / (sigma_px / g)))
-                    speed = float(np.linalg.norm(x[2:4]))
-                    if not offset_sign and speed > 0.5:
-                        probe.along.append((float(a @ x[2:4]) / speed, float(b - a @ x[:2]), float(a @ (tr.s[:2] - x[:2]))))
-                    if not offset_sign and kw.get("own", True) and kw.get("weight", 1.0) == 1.0:
-                        sy = float(a @ tr.S[:2, :2] @ a) + (sigma_px / g) ** 2
-                        probe.innovations.append((probe.rec, c, probe.frame, float(b - a @ tr.s[:2]) / np.sqrt(sy)))
+                    if not offset_sign:
+                        speed = float(np.linalg.norm(x[2:4]))
+                        if speed > 0.5:
+                            probe.along.append((float(a @ x[2:4]) / speed, float(b - a @ x[:2]), float(a @ (tr.s[:2] - x[:2]))))
+                        if kw.get("own", True) and kw.get("weight", 1.0) == 1.0:
+                            sy = float(a @ tr.S[:2, :2] @ a) + (sigma_px / g) ** 2
+                            probe.innovations.append((probe.rec, c, probe.frame, float(b - a @ tr.s[:2]) / np.sqrt(sy)))
             return probe.orig[1](jt, tr, c, p, u, sigma_px, offset_sign, **kw)
 
         def update_flow(jt, tr, c, p, flow, extra_var=0.0, **kw):
