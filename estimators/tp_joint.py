@@ -82,7 +82,8 @@ Per frame:
    seen twice; with ``dup_prior`` only if their predicted states, before the frame's updates,
    were alike too: two people pulled together by one frame's updates are two; with
    ``dup_velocity`` only if their velocity difference is likelier for one person than for two:
-   ``one_velocity``); with ``wall_stops`` a track no window explained this frame and predicted
+   ``one_velocity``; with ``dup_standing`` a track likelier standing is compared at its standing
+   mode, ``duplicate_state``); with ``wall_stops`` a track no window explained this frame and predicted
    closer than ``radius`` to a wall, or through it, stopped or turned there: it is moved onto the
    line ``radius`` inside the wall along its own uncertainty (``against_wall``); a track still
    off the floor plan (windows put it there) is dropped, except the hand-chosen target's, which
@@ -191,6 +192,18 @@ def alike(sa: np.ndarray, Sa: np.ndarray, sb: np.ndarray, Sb: np.ndarray, radius
     the 99 % level (``DUPLICATE``; ``JointTracker.prune``)."""
     d = sa - sb
     return float(np.linalg.norm(d[:2])) < 2 * radius and float(d @ np.linalg.solve(Sa + Sb, d)) < DUPLICATE
+
+
+def duplicate_state(tr: "JointTrack", standing_mode: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The state (s, S) the duplicate test compares for track ``tr``: its walking state, or with
+    ``standing_mode`` (``dup_standing``), for a track likelier standing (mu >= 0.5), its standing
+    mode - the standing position and covariance, velocity zero (a floor of 1e-6 (m/s)^2 keeps the
+    sum of two standing tracks' covariances invertible)."""
+    if not (standing_mode and tr.mu >= 0.5 and tr.xs is not None):
+        return tr.s, tr.S
+    S = np.diag([0.0, 0.0, 1e-6, 1e-6])
+    S[:2, :2] = tr.Ps
+    return np.array([tr.xs[0], tr.xs[1], 0.0, 0.0]), S
 
 
 def one_velocity(dv: np.ndarray, Sv: np.ndarray, sigma_v: float) -> bool:
@@ -1872,7 +1885,8 @@ class JointTracker:
         for ``hold_s`` or off the floor plan, and the younger of two tracks nearer than 2
         ``radius`` with states alike (two bodies cannot be: one person seen twice; with
         ``dup_prior``, alike as predicted for this frame too; with ``dup_velocity``, their
-        velocity difference likelier for one person than for two, ``one_velocity``); never the
+        velocity difference likelier for one person than for two, ``one_velocity``; with
+        ``dup_standing``, a track likelier standing at its standing mode, ``duplicate_state``); never the
         track ``keep`` (the hand-chosen target), which is put back on the floor plan when it left
         it (``onto_floor``). With ``wall_stops`` a track no window explained this frame is first
         held ``radius`` inside the walls (``against_wall``)."""
@@ -1901,11 +1915,12 @@ class JointTracker:
         for a, b in itertools.combinations(out, 2):
             if a.tid in drop or b.tid in drop:
                 continue
-            if not alike(a.s, a.S, b.s, b.S, cfg.radius):
+            (sa, Sa), (sb, Sb) = duplicate_state(a, cfg.dup_standing), duplicate_state(b, cfg.dup_standing)
+            if not alike(sa, Sa, sb, Sb, cfg.radius):
                 continue
             if cfg.dup_prior and a.prior is not None and b.prior is not None and not alike(*a.prior, *b.prior, cfg.radius):
                 continue  # apart as predicted: two people brought together by this frame's updates
-            if cfg.dup_velocity and not one_velocity(a.s[2:] - b.s[2:], a.S[2:, 2:] + b.S[2:, 2:], 0.5 * cfg.max_speed):
+            if cfg.dup_velocity and not one_velocity(sa[2:] - sb[2:], Sa[2:, 2:] + Sb[2:, 2:], 0.5 * cfg.max_speed):
                 continue  # their velocities say two people passing, not one seen twice
             young = b if (b.tid != keep and (a.tid == keep or (a.confirmed, a.hits) >= (b.confirmed, b.hits))) else a
             if young.tid != keep:

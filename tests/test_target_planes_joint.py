@@ -1505,6 +1505,30 @@ def test_two_uncertain_tracks_passing_head_on_are_two_people(dup_velocity, dv, d
     assert [e[1] for e in jt.ends] == (["duplicate"] if dropped else [])
 
 
+@pytest.mark.parametrize("dup_standing, mu, dropped", [(False, 0.8, True), (True, 0.8, False), (True, 0.3, True)])
+def test_a_walker_passing_a_standing_track_is_two_people(dup_standing, mu, dropped):
+    """``dup_standing``: track 2 (the look-alike's, younger) stands (standing probability 0.8, its
+    standing position 0.05 m sure) by the north wall; no camera has told its modes apart for a
+    second, so its walking state has spread (0.3 m, 0.6 m/s, its velocity decayed to 0.1 m/s).
+    The target's track 1 walks past 0.35 m from it at 0.4 m/s (rendered 3703 at 30.8 s). On the
+    walking states they are alike and the look-alike's track is dropped as a duplicate; at the
+    standing mode a walker at 0.4 m/s (sd 0.1) is not someone standing, and both are kept. A
+    track likelier walking is compared on its walking state as before."""
+    from trackroom.estimators.tp_joint import duplicate_state
+    cams = four_cameras()
+    cfg, jt = _tracker(cams, dup_standing=dup_standing)
+    a = JointTrack(1, np.r_[3.05, 6.38, 0.3, 0.27], np.diag([0.04**2, 0.04**2, 0.1**2, 0.1**2]), confirmed=True,
+                   seen=True, hits=300, exist=EXIST_ACCEPT)
+    b = JointTrack(2, np.r_[2.91, 6.70, 0.1, 0.1], np.diag([0.3**2, 0.3**2, 0.6**2, 0.6**2]), confirmed=True,
+                   seen=False, hits=200, exist=1.0, mu=mu, xs=np.r_[2.91, 6.70], Ps=np.diag([0.05**2, 0.05**2]))
+    a.prior, b.prior = (a.s.copy(), a.S.copy()), (b.s.copy(), b.S.copy())
+    s, S = duplicate_state(b, dup_standing)
+    assert (s[2:] == 0.0).all() == (dup_standing and mu >= 0.5)
+    kept = jt.prune([a, b], None, lambda xy: np.ones(len(xy), bool))
+    assert [tr.tid for tr in kept] == ([1] if dropped else [1, 2])
+    assert [e[1] for e in jt.ends] == (["duplicate"] if dropped else [])
+
+
 def test_a_walker_the_floor_plan_hides_misses_for_free_in_the_explanation():
     """``hidden_miss``: a confirmed walking track located by two or more views (mode planes),
     behind a box taller than a person, pays nothing in the joint explanation for having no window
