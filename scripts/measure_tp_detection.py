@@ -25,6 +25,16 @@ apart from the other mover: how a flow tracker's windows fade as a person comes 
 100-105: slowing, 0.46 under 0.1 m/s, 0.81 at 0.1-0.2, 0.88 at 0.2-0.4, 0.93 above 0.8 m/s;
 speeding up, 0.21 and 0.57 in the two slowest bands (a region needs motion to build up); standing
 (steady under 0.1 m/s) 0.035.
+
+    python scripts/measure_tp_detection.py DIR [DIR ...] --border
+
+prints instead, for a walker cut by the image border, the rate of a window overlapping the part
+of its cylinder inside the image, by that part's columns (``border_rows``: every frame the
+cylinder is at least partly inside, in the truth's field of view or not; issue 12's ninetieth
+session). Rendered development 100-109: 0 at up to 1 px, 0.09 at 1-2, 0.13 at 2-3, 0.40 at 3-4,
+0.75 at 4-6, 0.92 at 6-8, 0.99 from 8 px on (as for a walker seen whole); their analytic twins
+0.42, 0.68, 0.87, 0.84, 0.89, 0.89 and 0.93-0.96: analytic sensing gives a window to a walker with
+a few columns inside the image far more often than the rendered flow tracker.
 """
 import argparse
 
@@ -52,19 +62,26 @@ def slowing_table(df: pd.DataFrame, change: float = 0.02) -> pd.DataFrame:
     return m.groupby(["motion", "band"], observed=True).agg(n=("det", "size"), p_window=("det", "mean"), image_speed=("speed", "median"))
 
 
-def recording_rows(d, slowing: bool = False) -> list[tuple]:
-    """One row per mover, oblique camera and frame as above (walking movers only, or with
-    ``slowing`` every frame of a mover, walking or not, with its ground speed and its change over
-    the last tenth of a second)."""
-    rows = []
+def _load(d):
+    """A recording's visibility table, oblique cameras and projection matrices, the floor plan's
+    ``Occluders``, each person's truth sorted by time, and its windows by (time, camera)."""
     rec = read_recording(d)
-    ppl = rec.truth.people; vis = rec.truth.tables["visibility"]
+    vis = rec.truth.tables["visibility"]
     boxes = rec.observations["boxes"]
     bx = {k: g for k, g in boxes.groupby([boxes.t.round(6), "camera"])}
     cams = rec.calibration.cameras_of_kind("oblique")
     Ps = {c: np.asarray(cam.P, float) for c, cam in cams.items()}
     occ = Occluders(rec.calibration.floorplan, Ps, HEIGHT)
-    pp = {pid: g.sort_values("t").reset_index(drop=True) for pid, g in ppl.groupby("person_id")}
+    pp = {pid: g.sort_values("t").reset_index(drop=True) for pid, g in rec.truth.people.groupby("person_id")}
+    return vis, cams, Ps, occ, pp, bx
+
+
+def recording_rows(d, slowing: bool = False) -> list[tuple]:
+    """One row per mover, oblique camera and frame as above (walking movers only, or with
+    ``slowing`` every frame of a mover, walking or not, with its ground speed and its change over
+    the last tenth of a second)."""
+    rows = []
+    vis, cams, Ps, occ, pp, bx = _load(d)
     movers = ["target", "distractor"]
     standing = [q for q in pp if q not in movers]
     for r in vis[vis.in_fov & vis.person_id.isin(movers)].itertuples():
@@ -104,11 +121,59 @@ def recording_rows(d, slowing: bool = False) -> list[tuple]:
     return rows
 
 
+BORDER_COLUMNS = ["rec", "cam", "pid", "t", "inside_px", "det"]
+BORDER_BANDS = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, np.inf)  # px of the projected cylinder inside the image
+
+
+def border_rows(d) -> list[tuple]:
+    """``--border``: one row per walking mover, oblique camera and frame where the mover's
+    projected cylinder (the tracker's person model) lies at least in part inside the image,
+    moving at least 8 px/s, not hidden by the floor plan's boxes and apart from the other mover
+    (their cylinders' columns do not meet): the cylinder's columns inside the image (px) and
+    whether a window overlaps that part (+-3 px). Every such frame, in the camera's field of view
+    by the truth or not: the tracker knows only the cylinder."""
+    rows = []
+    vis, cams, Ps, occ, pp, bx = _load(d)
+    movers = ["target", "distractor"]
+    for r in vis[vis.person_id.isin(movers)].itertuples():
+        if r.camera not in Ps: continue
+        p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
+        if not bool(p.walking.iloc[k]): continue
+        P, cam = Ps[r.camera], cams[r.camera]
+        x, y, z, vx, vy = p[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
+        uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
+        win = geo.cylinder_window(P, np.array([x, y]), HEIGHT, RADIUS)
+        lo, hi = max(float(win[0]), 0.0), min(float(win[1]), float(cam.width))
+        if not np.isfinite(win[:2]).all() or hi <= lo or float(np.hypot(*(uv[1] - uv[0]) / 0.01)) < 8.0: continue
+        if not occ.visible(r.camera, np.array([x, y])): continue
+        o = pp[[m for m in movers if m != r.person_id][0]]
+        wo = geo.cylinder_window(P, np.array([o.x.iloc[k], o.y.iloc[k]]), HEIGHT, RADIUS)
+        if wo[0] <= win[1] and win[0] <= wo[1]: continue
+        g = bx.get((round(float(r.t), 6), r.camera))
+        det = g is not None and bool(((g.u_left.to_numpy() <= hi + 3) & (g.u_right.to_numpy() >= lo - 3)).any())
+        rows.append((d, r.camera, r.person_id, r.t, hi - lo, det))
+    return rows
+
+
+def border_table(df: pd.DataFrame) -> pd.DataFrame:
+    """P(a window) by the columns of the mover's cylinder inside the image (``BORDER_BANDS``)."""
+    band = pd.cut(df.inside_px, BORDER_BANDS)
+    return df.assign(band=band).groupby("band", observed=True).agg(n=("det", "size"), p_window=("det", "mean"))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("recordings", nargs="+", metavar="DIR")
     ap.add_argument("--slowing", action="store_true", help="also the rate of a window by ground speed, slowing, speeding up or steady")
+    ap.add_argument("--border", action="store_true", help="only the rate of a window by the columns of the mover's "
+                    "cylinder inside the image (a walker cut by the image border)")
     a = ap.parse_args(argv)
+    if a.border:
+        df = pd.DataFrame([r for d in recording_folders(a.recordings, ap.prog) for r in border_rows(d)], columns=BORDER_COLUMNS)
+        print("walking movers partly or wholly inside the image, moving >= 8 px/s, not hidden, apart from the other mover:")
+        print("P(a window overlapping the part inside) by its columns inside the image (px)")
+        print(border_table(df).round(3).to_string())
+        return 0
     rows = [r for d in recording_folders(a.recordings, ap.prog) for r in recording_rows(d, a.slowing)]
     every = pd.DataFrame(rows, columns=COLUMNS)
     df = every[every.walking]
