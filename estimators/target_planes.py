@@ -411,6 +411,15 @@ class TargetPlanes(Estimator):
                                    "alike (rendered 3703 at 30.8 s). No parameter value (the modes' own states). On "
                                    "since the ninetieth session: the 520 development recordings, no count lost, "
                                    "head-on draw-1 165 gained, false positives 1723 -> 1609 (docs/target_planes.md)")
+        border_windows: bool = param(True, "a walker cut by the image border makes a window with the flow tracker's "
+                                     "measured chance by the columns of its projected cylinder inside the image "
+                                     "(tp_joint.BORDER_WINDOW_RATE; rendered development 100-109, measure_tp_detection "
+                                     "--border: 0 at up to 1 px, 0.13 at 2-3, 0.40 at 3-4, 0.75 at 4-6, 0.92 at 6-8, "
+                                     "0.99 from 8 px on, as seen whole), in the mode posterior's and the existence "
+                                     "test's P(no window | walking): a walker leaving a view is not taken for one who "
+                                     "stopped, nor rejected, for the sliver it leaves (head-on 3701 at 22.6 s). On since "
+                                     "the ninetieth session: the 520 development recordings, no count changed "
+                                     "(docs/target_planes.md)")
         dup_velocity: bool = param(True, "two tracks alike (the duplicate test, and dup_prior's) are one person seen twice "
                                    "only if their velocity difference is at least as likely for one person (the sum "
                                    "of their velocity covariances) as for two walking independently (each with the "

@@ -97,7 +97,8 @@ Per frame:
    durations ``walk_s`` / ``stand_s``; a window of its own (or a share of a merged one that
    fits better with it than without it, ``share_fit_walks``, unless standing is the likelier
    mode: ``wake_by_own``) says it walks (mu = 0); none anywhere makes standing likelier by
-   ``p_miss`` per camera in view.
+   ``p_miss`` per camera in view (with ``border_windows``, for a walker cut by the image border,
+   by the flow tracker's measured chance of a window for its columns inside the image).
    The reported position is the mode-weighted one. A standing person makes no flow window, so a
    standing target is held where it stands instead of following someone else's windows.
 6. **Existence** (``walk_evidence``, ``existence``): a sequential test (Wald, error rates 1 %:
@@ -112,7 +113,8 @@ Per frame:
    overlapping another track) and has no window counts log P(miss), from the flow tracker's
    measured detection rate ``p_detect`` and mean miss run ``miss_run`` (a two-state chain);
    for a confirmed track located by two or more views in the last frame (``slow_misses``)
-   weighed by the chance that the walker is slower than ``mover_flow_px`` there.
+   weighed by the chance that the walker is slower than ``mover_flow_px`` there, and with
+   ``border_windows`` by its chance of a window when cut by the image border.
    The walking and standing modes are marginalised: with no window anywhere the frame's
    likelihood is (1 - mu) P(misses | walking) + mu (a standing person makes none), so a
    standing person loses nothing. A track with windows in one camera that the others should
@@ -398,6 +400,22 @@ def span_in_image(lo: float, hi: float, width: float) -> float:
     """Width (px) of the column span [lo, hi] inside an image ``width`` px wide; zero or less
     when the span lies beyond a border."""
     return min(float(hi), width) - max(float(lo), 0.0)
+
+
+# the flow tracker's chance of a window for a walker cut by the image border, against one seen
+# whole, by the columns of its projected cylinder inside the image (px, at the measured bands'
+# middles): walking movers apart from the other mover, moving at least 8 px/s, not hidden by the
+# floor plan's boxes, a window overlapping the part inside (+-3 px); rendered development
+# recordings 100-109, 14234 camera frames (``scripts/measure_tp_detection.py --border``; 0.99
+# from 8 px on, as for someone seen whole; ``border_windows``)
+BORDER_WINDOW_PX = (0.5, 1.5, 2.5, 3.5, 5.0, 7.0, 10.0)
+BORDER_WINDOW_RATE = (0.0, 0.09, 0.13, 0.40, 0.75, 0.92, 1.0)
+
+
+def border_window_rate(win: np.ndarray, width: float) -> float:
+    """``BORDER_WINDOW_RATE`` at the columns of projected cylinder ``win`` inside an image
+    ``width`` px wide (1 for one seen whole)."""
+    return float(np.interp(span_in_image(win[0], win[1], width), BORDER_WINDOW_PX, BORDER_WINDOW_RATE))
 
 
 def wholly_in_image(win: np.ndarray, width: float) -> bool:
@@ -701,7 +719,7 @@ class JointTracker:
         short = max(p.width - float(width), 0.0)
         return self.u_sigma**2 + (self.cfg.edge_sigma_frac * p.width) ** 2 + short**2 / 12.0
 
-    def miss_walk(self, p: Projection) -> float:
+    def miss_walk(self, p: Projection, c: str) -> float:
         """-log P(no window | walking) in a camera that would see the track: a walker moving at
         least ``mover_flow_px`` in this image has none with ``p_miss``; one slower makes no flow
         region. Whether it moves that fast is the walking mode's predicted image velocity
@@ -709,9 +727,14 @@ class JointTracker:
         mover_flow_px), a non-central chi-square with 2 degrees of freedom. (Deciding by the
         predicted mean alone made misses free for a track unseen for a second: its mean velocity
         decays with ``stop_tau`` while its spread does not, so the walking mode never lost to the
-        standing one and its position spread grew to ``sigma_max``.)"""
+        standing one and its position spread grew to ``sigma_max``.) With ``border_windows`` a
+        walker cut by camera c's image border has a window with 1 - ``p_miss`` times the measured
+        chance for its columns inside the image (``border_window_rate``)."""
         slow = self.p_slow(p)
-        return -float(np.log(slow + (1.0 - slow) * self.cfg.p_miss))
+        seen = 1.0 - self.cfg.p_miss
+        if self.cfg.border_windows:
+            seen *= border_window_rate(p.win, self.widths[c])
+        return -float(np.log(slow + (1.0 - slow) * (1.0 - seen)))
 
     def p_slow(self, p: Projection) -> float:
         """P(the walking mode moves slower than ``mover_flow_px`` in this image): its predicted
@@ -954,7 +977,9 @@ class JointTracker:
           into a window the explanation may have given to the other alone); then
           with the flow tracker's measured rate, its misses in runs: a two-state chain of
           stationary rate ``p_detect`` and mean miss run ``miss_run`` frames (after a frame with
-          a window P(seen) = 1 - (1 - p_detect) / (p_detect miss_run), after a miss 1 / miss_run).
+          a window P(seen) = 1 - (1 - p_detect) / (p_detect miss_run), after a miss 1 / miss_run),
+          with ``border_windows`` times the measured chance of a window for a walker cut by the
+          image border (``border_window_rate``).
         Updates ``tr.missed`` (the chain's state)."""
         cfg = self.cfg
         if hit_lr is not None:
@@ -974,6 +999,8 @@ class JointTracker:
             tr.missed.discard(c)
             return 0.0
         see = self.p_see_after_miss if c in tr.missed else self.p_see_after_hit
+        if cfg.border_windows:
+            see *= border_window_rate(p.win, self.widths[c])
         tr.missed.add(c)
         return float(np.log(max(slow + (1.0 - slow) * (1.0 - see), 1e-12)))
 
@@ -1369,7 +1396,7 @@ class JointTracker:
                 # shelf or another track, walking or standing makes no window of one's own)
                 vis = bool(visible[i])
                 if vis and not hidden and n == 0:
-                    tracks[i].log_miss -= self.miss_walk(p)
+                    tracks[i].log_miss -= self.miss_walk(p, c)
                 walk[i] += self.walk_evidence(tracks[i], c, p, lr, n > 1 or i in in_wide, hidden, vis, merged_lr)
                 hit[i] |= n == 1
                 # a share that fits better with it than without it (or one whose fit is not

@@ -1529,6 +1529,39 @@ def test_a_walker_passing_a_standing_track_is_two_people(dup_standing, mu, dropp
     assert [e[1] for e in jt.ends] == (["duplicate"] if dropped else [])
 
 
+@pytest.mark.parametrize("inside_px", [2.0, 5.0, 15.0])
+def test_a_walker_leaving_the_image_is_not_taken_for_one_who_stopped(inside_px):
+    """``border_windows``: a walker whose projected cylinder has 2 px inside the image (leaving a
+    view) makes a window with the flow tracker's measured chance there (0.11 of a walker seen
+    whole), not its full rate. Its miss then says little for the standing mode (-log P(no window
+    | walking) 0.1 instead of -log p_miss = 1.2) and, right after a frame with its window, costs
+    the existence test log 0.89 instead of log 0.02; at 5 px a part of that (the chance 0.75); with
+    15 px inside (of its 22) a walker costs the same with the option as without."""
+    from dataclasses import replace
+    from trackroom.estimators.tp_joint import border_window_rate
+    cams = four_cameras()
+    c = cams[0].name
+    costs = {}
+    for on in (True, False):
+        cfg, jt = _tracker(cams, border_windows=on)
+        tr = JointTrack(1, np.r_[4.0, 3.0, 0.8, 0.0], np.diag([0.05**2, 0.05**2, 0.1**2, 0.1**2]), confirmed=True,
+                        seen=True, hits=100, exist=EXIST_ACCEPT)
+        p = jt.project(c, tr)
+        assert p is not None and np.linalg.norm(p.flow) > 3 * cfg.mover_flow_px  # walking fast in this image
+        width = float(p.win[1] - p.win[0])
+        assert width > inside_px
+        p = replace(p, win=np.r_[inside_px - width, inside_px, p.win[2:]])  # cut by the left border
+        costs[on] = (jt.miss_walk(p, c), jt.walk_evidence(tr, c, p, None, False))
+    rate = border_window_rate(np.r_[inside_px - 50.0, inside_px], 1e4)
+    assert costs[False][0] == pytest.approx(-np.log(0.3), abs=1e-6) and costs[False][1] < np.log(0.03)
+    if inside_px >= 10.0:
+        assert rate == 1.0 and costs[True] == pytest.approx(costs[False])
+    else:
+        assert rate < 0.9
+        assert costs[True][0] == pytest.approx(-np.log(1.0 - 0.7 * rate), abs=1e-6)
+        assert costs[False][1] < costs[True][1] < 0.0 and costs[True][0] < costs[False][0]
+
+
 def test_a_walker_the_floor_plan_hides_misses_for_free_in_the_explanation():
     """``hidden_miss``: a confirmed walking track located by two or more views (mode planes),
     behind a box taller than a person, pays nothing in the joint explanation for having no window
