@@ -76,30 +76,39 @@ def _load(d):
     return vis, cams, Ps, occ, pp, bx
 
 
+MOVERS = ("target", "distractor")
+
+
+def _mover_view(cam, P: np.ndarray, pp: dict, pid: str, k: int) -> tuple:
+    """Mover ``pid`` at its truth row k in camera ``cam`` (projection matrix P): its floor
+    position and velocity, its image speed (px/s), its projected cylinder (the tracker's person
+    model), and the other mover's floor position and projected cylinder."""
+    x, y, z, vx, vy = pp[pid][["x", "y", "z", "vx", "vy"]].to_numpy()[k]
+    uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
+    win = geo.cylinder_window(P, np.array([x, y]), HEIGHT, RADIUS)
+    o = pp[next(m for m in MOVERS if m != pid)]
+    ox, oy = o.x.iloc[k], o.y.iloc[k]
+    wo = geo.cylinder_window(P, np.array([ox, oy]), HEIGHT, RADIUS)
+    return x, y, vx, vy, float(np.hypot(*(uv[1] - uv[0]) / 0.01)), win, ox, oy, wo
+
+
 def recording_rows(d, slowing: bool = False) -> list[tuple]:
     """One row per mover, oblique camera and frame as above (walking movers only, or with
     ``slowing`` every frame of a mover, walking or not, with its ground speed and its change over
     the last tenth of a second)."""
     rows = []
     vis, cams, Ps, occ, pp, bx = _load(d)
-    movers = ["target", "distractor"]
-    standing = [q for q in pp if q not in movers]
-    for r in vis[vis.in_fov & vis.person_id.isin(movers)].itertuples():
+    standing = [q for q in pp if q not in MOVERS]
+    for r in vis[vis.in_fov & vis.person_id.isin(MOVERS)].itertuples():
         if r.camera not in Ps: continue
         p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
         walking = bool(p.walking.iloc[k])
         if not (walking or slowing): continue
         P = Ps[r.camera]; cam = cams[r.camera]
-        x, y, z, vx, vy = p[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
-        uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
-        sp = float(np.hypot(*(uv[1] - uv[0]) / 0.01))
-        win = geo.cylinder_window(P, np.array([x, y]), HEIGHT, RADIUS)
+        x, y, vx, vy, sp, win, ox, oy, wo = _mover_view(cam, P, pp, r.person_id, k)
         if win[1] < 0 or win[0] > cam.width: continue
         if not occ.visible(r.camera, np.array([x, y])): continue
-        o = pp[[m for m in movers if m != r.person_id][0]]
-        ox, oy = o.x.iloc[k], o.y.iloc[k]
         C = occ.centres[r.camera]
-        wo = geo.cylinder_window(P, np.array([ox, oy]), HEIGHT, RADIUS)
         u = 0.5 * (win[0] + win[1])
         hid = np.hypot(ox - C[0], oy - C[1]) < np.hypot(x - C[0], y - C[1]) and wo[0] <= u <= wo[1]
         near_other = wo[0] <= win[1] and win[0] <= wo[1]
@@ -134,20 +143,15 @@ def border_rows(d) -> list[tuple]:
     by the truth or not: the tracker knows only the cylinder."""
     rows = []
     vis, cams, Ps, occ, pp, bx = _load(d)
-    movers = ["target", "distractor"]
-    for r in vis[vis.person_id.isin(movers)].itertuples():
+    for r in vis[vis.person_id.isin(MOVERS)].itertuples():
         if r.camera not in Ps: continue
         p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
         if not bool(p.walking.iloc[k]): continue
-        P, cam = Ps[r.camera], cams[r.camera]
-        x, y, z, vx, vy = p[["x", "y", "z", "vx", "vy"]].to_numpy()[k]
-        uv, _ = cam.project(np.array([[x, y, z], [x + 0.01 * vx, y + 0.01 * vy, z]]))
-        win = geo.cylinder_window(P, np.array([x, y]), HEIGHT, RADIUS)
+        cam = cams[r.camera]
+        x, y, _, _, sp, win, _, _, wo = _mover_view(cam, Ps[r.camera], pp, r.person_id, k)
         lo, hi = max(float(win[0]), 0.0), min(float(win[1]), float(cam.width))
-        if not np.isfinite(win[:2]).all() or hi <= lo or float(np.hypot(*(uv[1] - uv[0]) / 0.01)) < 8.0: continue
+        if not np.isfinite(win[:2]).all() or hi <= lo or sp < 8.0: continue
         if not occ.visible(r.camera, np.array([x, y])): continue
-        o = pp[[m for m in movers if m != r.person_id][0]]
-        wo = geo.cylinder_window(P, np.array([o.x.iloc[k], o.y.iloc[k]]), HEIGHT, RADIUS)
         if wo[0] <= win[1] and win[0] <= wo[1]: continue
         g = bx.get((round(float(r.t), 6), r.camera))
         det = g is not None and bool(((g.u_left.to_numpy() <= hi + 3) & (g.u_right.to_numpy() >= lo - 3)).any())
