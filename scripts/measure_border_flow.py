@@ -10,7 +10,10 @@ the motion of the label's inner, right (left), edge, the only edge the image sho
 clear of both borders, the motion of the label's centre. Windows of cut people are split by
 whether they reach the border (an edge within ``BORDER_PX`` of it, as ``target_planes``'
 ``cut_edges`` requires) or stop short of it. Printed per kind: windows, the error's median and
-robust sigma (px/s), and the gain (least-squares slope of the flow on the labels' motion). With
+robust sigma (px/s), the gain (least-squares slope of the flow on the labels' motion) and, for a
+cut person, the window's inner edge against the label's (px, window minus label, positive into
+the image): its median, robust sigma, and the share more than ``INNER_FAR_PX`` off (the edge
+``target_planes`` updates a track by, ``border_edges``). With
 ``--projection`` the labels are the truth's people projected as the tracker's cylinders
 (``height``, ``radius``), clipped to the image, in the frames where the truth says each is visible
 (``truth_visibility``): analytic recordings have no segmentation labels. The truth is read here,
@@ -33,6 +36,7 @@ from trackroom.metrics.aggregate import robust_sigma
 HEIGHT, RADIUS = TargetPlanes.Config.height, TargetPlanes.Config.radius  # the tracker's person model, m
 MIN_PIXELS = 200  # a label this small is a sliver whose box moves with the occluder, not the person
 CLEAR_PX = 3.0  # a label this far inside both borders is of a person seen whole across
+INNER_FAR_PX = 10.0  # an inner edge this far from the label's is counted as gross (``summary``)
 
 
 def label_motion(labels: pd.DataFrame, fps: dict[str, float]) -> pd.DataFrame:
@@ -52,7 +56,9 @@ def label_motion(labels: pd.DataFrame, fps: dict[str, float]) -> pd.DataFrame:
 def border_windows(boxes: pd.DataFrame, motion: pd.DataFrame, widths: dict[str, float]) -> pd.DataFrame:
     """One row per window over one labelled person only: ``kind`` (left-cut, right-cut, whole),
     ``reach`` (reaches, short; "-" for whole), the window's ``flow`` and the label's ``motion``
-    (px/s; ``label_motion``), and ``gap``, the window's distance from the cutting border (px)."""
+    (px/s; ``label_motion``), ``gap``, the window's distance from the cutting border (px), and
+    ``inner``, the window's inner edge minus the label's, positive into the image (px; NaN for
+    whole)."""
     by_frame = {k: g for k, g in motion.groupby([motion["t"].round(6), "camera"])}
     rows = []
     for (t, c), g in boxes.groupby([boxes["t"].round(6), "camera"]):
@@ -68,26 +74,32 @@ def border_windows(boxes: pd.DataFrame, motion: pd.DataFrame, widths: dict[str, 
             k = int(np.flatnonzero(over)[0])
             p = lab.iloc[k]
             if x0[k] <= BORDER_PX and x1[k] < W - BORDER_PX:
-                kind, v, gap = "left-cut", float(p["v_right"]), float(ul)
+                kind, v, gap, inner = "left-cut", float(p["v_right"]), float(ul), float(ur - x1[k])
             elif x1[k] >= W - BORDER_PX and x0[k] > BORDER_PX:
-                kind, v, gap = "right-cut", float(p["v_left"]), float(W - ur)
+                kind, v, gap, inner = "right-cut", float(p["v_left"]), float(W - ur), float(x0[k] - ul)
             elif x0[k] > CLEAR_PX and x1[k] < W - CLEAR_PX:
-                kind, v, gap = "whole", float(p["v_centre"]), np.nan
+                kind, v, gap, inner = "whole", float(p["v_centre"]), np.nan, np.nan
             else:
                 continue
             reach = "-" if kind == "whole" else ("reaches" if gap <= BORDER_PX else "short")
-            rows.append((float(t), c, kind, reach, float(fu), v, gap))
-    return pd.DataFrame(rows, columns=["t", "camera", "kind", "reach", "flow", "motion", "gap"])
+            rows.append((float(t), c, kind, reach, float(fu), v, gap, inner))
+    return pd.DataFrame(rows, columns=["t", "camera", "kind", "reach", "flow", "motion", "gap", "inner"])
 
 
 def summary(windows: pd.DataFrame) -> pd.DataFrame:
-    """Per kind and reach: windows, the error (flow - motion) median and robust sigma, the gain."""
+    """Per kind and reach: windows, the error (flow - motion) median and robust sigma, the gain,
+    and for cut people the inner edge's error (``inner``): median, robust sigma (px) and the
+    share beyond ``INNER_FAR_PX``."""
     rows = []
     for (kind, reach), g in windows.groupby(["kind", "reach"]):
         err = g["flow"] - g["motion"]
         gain = float(np.polyfit(g["motion"], g["flow"], 1)[0]) if len(g) >= 3 and g["motion"].std() > 0 else np.nan
+        inner = g["inner"].dropna()
         rows.append({"kind": kind, "reach": reach, "windows": len(g), "error median px/s": float(err.median()),
-                     "error robust sigma px/s": robust_sigma(err), "gain": gain})
+                     "error robust sigma px/s": robust_sigma(err), "gain": gain,
+                     "inner median px": float(inner.median()) if len(inner) else np.nan,
+                     "inner robust sigma px": robust_sigma(inner) if len(inner) else np.nan,
+                     f"inner beyond {INNER_FAR_PX:g} px": float((inner.abs() > INNER_FAR_PX).mean()) if len(inner) else np.nan})
     return pd.DataFrame(rows)
 
 

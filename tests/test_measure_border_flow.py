@@ -9,7 +9,8 @@ from scripts.measure_border_flow import border_windows, label_motion, summary
 
 def labels_and_boxes():
     """One camera (320 px wide, 10 fps), three frames: a person cut by the left border whose
-    inner (right) edge moves +20 px/s, and a person seen whole moving -30 px/s."""
+    inner (right) edge moves +20 px/s (its window's at 0.2 s 4 px further into the image), and a
+    person seen whole moving -30 px/s."""
     t = np.array([0.0, 0.1, 0.2])
     labels = pd.DataFrame({
         "t": np.r_[t, t], "camera": "c", "person_id": ["a"] * 3 + ["b"] * 3, "pixels": 1000,
@@ -18,7 +19,7 @@ def labels_and_boxes():
     })
     boxes = pd.DataFrame({
         "t": [0.1, 0.1, 0.2, 0.2], "camera": "c", "track": [0, 1, 0, 1],
-        "u_left": [0.0, 198.0, 10.0, 195.0], "u_right": [32.0, 236.0, 34.0, 233.0],
+        "u_left": [0.0, 198.0, 10.0, 195.0], "u_right": [32.0, 236.0, 38.0, 233.0],
         "flow_u": [18.0, -30.0, 5.0, -27.0],
     })
     return labels, boxes
@@ -42,7 +43,13 @@ def test_a_cut_person_is_compared_with_its_inner_edge_and_split_by_reaching_the_
     assert w.loc[(0.2, "left-cut"), "reach"] == "short"  # its left edge 10 px from the border
     assert w.loc[(0.2, "left-cut"), "gap"] == pytest.approx(10.0)
     assert w.loc[(0.1, "whole"), "motion"] == pytest.approx(-30.0)
+    assert w.loc[(0.1, "left-cut"), "inner"] == pytest.approx(0.0)  # the inner edge: the window's right against the label's
+    assert w.loc[(0.2, "left-cut"), "inner"] == pytest.approx(4.0)
+    assert np.isnan(w.loc[(0.1, "whole"), "inner"])
     S = summary(w.reset_index()).set_index(["kind", "reach"])
+    assert S.loc[("left-cut", "short"), "inner median px"] == pytest.approx(4.0)
+    assert S.loc[("left-cut", "short"), "inner beyond 10 px"] == 0.0
+    assert np.isnan(S.loc[("whole", "-"), "inner median px"])
     assert S.loc[("left-cut", "short"), "error median px/s"] == pytest.approx(-15.0)
     assert S.loc[("whole", "-"), "windows"] == 2
     assert S.loc[("whole", "-"), "error median px/s"] == pytest.approx(1.5)
