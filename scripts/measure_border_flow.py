@@ -97,9 +97,8 @@ def summary(windows: pd.DataFrame) -> pd.DataFrame:
         inner = g["inner"].dropna()
         rows.append({"kind": kind, "reach": reach, "windows": len(g), "error median px/s": float(err.median()),
                      "error robust sigma px/s": robust_sigma(err), "gain": gain,
-                     "inner median px": float(inner.median()) if len(inner) else np.nan,
-                     "inner robust sigma px": robust_sigma(inner) if len(inner) else np.nan,
-                     f"inner beyond {INNER_FAR_PX:g} px": float((inner.abs() > INNER_FAR_PX).mean()) if len(inner) else np.nan})
+                     "inner median px": float(inner.median()), "inner robust sigma px": robust_sigma(inner),
+                     f"inner beyond {INNER_FAR_PX:g} px": float((inner.abs() > INNER_FAR_PX).mean())})
     return pd.DataFrame(rows)
 
 
