@@ -79,6 +79,13 @@ def _load(d):
 MOVERS = ("target", "distractor")
 
 
+def _truth_row(pp: dict, pid: str, t: float) -> tuple[pd.DataFrame, int]:
+    """Person ``pid``'s truth (``pp``, sorted by time) and the index of its row at time t (the
+    first at or after it, the last one beyond the end)."""
+    p = pp[pid]
+    return p, min(int(np.searchsorted(p.t.to_numpy(), t - 1e-9)), len(p) - 1)
+
+
 def _mover_view(cam, P: np.ndarray, pp: dict, pid: str, k: int) -> tuple:
     """Mover ``pid`` at its truth row k in camera ``cam`` (projection matrix P): its floor
     position and velocity, its image speed (px/s), its projected cylinder (the tracker's person
@@ -101,7 +108,7 @@ def recording_rows(d, slowing: bool = False) -> list[tuple]:
     standing = [q for q in pp if q not in MOVERS]
     for r in vis[vis.in_fov & vis.person_id.isin(MOVERS)].itertuples():
         if r.camera not in Ps: continue
-        p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
+        p, k = _truth_row(pp, r.person_id, r.t)
         walking = bool(p.walking.iloc[k])
         if not (walking or slowing): continue
         P = Ps[r.camera]; cam = cams[r.camera]
@@ -145,7 +152,7 @@ def border_rows(d) -> list[tuple]:
     vis, cams, Ps, occ, pp, bx = _load(d)
     for r in vis[vis.person_id.isin(MOVERS)].itertuples():
         if r.camera not in Ps: continue
-        p = pp[r.person_id]; k = min(np.searchsorted(p.t.to_numpy(), r.t - 1e-9), len(p) - 1)
+        p, k = _truth_row(pp, r.person_id, r.t)
         if not bool(p.walking.iloc[k]): continue
         cam = cams[r.camera]
         x, y, _, _, sp, win, _, _, wo = _mover_view(cam, Ps[r.camera], pp, r.person_id, k)
