@@ -25,6 +25,9 @@ for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.scenes.loader import load_scene
 from trackroom.sim.simulate import simulate
 from trackroom.sim.walkers import plan_trajectories

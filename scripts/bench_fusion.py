@@ -21,6 +21,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.estimators import get
 from trackroom.scenes.loader import load_scene
 from trackroom.sim.simulate import simulate

@@ -16,6 +16,9 @@ import time
 import numpy as np
 import pandas as pd
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.estimators.qp_smoother import QPSmoother
 from trackroom.scenes.loader import load_scene
 from trackroom.recording import Calibration, Observations

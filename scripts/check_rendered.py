@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import read_manifest, recording_folders, verify_files
 from trackroom.recording import RecordingError
 

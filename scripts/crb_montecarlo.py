@@ -35,6 +35,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from tqdm import tqdm
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.estimators.qp_model import IX, IY, NS, Bearings, Prior, process_covariance
 from trackroom.estimators.qp_smoother import QPSmoother
 from trackroom.metrics.crb import trajectory_crb

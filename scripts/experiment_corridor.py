@@ -33,6 +33,9 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from scripts.experiment_qp import truth_on_grid
 from scripts.sweep_bearing_layout import identify_prior, walker_errors
 from trackroom.recording import Observations

@@ -30,6 +30,9 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.estimators import get
 from trackroom.metrics.crb import trajectory_crb
 from trackroom.scenes.loader import load_scene

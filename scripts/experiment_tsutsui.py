@@ -48,6 +48,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import recording_folders
 from trackroom.estimators.target_planes import TargetPlanes, TargetPlanesResult
 from trackroom.metrics.aggregate import robust_sigma

@@ -45,6 +45,9 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from scripts.experiment_tsutsui import distances_at, people_at, recordings_and_params, run_target
 from scripts.explain_tp_losses import NEAR_M as BESIDE_M  # the people this near its end are the ones it may leave untracked
 from scripts.explain_tp_losses import ON_M  # another track this near a person (matched one to one) still follows it

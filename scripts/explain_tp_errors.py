@@ -45,6 +45,8 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
+
 GATE_M = 1.0  # a track and a mover this near may be matched (the movers' MOTA gate)
 BESIDE_M = 1.0  # another mover this near: the pair is "beside"
 WALK_MPS = 0.3  # a mover at least this fast is walking

@@ -33,6 +33,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
+
 FP_CLASSES = ("far", "off", "standing", "duplicate", "unmatched")
 FN_CLASSES = ("no track", "track 1-2 m", "taken")
 FN_STATES = ("walking", "standing", "not yet walked")

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+import sys
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.scenes.loader import load_scene
 from trackroom.sim import perception_fit as pf

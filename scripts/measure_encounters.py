@@ -28,6 +28,9 @@ import tomllib
 import numpy as np
 import pandas as pd
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import recording_folders
 from trackroom.scenes.loader import load_scene, parse_scene
 from trackroom.sim.walkers import PERSONAL_SPACE

@@ -22,10 +22,13 @@ import argparse
 import numpy as np
 import pandas as pd
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import target_planes as tp_module
 
-from .experiment_tsutsui import multi_estimator
+from scripts.experiment_tsutsui import multi_estimator
 
 PERSON_M = 0.5  # a crossing within this distance of someone is that person, m
 

@@ -37,6 +37,8 @@ import sys
 import numpy as np
 import pandas as pd
 
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators.target_planes import TargetPlanes

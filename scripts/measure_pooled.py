@@ -7,6 +7,8 @@ from typing import Callable
 
 import pandas as pd
 
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import recording_folders
 
 

@@ -21,6 +21,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
+
 
 def triples(values: np.ndarray) -> np.ndarray:
     """Means of consecutive seed triples (a trailing incomplete triple is dropped; a seed without a

@@ -26,9 +26,12 @@ import argparse
 import numpy as np
 import pandas as pd
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.dataset import read_recording, recording_folders
 
-from .experiment_tsutsui import distances_at, multi_estimator
+from scripts.experiment_tsutsui import distances_at, multi_estimator
 
 MOVERS = ("target", "distractor")
 LABEL_M = 0.7  # a track follows the person nearest it within this distance, m

@@ -36,6 +36,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from scripts.experiment_tsutsui import distances_at, recordings_and_params, run_target
 from trackroom.dataset import read_recording
 from trackroom.estimators.target_planes import TargetPlanes

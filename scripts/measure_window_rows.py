@@ -28,6 +28,8 @@ from collections import Counter
 
 import numpy as np
 
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 import trackroom.sim.analytic_detectors as detectors
 from trackroom.dataset import read_recording, recording_folders
 from trackroom.estimators import tp_geometry as geo

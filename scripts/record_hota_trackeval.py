@@ -27,6 +27,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+import sys
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from trackroom.metrics.mot import EvalFrames, pairwise_distances
 
 FIXTURE = Path(__file__).resolve().parents[1] / "tests" / "data" / "hota_trackeval.json"

@@ -33,6 +33,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pandas as pd
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
+
 SCENES = {  # folder -> (bundled scene, overrides, duration)
     "overhead_lab": ("overhead_lab", [], 30.0),
     "overhead_lab_privacy": ("overhead_lab", ["cameras.*.privacy=true"], 30.0),

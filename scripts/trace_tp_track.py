@@ -43,6 +43,9 @@ import argparse
 
 import numpy as np
 
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
 from scripts import experiment_tsutsui as ts
 from trackroom.dataset import read_recording
 from trackroom.estimators.target_planes import TargetPlanes
