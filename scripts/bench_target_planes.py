@@ -14,13 +14,14 @@ import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(__file__))
-import experiment_tsutsui as ts  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
+from scripts import experiment_tsutsui as ts  # noqa: E402
 
 from trackroom.estimators.target_planes import TargetPlanes  # noqa: E402
 
