@@ -152,9 +152,13 @@ class TargetPlanes(Estimator):
         stop_tau: float = param(1.0, "a track no window explains slows as exp(-t / tau), s (it has most likely "
                                      "stopped: standing people make no flow window; a walker stops within ~1 s)")
         walk_s: float = param(8.0, "mean time a walker walks before stopping, s (the walking / standing modes' "
-                                   "switching; the scenes' walkers cross the room between waypoints in 5-10 s)")
-        stand_s: float = param(3.0, "mean time a person stands before walking on, s (the scenes' waypoint stops "
-                                    "last up to 5 s)")
+                                   "switching): not the scenes' 93 s of walking per stop of 0.5 s or more, but "
+                                   "near the chance a slow walker begins a stop, 0.015-0.025 per 0.1 s frame "
+                                   "below 0.15 m/s (scripts/measure_stop_lengths.py, development truth), taken "
+                                   "for every walker since a track's speed sd (~0.2 m/s) cannot tell who slows; "
+                                   "93 s lets the existence test reject pausing walkers")
+        stand_s: float = param(3.0, "mean time a person stands before walking on, s (measured: stops of 0.5 s or "
+                                    "more last 3.0 s on average, scripts/measure_stop_lengths.py)")
         p_miss: float = param(0.3, "probability that a walker moving at least mover_flow_px in the image of a "
                                    "camera that would see it (not hidden by the floor plan's boxes or another "
                                    "track) has no window of its own there (a merge, a fragment, someone "
