@@ -108,11 +108,11 @@ if __name__ == "__main__":
     if len(sys.argv) < 2:
         sys.exit(__doc__)
     dirs = recording_folders(sys.argv[1:], "measure_stop_lengths")
-    stops = pd.concat([stop_lengths(read_recording(d).truth.people) for d in dirs], ignore_index=True)
-    print(f"{len(dirs)} recordings; movers' stops (slower than {SLOW} m/s for at least {MIN_S} s), length in s:")
-    print(summary(stops).round(2).to_string())
     people = [read_recording(d).truth.people for d in dirs]
     per = [stop_lengths(pp) for pp in people]
+    stops = pd.concat(per, ignore_index=True)
+    print(f"{len(dirs)} recordings; movers' stops (slower than {SLOW} m/s for at least {MIN_S} s), length in s:")
+    print(summary(stops).round(2).to_string())
     sw = [switching(pp, st) for pp, st in zip(people, per)]
     walking, begun = sum(x["walking_s"] for x in sw), sum(x["stops_begun"] for x in sw)
     inside = stops[~stops.censored.astype(bool)]
