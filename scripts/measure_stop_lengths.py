@@ -109,14 +109,15 @@ if __name__ == "__main__":
         sys.exit(__doc__)
     dirs = recording_folders(sys.argv[1:], "measure_stop_lengths")
     people = [read_recording(d).truth.people for d in dirs]
-    per = [stop_lengths(pp) for pp in people]
+    slow_runs = [stop_lengths(pp, min_s=0.0) for pp in people]  # every slow run; the stops are the long ones
+    per = [r[r.length >= MIN_S] for r in slow_runs]
     stops = pd.concat(per, ignore_index=True)
     print(f"{len(dirs)} recordings; movers' stops (slower than {SLOW} m/s for at least {MIN_S} s), length in s:")
     print(summary(stops).round(2).to_string())
     sw = [switching(pp, st) for pp, st in zip(people, per)]
     walking, begun = sum(x["walking_s"] for x in sw), sum(x["stops_begun"] for x in sw)
     inside = stops[~stops.censored.astype(bool)]
-    runs = pd.concat([stop_lengths(pp, min_s=0.0) for pp in people], ignore_index=True)
+    runs = pd.concat(slow_runs, ignore_index=True)
     runs = runs[~runs.censored.astype(bool)]
     if len(runs):
         print(f"runs slower than {SLOW} m/s of any length inside the recordings: {len(runs)}, "
