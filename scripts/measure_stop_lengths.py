@@ -22,6 +22,7 @@ true speed now (``onset_by_speed``): every turn at a waypoint slows through a lo
 alone says little about a stop to come.
 """
 import sys
+from collections.abc import Iterator
 
 import numpy as np
 import pandas as pd
@@ -37,17 +38,22 @@ FRAME_S = 0.1  # s, the cameras' frame period in occlusion_lab
 SPEED_BINS = (0.05, 0.1, 0.15, 0.25, 0.5, 0.85, 3.0)  # m/s
 
 
+def mover_speeds(people: pd.DataFrame, movers=MOVERS) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
+    """Each mover present in a truth people table (t, person_id, vx, vy): (person, its sample
+    times in order, s, and its true speed at them, m/s)."""
+    for pid in movers:
+        p = people[people.person_id == pid].sort_values("t")
+        if not p.empty:
+            yield pid, p.t.to_numpy(float), np.hypot(p.vx.to_numpy(float), p.vy.to_numpy(float))
+
+
 def stop_lengths(people: pd.DataFrame, movers=MOVERS, slow: float = SLOW, min_s: float = MIN_S) -> pd.DataFrame:
     """Every stop of the ``movers`` in a truth people table (t, person_id, vx, vy): person, start
     and end time (s; the first and last slow sample), length (s) and whether the recording's start
     or end cuts it (``censored``)."""
     rows = []
-    for pid in movers:
-        p = people[people.person_id == pid].sort_values("t")
-        if p.empty:
-            continue
-        t = p.t.to_numpy(float)
-        slow_now = np.hypot(p.vx.to_numpy(float), p.vy.to_numpy(float)) < slow
+    for pid, t, speed in mover_speeds(people, movers):
+        slow_now = speed < slow
         edges = np.flatnonzero(np.diff(np.r_[0, slow_now.astype(int), 0]))
         for a, b in zip(edges[::2], edges[1::2]):  # slow on samples a .. b - 1
             length = t[b - 1] - t[a]
@@ -71,8 +77,7 @@ def switching(people: pd.DataFrame, stops: pd.DataFrame, movers=MOVERS) -> dict[
     """The movers' walking time (s; outside any stop) and the number of stops that begin after
     the recording's start (each ends a walk): their ratio is the walking mode's mean duration
     ``walk_s`` as the truth gives it."""
-    spans = [people.loc[people.person_id == pid, "t"] for pid in movers]
-    walking = sum(float(t.max() - t.min()) for t in spans if len(t))
+    walking = sum(float(t[-1] - t[0]) for _, t, _ in mover_speeds(people, movers))
     walking -= float(stops.length.sum())
     begun = int((stops.t0 > people.t.min()).sum())
     return {"walking_s": walking, "stops_begun": begun}
@@ -82,13 +87,11 @@ def onset_frames(people: pd.DataFrame, stops: pd.DataFrame, movers=MOVERS, frame
     """The movers at each ``frame_s`` frame outside any stop: true speed (m/s) and whether a stop
     begins within the next ``frame_s``."""
     out = []
-    for pid in movers:
-        p = people[people.person_id == pid].sort_values("t")
-        t = p.t.to_numpy(float)
+    for pid, t, speed in mover_speeds(people, movers):
         if len(t) < 2:
             continue
         frames = np.arange(t[0], t[-1] - frame_s, frame_s)
-        v = np.hypot(p.vx.to_numpy(float), p.vy.to_numpy(float))[np.searchsorted(t, frames - 1e-9)]
+        v = speed[np.searchsorted(t, frames - 1e-9)]
         mine = stops[stops.person_id == pid]
         t0, t1 = mine.t0.to_numpy(float), mine.t1.to_numpy(float)
         inside = ((frames[:, None] >= t0) & (frames[:, None] <= t1)).any(axis=1)
