@@ -1,6 +1,7 @@
 """Frame trace of one target_planes track: what each camera showed it and how it moved.
 
-    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--costs] [--param KEY=VALUE ...]
+    python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--costs] [--pulls PERSON]
+                                     [--param KEY=VALUE ...]
 
 Runs target_planes on one occlusion_lab recording (single-target with the experiment's click,
 ``experiment_tsutsui.run_target``, or every mover with ``--multi``) and prints, for each frame in
@@ -27,6 +28,16 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   (``explain_cost``), and what the camera's best explanation costs more when the track is made
   to hold no window or each of those windows (``explain_camera``'s ``force``: +0.00 is the
   explanation chosen; issue 12's sixty-ninth session: analytic 2812 at 28.2 s in ``obl_ne``);
+- with ``--pulls PERSON``, after the frames, which updates drew the track towards that true
+  person and which away, summed over the frames (issue 12's hundredth session: rendered 4065,
+  19.0-20.2 s, where two views hold a lagging track and one's flow holds its velocity back):
+  each Kalman update's change of the position projected on the unit vector from the track (its
+  state before the frame) to the person, and its change of the velocity on the unit vector from
+  the track's velocity to the person's (m and m/s; positive: towards the person); the first row,
+  "motion", is the prediction against the person's own step: minus (the person's change of
+  position, velocity less the track's change outside the updates: dt times its velocity, the
+  caps and mode mixing), so the rows add up to how much the gap closed, frame by frame along its
+  direction;
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
   camera whose image it falls in, "(unseen)" after a person the recording's truth says that
@@ -70,13 +81,17 @@ class Tracer:
     """Wraps ``tp_joint.JointTracker.step`` and ``explain_camera`` for one run, collecting the
     trace lines of one track in every frame it exists, by frame index (the frame times come
     with the run's result); with ``updates`` also each Kalman update of the track (``UPDATES``)
-    and how far it moved the state; ``close`` puts the tracker back."""
+    and how far it moved the state; with ``moves`` those changes kept as numbers (``moves``,
+    with the state before and after each frame in ``states``) without their lines; ``close``
+    puts the tracker back."""
 
-    def __init__(self, tid: int, updates: bool = False, costs: bool = False):
+    def __init__(self, tid: int, updates: bool = False, costs: bool = False, moves: bool = False):
         self.tid = tid
         self.k = -1  # the frame index: one step per frame
         self.frames: list[tuple[int, list[str]]] = []  # (frame index, its lines: before, cameras, after)
         self.track = None  # the traced track during the current frame
+        self.states: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # frame index -> the track's state before, after
+        self.moves: list[tuple[int, str, str, np.ndarray]] = []  # (frame index, camera, update, change of the state)
         JT = tp_joint.JointTracker
         self.orig = JT.step, JT.explain_camera
         tracer = self
@@ -87,8 +102,10 @@ class Tracer:
             tracer.track = tr
             if tr is not None:
                 tracer.frames.append((tracer.k, [f"before: {_state(tr)}"]))
+                s0 = tr.s.copy()
             out = tracer.orig[0](jt, tracks, frame, dt, *args)
             if tr is not None:
+                tracer.states[tracer.k] = (s0, tr.s.copy())
                 status = " ".join(f"{c} {v[0]}{' (' + str(v[1]) + ')' if v[1] else ''}" for c, v in sorted(tr.status.items()))
                 tracer.frames[-1][1].append(f"        after:  {_state(tr)} mode {tr.mode}; {status}")
             tracer.track = None
@@ -112,7 +129,8 @@ class Tracer:
 
         JT.step, JT.explain_camera = step, explain_camera
         self.depth = 0  # updates under way (one may call another)
-        self.orig_updates = {name: getattr(JT, name) for name in UPDATES} if updates else {}
+        self.show_updates = updates
+        self.orig_updates = {name: getattr(JT, name) for name in UPDATES} if updates or moves else {}
         for name, orig in self.orig_updates.items():
             setattr(JT, name, self._update(name, orig))
 
@@ -148,10 +166,13 @@ class Tracer:
                 tracer.depth -= 1
             if tr is tracer.track and tracer.frames and tracer.depth == 0:
                 d = tr.s - before
-                what = ""
+                what, kind = "", name
                 if name == "update_plane":
                     what = f" {'own' if kwargs.get('own', True) else 'edge'} share {kwargs.get('weight', 1.0):.2f}"
-                tracer.frames[-1][1].append(f"      {c} {name}{what}: dx {d[0]:+.3f},{d[1]:+.3f} dv {d[2]:+.3f},{d[3]:+.3f}")
+                    kind += " own" if kwargs.get("own", True) else " edge"
+                tracer.moves.append((tracer.frames[-1][0], c, kind, d))
+                if tracer.show_updates:
+                    tracer.frames[-1][1].append(f"      {c} {name}{what}: dx {d[0]:+.3f},{d[1]:+.3f} dv {d[2]:+.3f},{d[3]:+.3f}")
             return out
 
         return update
@@ -162,15 +183,62 @@ class Tracer:
             setattr(tp_joint.JointTracker, name, orig)
 
 
+def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float, t1: float) -> list[str]:
+    """``--pulls``' lines: over the traced frames in [t0, t1] s, each (camera, update)'s changes
+    of the track's position and velocity towards ``person`` (the true people table ``truth``
+    at every frame time, with velocities), and the motion row (the module docstring)."""
+    me = truth[truth["person_id"] == person].set_index("t").sort_index()
+    if me.empty:
+        raise SystemExit(f"trace_tp_track: no true person {person!r} (the recording has {sorted(set(truth['person_id']))})")
+    ks = [k for k in sorted(tracer.states) if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
+    if not ks:
+        return []
+    rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [position pull, velocity pull, count]
+    by_frame: dict[int, list] = {}
+    for k, c, kind, d in tracer.moves:
+        by_frame.setdefault(k, []).append((c, kind, d))
+    gap = []
+    for n, k in enumerate(ks):
+        s0, s1 = tracer.states[k]
+        row = me.iloc[int(np.argmin(np.abs(me.index.to_numpy(float) - times[k])))]
+        px, pv = np.array([row.x, row.y]), np.array([row.vx, row.vy])
+        e = [px - s0[:2], pv - s0[2:]]
+        u = [x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.zeros(2) for x in e]
+        gap.append((float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))))
+        moved = np.zeros(4)
+        for c, kind, d in by_frame.get(k, []):
+            acc = rows.setdefault((c, kind), np.zeros(3))
+            acc += [d[:2] @ u[0], d[2:] @ u[1], 1]
+            moved += d
+        # the person's own step over the frame against the track's step outside the updates
+        prev = me.iloc[int(np.argmin(np.abs(me.index.to_numpy(float) - times[ks[n - 1]])))] if n else None
+        if prev is not None and ks[n - 1] == k - 1:
+            own = np.array([row.x - prev.x, row.y - prev.y, row.vx - prev.vx, row.vy - prev.vy])
+        else:
+            own = np.zeros(4)
+        rest = (s1 - s0) - moved
+        acc = rows.setdefault(("", "motion"), np.zeros(3))
+        acc += [-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1], 1]
+    out = [f"pulls towards {person}, {times[ks[0]]:.2f}-{times[ks[-1]]:.2f} s ({len(ks)} frames): gap {gap[0][0]:.2f} m, "
+           f"{gap[0][1]:.2f} m/s at the start, {gap[-1][0]:.2f} m, {gap[-1][1]:.2f} m/s at the last frame's start",
+           f"    {'camera':8s} {'update':18s} {'n':>4s} {'position, m':>12s} {'velocity, m/s':>14s}"]
+    order = sorted(rows, key=lambda key: (key != ("", "motion"), key))
+    for c, kind in order:
+        dx, dv, n = rows[(c, kind)]
+        out.append(f"    {c or '-':8s} {kind:18s} {int(n):4d} {dx:+12.3f} {dv:+14.3f}")
+    return out
+
+
 def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None,
-          updates: bool = False, costs: bool = False) -> list[str]:
+          updates: bool = False, costs: bool = False, pulls: str | None = None) -> list[str]:
     """The trace lines of track ``tid`` over [t0, t1] s of the recording in folder ``d``, each
-    frame's true positions after it (``updates``: each Kalman update's change of the state too)."""
+    frame's true positions after it (``updates``: each Kalman update's change of the state too;
+    ``pulls``: after the frames, the updates' pulls towards that true person, ``pull_table``)."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
     ts.refuse_lookahead("trace_tp_track", params, "trace")
     rec = read_recording(d)
-    tracer = Tracer(tid, updates, costs)
+    tracer = Tracer(tid, updates, costs, moves=pulls is not None)
     try:
         if multi:
             res = ts.multi_estimator(rec, params).run(rec.observations, rec.calibration)
@@ -198,6 +266,8 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
                             for who, w in cols if np.isfinite(w).all() and w[1] >= 0 and w[0] <= width)
             if seen:
                 out.append(f"        truth in {c}: {seen}")
+    if pulls is not None and frames:
+        out += pull_table(tracer, times, ts.people_at(rec.truth.people, times, ("x", "y", "vx", "vy")), pulls, t0, t1)
     return out
 
 
@@ -212,8 +282,10 @@ def main(argv=None) -> int:
     ap.add_argument("--updates", action="store_true", help="also each Kalman update of the track and how far it moved the state")
     ap.add_argument("--costs", action="store_true", help="also, per camera, the joint explanation's costs for the track: its miss, "
                     "alone in each window it gates, and the explanation forced to each option")
+    ap.add_argument("--pulls", metavar="PERSON", help="after the frames, which updates drew the track towards that true person "
+                    "(e.g. target) and which away, in position and velocity, summed over the frames")
     a = ap.parse_args(argv)
-    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates, a.costs)
+    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates, a.costs, a.pulls)
     if not lines:
         print(f"track {a.track} does not exist between {a.t0:g} and {a.t1:g} s")
         return 1

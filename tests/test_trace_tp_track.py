@@ -154,3 +154,77 @@ def test_the_trace_marks_who_the_cameras_could_not_see(rec_dir, monkeypatch):
     cams = [ln for ln in lines if ln.startswith("    obl_") and "projection u" in ln]
     assert any(ln.startswith("    obl_nw") for ln in cams)
     assert all(("hidden by the floor plan" in ln) == ln.startswith("    obl_nw") for ln in cams)
+
+
+def _pull_rows(lines: list[str]) -> dict[tuple[str, str], tuple[int, float, float]]:
+    """``--pulls``' table: (camera, update) -> (n, position pull, velocity pull)."""
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("pulls towards "))
+    rows = {}
+    for ln in lines[k + 2:]:
+        w = ln.split()
+        rows[(w[0], " ".join(w[1:-3]))] = (int(w[-3]), float(w[-2]), float(w[-1]))
+    return rows
+
+
+def test_pulls_add_up_each_updates_move_towards_the_person_and_leave_the_run_alone(rec_dir):
+    """``--pulls target``: after the frames, one row per (camera, update) with how many updates
+    it made and how far they moved the track towards the target, each frame along the unit
+    vector from the track (before the frame) to the target; the position pulls are recomputed
+    here from the printed update lines and states. The trace before the table is the run
+    without the option, and the tracker's methods are put back."""
+    import numpy as np
+
+    before = {name: getattr(tp_joint.JointTracker, name) for name in tt.UPDATES}
+    lines = tt.trace(rec_dir, 0, 2.0, 2.3, updates=True, pulls="target")
+    assert {name: getattr(tp_joint.JointTracker, name) for name in tt.UPDATES} == before
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("pulls towards target, 2.00-2.30 s (4 frames)"))
+    body = lines[:k]
+    assert body == tt.trace(rec_dir, 0, 2.0, 2.3, updates=True)
+    rows = _pull_rows(lines)
+    assert rows[("-", "motion")][0] == 4
+    nums = lambda s, key: np.array([float(v) for v in s.split(key)[1].split()[0].split(",")])
+    counts: dict = {}
+    pos = 0.0
+    u = None
+    for ln in body:
+        if ln.startswith("t "):
+            x0 = nums(ln, " x ")
+        elif ln.lstrip().startswith("truth:"):
+            pass
+        elif ln.startswith("      obl_"):
+            cam, name = ln.split()[0], ln.split()[1].rstrip(":")
+            if name == "update_plane":
+                name += " " + ln.split()[2]
+            counts[(cam, name)] = counts.get((cam, name), 0) + 1
+            if u is None:
+                raise AssertionError("an update line before its frame's truth")
+            pos += float(nums(ln, " dx ") @ u)
+        if ln.startswith("t "):
+            # the target's position this frame: the truth line after the frame's lines
+            i = body.index(ln)
+            truth = next(x for x in body[i:] if x.lstrip().startswith("truth:"))
+            xy = np.array([float(v) for v in truth.split("target ")[1].split()[0].split(",")])
+            u = (xy - x0) / np.linalg.norm(xy - x0)
+    assert counts and {key: n for key, (n, _, _) in rows.items() if key != ("-", "motion")} == counts
+    table = sum(p for key, (_, p, _) in rows.items() if key != ("-", "motion"))
+    assert abs(table - pos) <= 0.002 * len(counts) + 0.01  # printed to 3 and 2 decimals
+
+
+def test_one_frames_pulls_add_up_to_its_step_towards_the_person(rec_dir):
+    """Over one frame the rows (the motion row too: the person's own step counts from the
+    second frame) add up to the track's step along the unit vector to the person, read from the
+    printed states; an unknown person is refused by name."""
+    import numpy as np
+    import pytest as _pytest
+
+    lines = tt.trace(rec_dir, 0, 2.2, 2.2, pulls="target")
+    nums = lambda s, key: np.array([float(v) for v in s.split(key)[1].split()[0].split(",")])
+    x0 = nums(lines[0], " x ")
+    x1 = nums(next(ln for ln in lines if ln.lstrip().startswith("after:")), " x ")
+    truth = next(ln for ln in lines if ln.lstrip().startswith("truth:"))
+    xy = np.array([float(v) for v in truth.split("target ")[1].split()[0].split(",")])
+    u = (xy - x0) / np.linalg.norm(xy - x0)
+    total = sum(p for _, p, _ in _pull_rows(lines).values())
+    assert abs(total - (x1 - x0) @ u) <= 0.012
+    with _pytest.raises(SystemExit, match="no true person 'nobody'"):
+        tt.trace(rec_dir, 0, 2.2, 2.2, pulls="nobody")
