@@ -183,42 +183,64 @@ class Tracer:
             setattr(tp_joint.JointTracker, name, orig)
 
 
-def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float, t1: float) -> list[str]:
-    """``--pulls``' lines: over the traced frames in [t0, t1] s, each (camera, update)'s changes
-    of the track's position and velocity towards ``person`` (the true people table ``truth``
-    at every frame time, with velocities), and the motion row (the module docstring)."""
-    me = truth[truth["person_id"] == person].set_index("t").sort_index()
-    if me.empty:
-        raise SystemExit(f"trace_tp_track: no true person {person!r} (the recording has {sorted(set(truth['person_id']))})")
-    ks = [k for k in sorted(tracer.states) if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
-    if not ks:
-        return []
-    rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [position pull, velocity pull, count]
+def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
+    """Per traced frame k of ``ks`` (frame indices, ascending): (k, the gap to the person at the
+    frame's start (m, m/s), the person's and the track's speed (m/s), {(camera, update): [position
+    pull, velocity pull, updates made]}, the motion row's [position, velocity]) - the module docstring's
+    pulls; ``me`` the person's true rows (x, y, vx, vy) indexed by time. The motion row counts
+    the person's own step from the previous frame only where that frame is the one before."""
     by_frame: dict[int, list] = {}
     for k, c, kind, d in tracer.moves:
         by_frame.setdefault(k, []).append((c, kind, d))
-    gap = []
+    t_me = me.index.to_numpy(float)
+    at = lambda t: me.iloc[int(np.argmin(np.abs(t_me - t)))]
     for n, k in enumerate(ks):
         s0, s1 = tracer.states[k]
-        row = me.iloc[int(np.argmin(np.abs(me.index.to_numpy(float) - times[k])))]
+        row = at(times[k])
         px, pv = np.array([row.x, row.y]), np.array([row.vx, row.vy])
         e = [px - s0[:2], pv - s0[2:]]
         u = [x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.zeros(2) for x in e]
-        gap.append((float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))))
+        pulls: dict[tuple[str, str], np.ndarray] = {}
         moved = np.zeros(4)
         for c, kind, d in by_frame.get(k, []):
-            acc = rows.setdefault((c, kind), np.zeros(3))
-            acc += [d[:2] @ u[0], d[2:] @ u[1], 1]
+            pulls[(c, kind)] = pulls.get((c, kind), np.zeros(3)) + [d[:2] @ u[0], d[2:] @ u[1], 1]
             moved += d
         # the person's own step over the frame against the track's step outside the updates
-        prev = me.iloc[int(np.argmin(np.abs(me.index.to_numpy(float) - times[ks[n - 1]])))] if n else None
-        if prev is not None and ks[n - 1] == k - 1:
+        if n and ks[n - 1] == k - 1:
+            prev = at(times[k - 1])
             own = np.array([row.x - prev.x, row.y - prev.y, row.vx - prev.vx, row.vy - prev.vy])
         else:
             own = np.zeros(4)
         rest = (s1 - s0) - moved
-        acc = rows.setdefault(("", "motion"), np.zeros(3))
-        acc += [-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1], 1]
+        motion = np.array([-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1]])
+        yield (k, (float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))), (float(np.linalg.norm(pv)), float(np.linalg.norm(s0[2:]))),
+               pulls, motion)
+
+
+def person_rows(truth, person: str, who: str = "trace_tp_track"):
+    """The true rows of ``person`` (a ``people_at`` table with x, y, vx, vy), indexed by time;
+    an unknown person is refused by name."""
+    me = truth[truth["person_id"] == person].set_index("t").sort_index()
+    if me.empty:
+        raise SystemExit(f"{who}: no true person {person!r} (the recording has {sorted(set(truth['person_id']))})")
+    return me
+
+
+def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float, t1: float) -> list[str]:
+    """``--pulls``' lines: over the traced frames in [t0, t1] s, each (camera, update)'s changes
+    of the track's position and velocity towards ``person`` (the true people table ``truth``
+    at every frame time, with velocities), and the motion row (the module docstring)."""
+    me = person_rows(truth, person)
+    ks = [k for k in sorted(tracer.states) if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
+    if not ks:
+        return []
+    rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [position pull, velocity pull, count]
+    gap = []
+    for _, g, _, pulls, motion in frame_pulls(tracer, times, me, ks):
+        gap.append(g)
+        for key, pv in pulls.items():
+            rows.setdefault(key, np.zeros(3))[:] += pv
+        rows.setdefault(("", "motion"), np.zeros(3))[:] += [*motion, 1]
     out = [f"pulls towards {person}, {times[ks[0]]:.2f}-{times[ks[-1]]:.2f} s ({len(ks)} frames): gap {gap[0][0]:.2f} m, "
            f"{gap[0][1]:.2f} m/s at the start, {gap[-1][0]:.2f} m, {gap[-1][1]:.2f} m/s at the last frame's start",
            f"    {'camera':8s} {'update':18s} {'n':>4s} {'position, m':>12s} {'velocity, m/s':>14s}"]
