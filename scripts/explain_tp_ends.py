@@ -38,6 +38,13 @@ one of them was dropped, the person the pair left is that one; people no track e
 such as those standing still all along, do not count), or ``second track`` (every one of them
 stays tracked). The summary counts them by reason; the untracked ones are listed with
 where they happened.
+
+``fall``: for a track the existence test dropped, how many frames it took from its last frame at
+the accept bound (``tp_joint.EXIST_ACCEPT``, +4.60) to the drop (empty: never at the bound, or
+another reason), read from the tracker's own existence updates (``ExistenceLog``); the summary
+counts those drops by class and fall (issue 12's hundredth session: analytic 4115 and rendered
+4136, a person's track dropped in three frames, the floor the two-mode marginal has a frame after
+a frame in which the track walked).
 """
 from __future__ import annotations
 
@@ -52,12 +59,54 @@ from scripts.experiment_tsutsui import distances_at, people_at, recordings_and_p
 from scripts.explain_tp_losses import NEAR_M as BESIDE_M  # the people this near its end are the ones it may leave untracked
 from scripts.explain_tp_losses import ON_M  # another track this near a person (matched one to one) still follows it
 from trackroom.dataset import read_recording
+from trackroom.estimators import tp_joint
 
 NEAR_M = 0.7  # a dropped track this near a person (on average) was on that person
 LATER_S = 1.0  # ... this long after the end
 BEFORE_S = 1.0  # a person some track (the dropped one too) followed this long before the end was tracked
 SPEED_S = 0.5  # the person's speed over this span before the end
 LIFE_S = 2.0  # the person a track followed: the nearest on average over this span before its end
+FALL_BINS = ((1, 3, "1-3"), (4, 10, "4-10"), (11, 10**9, "11+"))  # frames from the accept bound to an existence drop
+
+
+class ExistenceLog:
+    """Wraps ``tp_joint.JointTracker.step`` (one call a frame) and ``existence`` for one run,
+    keeping each track's existence log-odds after each frame's update, by frame index;
+    ``close`` puts the tracker back."""
+
+    def __init__(self):
+        JT = tp_joint.JointTracker
+        self.orig = JT.step, JT.__dict__["existence"]
+        self.k = -1
+        self.exist: dict[int, dict[int, float]] = {}  # track id -> {frame index: existence after the update}
+        log = self
+
+        def step(jt, *args, **kwargs):
+            log.k += 1
+            return log.orig[0](jt, *args, **kwargs)
+
+        def existence(tr, *args, **kwargs):
+            out = log.orig[1].__func__(tr, *args, **kwargs)
+            log.exist.setdefault(tr.tid, {})[log.k] = float(tr.exist)
+            return out
+
+        JT.step, JT.existence = step, staticmethod(existence)
+
+    def close(self) -> None:
+        tp_joint.JointTracker.step, tp_joint.JointTracker.existence = self.orig
+
+    def fall(self, tid: int, k_end: int) -> int | None:
+        """Frames from track ``tid``'s last frame at the accept bound up to frame ``k_end`` (its
+        drop); None if it never was at the bound by then (or has no record)."""
+        at_bound = [k for k, e in self.exist.get(tid, {}).items() if k <= k_end and e >= tp_joint.EXIST_ACCEPT - 1e-9]
+        return k_end - max(at_bound) if at_bound else None
+
+
+def fall_bin(frames) -> str:
+    """``FALL_BINS``' label of a fall of ``frames`` frames ("never at the bound": none)."""
+    if frames is None or pd.isna(frames):
+        return "never at the bound"
+    return next(label for lo, hi, label in FALL_BINS if lo <= frames <= hi)
 
 
 def _people(ppl: pd.DataFrame, t: float) -> pd.DataFrame:
@@ -157,15 +206,23 @@ def main(argv=None) -> int:
     rows = []
     for d in dirs:
         rec = read_recording(d)
-        res = run_target(rec, params)
+        log = ExistenceLog()
+        try:
+            res = run_target(rec, params)
+        finally:
+            log.close()
         cams = rec.calibration.cameras_of_kind("oblique")
+        times = np.asarray(getattr(res, "times", []), float)
         for r in ends_against_truth(rec.truth.people, res.internal, res.ends, rec.truth.visibility, cams):
-            rows.append({"recording": d, "seed": rec.seed, **r})
+            fall = None
+            if r["reason"] == "existence" and len(times):
+                fall = log.fall(r["track"], int(np.argmin(np.abs(times - r["t"]))))
+            rows.append({"recording": d, "seed": rec.seed, **r, "fall": fall})
     df = pd.DataFrame(rows)
     if len(df):
         df["other"] = df["other"].astype("Int64")  # empty where the end is no duplicate
-        for k in ("views", "views_1s"):
-            df[k] = df[k].astype("Int64")  # empty without the truth's visibility
+        for k in ("views", "views_1s", "fall"):
+            df[k] = df[k].astype("Int64")  # empty without the truth's visibility / for another reason
     if csv:
         df.to_csv(csv, index=False)
     if not len(df):
@@ -173,6 +230,10 @@ def main(argv=None) -> int:
         return 0
     print(f"{len(dirs)} recordings, {len(df)} confirmed tracks dropped:")
     print(df.groupby(["reason", "class"]).size().unstack(fill_value=0).to_string())
+    drops = df[df["reason"] == "existence"]
+    if len(drops):
+        print("\nexistence drops by frames from the accept bound to the drop:")
+        print(drops.assign(fall=drops["fall"].map(fall_bin)).groupby(["fall", "class"]).size().unstack(fill_value=0).to_string())
     lost = df[df["class"] == "person untracked"]
     if len(lost):
         print(f"\na person left untracked ({len(lost)}):")

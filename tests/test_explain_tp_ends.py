@@ -133,3 +133,32 @@ def test_views_count_the_cameras_that_saw_the_person_by_the_truth():
     assert views_at(vis.iloc[:0], ["ne"], "a", 2.0) is None
     assert views_at(None, ["ne"], "a", 2.0) is None
     assert views_at(vis, ["ne"], "a", 5.0) is None  # no frame of the truth then
+
+
+def test_the_existence_log_counts_the_frames_from_the_accept_bound_to_a_drop(occlusion_lab_6s):
+    """``ExistenceLog`` keeps each track's existence after each frame's update, one frame index
+    a ``step``; ``fall`` is the frames from the last frame at the accept bound to the drop's frame
+    (None: never at the bound by then); the tracker's methods are put back."""
+    import numpy as np
+
+    from scripts import experiment_tsutsui as ts
+    from scripts.explain_tp_ends import ExistenceLog, fall_bin
+    from trackroom.dataset import read_recording
+    from trackroom.estimators import tp_joint
+
+    before = (tp_joint.JointTracker.step, tp_joint.JointTracker.__dict__["existence"])
+    log = ExistenceLog()
+    try:
+        res = ts.run_target(read_recording(occlusion_lab_6s))
+    finally:
+        log.close()
+    assert (tp_joint.JointTracker.step, tp_joint.JointTracker.__dict__["existence"]) == before
+    assert log.k + 1 == len(res.times)  # one step a frame
+    target = log.exist[0]
+    assert target and all(e <= tp_joint.EXIST_ACCEPT + 1e-9 for e in target.values())
+    assert max(target.values()) == tp_joint.EXIST_ACCEPT  # the target's track reaches the bound
+    k_first = min(k for k, e in target.items() if e >= tp_joint.EXIST_ACCEPT)
+    assert log.fall(0, k_first) == 0 and log.fall(0, k_first - 1) is None and log.fall(999, 10) is None
+    log.exist[7] = {10: 4.0, 11: tp_joint.EXIST_ACCEPT, 12: 0.2, 13: -2.7, 14: -7.0}  # 4115's track: three frames
+    assert log.fall(7, 14) == 3 and log.fall(7, 11) == 0 and log.fall(7, 10) is None
+    assert [fall_bin(x) for x in (3, 4, 10, 11, None, np.nan)] == ["1-3", "4-10", "4-10", "11+", "never at the bound", "never at the bound"]
