@@ -103,7 +103,7 @@ def test_the_command_counts_and_lists_the_people_left_untracked(monkeypatch, tmp
                        columns=["t", "camera", "person_id", "in_fov", "visible"])
     rec = SimpleNamespace(seed=903, truth=SimpleNamespace(people=people(target=tgt, distractor=look), visibility=vis),
                           calibration=SimpleNamespace(cameras_of_kind=lambda *kinds: {"ne": None, "sw": None}))
-    res = SimpleNamespace(internal=tracks(t0=(drawn, 59), t1=(look, 30)), ends=end(1, 30, look[30]))
+    res = SimpleNamespace(internal=tracks(t0=(drawn, 59), t1=(look, 30)), ends=end(1, 30, look[30]), times=np.arange(60) * 0.1)
     monkeypatch.setattr(cmd, "read_recording", lambda d: rec)
     monkeypatch.setattr(cmd, "run_target", lambda r, params=None: res)
     monkeypatch.setattr("trackroom.dataset.read_manifest", lambda d: {})  # the folder check: "somewhere" stands for a recording

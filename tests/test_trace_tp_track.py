@@ -186,25 +186,21 @@ def test_pulls_add_up_each_updates_move_towards_the_person_and_leave_the_run_alo
     counts: dict = {}
     pos = 0.0
     u = None
-    for ln in body:
+    for i, ln in enumerate(body):
         if ln.startswith("t "):
+            # the unit vector from the track before the frame to the target (the frame's truth line)
             x0 = nums(ln, " x ")
-        elif ln.lstrip().startswith("truth:"):
-            pass
+            truth = next(x for x in body[i:] if x.lstrip().startswith("truth:"))
+            xy = np.array([float(v) for v in truth.split("target ")[1].split()[0].split(",")])
+            u = (xy - x0) / np.linalg.norm(xy - x0)
         elif ln.startswith("      obl_"):
             cam, name = ln.split()[0], ln.split()[1].rstrip(":")
             if name == "update_plane":
                 name += " " + ln.split()[2]
             counts[(cam, name)] = counts.get((cam, name), 0) + 1
             if u is None:
-                raise AssertionError("an update line before its frame's truth")
+                raise AssertionError("an update line before its frame's start")
             pos += float(nums(ln, " dx ") @ u)
-        if ln.startswith("t "):
-            # the target's position this frame: the truth line after the frame's lines
-            i = body.index(ln)
-            truth = next(x for x in body[i:] if x.lstrip().startswith("truth:"))
-            xy = np.array([float(v) for v in truth.split("target ")[1].split()[0].split(",")])
-            u = (xy - x0) / np.linalg.norm(xy - x0)
     assert counts and {key: n for key, (n, _, _) in rows.items() if key != ("-", "motion")} == counts
     table = sum(p for key, (_, p, _) in rows.items() if key != ("-", "motion"))
     assert abs(table - pos) <= 0.002 * len(counts) + 0.01  # printed to 3 and 2 decimals
