@@ -1,6 +1,6 @@
 """Which tracks `target_planes` drops, and whether a person is left untracked by it.
 
-    python -m scripts.explain_tp_ends DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE]
+    python -m scripts.explain_tp_ends DIR [DIR ...] [--param KEY=VALUE ...] [--csv FILE] [--misses FILE]
 
 Runs the single-target tracker as ``scripts/experiment_tsutsui.py`` does (the same click; every
 mover is a track inside it) and reads each confirmed track it dropped (``TargetPlanesResult.ends``:
@@ -42,10 +42,24 @@ where they happened.
 ``fall``: for a track the existence test dropped, how many frames it took from its last frame at
 the accept bound (``tp_joint.EXIST_ACCEPT``, +4.60) to the drop (empty: never at the bound, or
 another reason, or a run with the look-ahead, which steps each frame once per hypothesis), read
-from the tracker's own existence updates (``ExistenceLog``); the summary
-counts those drops by class and fall (issue 12's hundredth session: analytic 4115 and rendered
-4136, a person's track dropped in three frames, the floor the two-mode marginal has a frame after
-a frame in which the track walked).
+from the tracker's own existence updates (``ExistenceLog``); the summary counts those drops by
+class and fall (issue 12's hundredth session: analytic 4115 and rendered 4136, a person's track
+dropped in three frames, the floor the two-mode marginal has a frame after a frame in which the
+track walked). ``mu_fall``, ``in_image``: over the frames of that fall, the highest standing
+probability its existence updates weighed (the frame's prior: at 0.5 or more a frame without its
+window counts mostly as a standing person's) and the fewest cameras' images its projection fell
+in, the tracker's own counterparts of the truth's standing and ``views``; the summary counts the
+falls by both (issue 12's hundred-and-first session). ``miss_seen``, ``miss_hidden``,
+``miss_out``: over the same frames, the existence evidence against the track (the negative shares,
+log-odds, summed over its cameras and frames: no window where a walker would make one, or a merged
+window fitting the others better) from the cameras the truth says saw the person (``visible``, as
+for ``views``), from those whose image held the person hidden (``in_fov`` without ``visible``:
+behind someone or something, or in rendered recordings less than half of it unhidden), and from
+those whose image did not hold it (``in_fov`` false). ``--misses FILE``: those shares one row per
+camera and frame (``miss_rows``), with the track's projected cylinder and the person model's at
+the true person's position, so that a miss from a camera whose image did not hold the person can
+be told apart: the track there too (the view's test) or the track elsewhere (its position); the
+summary sums them by camera and truth for the people left untracked.
 """
 from __future__ import annotations
 
@@ -56,10 +70,11 @@ from scipy.optimize import linear_sum_assignment
 import sys
 from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's code, also run as a file
-from scripts.experiment_tsutsui import distances_at, people_at, recordings_and_params, run_target
+from scripts.experiment_tsutsui import distances_at, measurement_args, measurement_parser, people_at, run_target
 from scripts.explain_tp_losses import NEAR_M as BESIDE_M  # the people this near its end are the ones it may leave untracked
 from scripts.explain_tp_losses import ON_M  # another track this near a person (matched one to one) still follows it
 from trackroom.dataset import read_recording
+from trackroom.estimators import tp_geometry as geo
 from trackroom.estimators import tp_joint
 
 NEAR_M = 0.7  # a dropped track this near a person (on average) was on that person
@@ -68,18 +83,28 @@ BEFORE_S = 1.0  # a person some track (the dropped one too) followed this long b
 SPEED_S = 0.5  # the person's speed over this span before the end
 LIFE_S = 2.0  # the person a track followed: the nearest on average over this span before its end
 FALL_BINS = ((1, 3, "1-3"), (4, 10, "4-10"), (11, 10**9, "11+"))  # frames from the accept bound to an existence drop
+WIN_NAMES = ("left", "right", "top", "bottom")  # a projected cylinder's window, px (``--misses``)
 
 
 class ExistenceLog:
     """Wraps ``tp_joint.JointTracker.step`` (one call a frame) and ``existence`` for one run,
-    keeping each track's existence log-odds after each frame's update, by frame index;
-    ``close`` puts the tracker back."""
+    keeping, by frame index, each track's existence log-odds after each frame's update, its
+    standing probability the update weighed (the frame's prior, ``mu``) and how many cameras'
+    images its projection fell in then (``in_image``: the tracker's own view of who can see it;
+    hidden behind a shelf or another track still counts), and each camera's share of that
+    update's evidence (``walk_evidence``, wrapped too) with the track's projected cylinder there
+    (``windows``); ``jt``: the tracker it saw; ``close`` puts the tracker back."""
 
     def __init__(self):
         JT = tp_joint.JointTracker
-        self.orig = JT.step, JT.__dict__["existence"]
+        self.orig = JT.step, JT.__dict__["existence"], JT.walk_evidence
         self.k = -1
         self.exist: dict[int, dict[int, float]] = {}  # track id -> {frame index: existence after the update}
+        self.mu: dict[int, dict[int, float]] = {}  # ... -> the standing probability it weighed
+        self.in_image: dict[int, dict[int, int]] = {}  # ... -> cameras whose image its projection fell in
+        self.evidence: dict[int, dict[int, dict[str, float]]] = {}  # ... -> {camera: its walk evidence}
+        self.windows: dict[int, dict[int, dict[str, np.ndarray]]] = {}  # ... -> {camera: the projected cylinder, px}
+        self.jt = None
         log = self
 
         def step(jt, *args, **kwargs):
@@ -89,18 +114,49 @@ class ExistenceLog:
         def existence(tr, *args, **kwargs):
             out = log.orig[1].__func__(tr, *args, **kwargs)
             log.exist.setdefault(tr.tid, {})[log.k] = float(tr.exist)
+            log.mu.setdefault(tr.tid, {})[log.k] = float(tr.mu)
+            log.in_image.setdefault(tr.tid, {})[log.k] = sum(why != "out of view" for _, why, _ in tr.status.values())
             return out
 
-        JT.step, JT.existence = step, staticmethod(existence)
+        def walk_evidence(jt, tr, c, p, *args, **kwargs):
+            out = log.orig[2](jt, tr, c, p, *args, **kwargs)
+            log.jt = jt
+            log.evidence.setdefault(tr.tid, {}).setdefault(log.k, {})[c] = float(out)
+            log.windows.setdefault(tr.tid, {}).setdefault(log.k, {})[c] = np.array(p.win, float)
+            return out
+
+        JT.step, JT.existence, JT.walk_evidence = step, staticmethod(existence), walk_evidence
 
     def close(self) -> None:
-        tp_joint.JointTracker.step, tp_joint.JointTracker.existence = self.orig
+        JT = tp_joint.JointTracker
+        JT.step, JT.existence, JT.walk_evidence = self.orig
 
     def fall(self, tid: int, k_end: int) -> int | None:
         """Frames from track ``tid``'s last frame at the accept bound up to frame ``k_end`` (its
         drop); None if it never was at the bound by then (or has no record)."""
         at_bound = [k for k, e in self.exist.get(tid, {}).items() if k <= k_end and e >= tp_joint.EXIST_ACCEPT - 1e-9]
         return k_end - max(at_bound) if at_bound else None
+
+    def during_fall(self, tid: int, k_end: int) -> tuple[float, int] | None:
+        """Over the frames after track ``tid``'s last frame at the accept bound up to its drop at
+        ``k_end``: the highest standing probability its existence updates weighed, and the fewest
+        cameras' images its projection fell in; None where ``fall`` is None or 0."""
+        n = self.fall(tid, k_end)
+        if not n:
+            return None
+        ks = [k for k in self.mu.get(tid, {}) if k_end - n < k <= k_end]
+        return max(self.mu[tid][k] for k in ks), min(self.in_image[tid][k] for k in ks)
+
+    def fall_misses(self, tid: int, k_end: int) -> list[tuple[int, str, float]]:
+        """(frame index, camera, evidence) of each camera's negative share of the existence
+        evidence over the frames of track ``tid``'s fall to its drop at ``k_end`` (``fall``):
+        the cameras whose lack of a window (or a merged window fitting the others better) spoke
+        against someone being there; empty where ``fall`` is None or 0."""
+        n = self.fall(tid, k_end)
+        ev = self.evidence.get(tid, {})
+        if not n:
+            return []
+        return [(k, c, v) for k in range(k_end - n + 1, k_end + 1) for c, v in ev.get(k, {}).items() if v < 0.0]
 
 
 def fall_bin(frames) -> str:
@@ -160,6 +216,46 @@ def views_at(visibility: pd.DataFrame | None, cameras, who: str, t: float) -> in
     return int(v.groupby("camera")["visible"].any().sum())
 
 
+def truth_view(visibility: pd.DataFrame, t: float, who: str, camera: str) -> str:
+    """What the truth says of ``camera`` and person ``who`` in the frame nearest t: "seen"
+    (``visible``), "hidden" (in its image, ``in_fov``, but not ``visible``) or "out" (neither, or
+    no row for the person)."""
+    f = _frame(visibility, t)
+    f = f[(f["person_id"] == who) & (f["camera"] == camera)]
+    return "seen" if bool(f["visible"].any()) else "hidden" if bool(f["in_fov"].any()) else "out"
+
+
+def misses_by_truth(misses, times, visibility: pd.DataFrame | None, who: str) -> tuple[float, float, float] | None:
+    """The summed negative existence evidence of ``misses`` ((frame index, camera, evidence), the
+    log's ``fall_misses``), split by ``truth_view`` of camera and person ``who`` in that frame
+    (``times``: each frame index's time): (seen, hidden, out); None without the truth's
+    visibility."""
+    if visibility is None or not len(visibility):
+        return None
+    out = {"seen": 0.0, "hidden": 0.0, "out": 0.0}
+    for k, c, v in misses:
+        out[truth_view(visibility, float(times[k]), who, c)] += v
+    return round(out["seen"], 2), round(out["hidden"], 2), round(out["out"], 2)
+
+
+def miss_rows(log: ExistenceLog, tid: int, k_end: int, times, people: pd.DataFrame, visibility: pd.DataFrame,
+              who: str) -> list[dict]:
+    """One row per camera and frame of track ``tid``'s fall with evidence against it
+    (``fall_misses``): the evidence, ``truth_view``, and the track's projected cylinder there
+    against the person model's cylinder at the true person's position (``tp_geometry.
+    cylinder_window`` with the tracker's ``height`` and ``radius``), columns and rows, px."""
+    jt, rows = log.jt, []
+    for k, c, v in log.fall_misses(tid, k_end):
+        t = float(times[k])
+        xy = _people(people, t).loc[who, ["x", "y"]].to_numpy(float)
+        mine, theirs = log.windows[tid][k][c], geo.cylinder_window(jt.Ps[c], xy, jt.cfg.height, jt.cfg.radius)
+        rows.append({"t": round(t, 1), "camera": c, "evidence": round(v, 3), "truth": truth_view(visibility, t, who, c),
+                     **{f"track_{n}": round(float(x), 1) for n, x in zip(WIN_NAMES, mine)},
+                     **{f"person_{n}": round(float(x), 1) for n, x in zip(WIN_NAMES, theirs)},
+                     "image_width": jt.widths[c]})
+    return rows
+
+
 def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.DataFrame,
                        visibility: pd.DataFrame | None = None, cameras=()) -> list[dict]:
     """One row per dropped track: ``people`` the truth (t, person_id, x, y), ``internal`` every
@@ -203,8 +299,12 @@ def ends_against_truth(people: pd.DataFrame, internal: pd.DataFrame, ends: pd.Da
 
 
 def main(argv=None) -> int:
-    dirs, params, csv = recordings_and_params(__doc__, argv, csv_help="write the dropped tracks here")
-    rows = []
+    ap = measurement_parser(__doc__, "write the dropped tracks here")
+    ap.add_argument("--misses", help="write each camera's evidence against a track over its fall to an existence drop "
+                                     "here, one row per camera and frame, with the track's and the person's projected cylinders")
+    dirs, params, a = measurement_args(ap, argv)
+    csv = a.csv
+    rows, misses = [], []
     for d in dirs:
         rec = read_recording(d)
         log = None if (params or {}).get("lookahead") else ExistenceLog()  # frames stepped twice: no frame index
@@ -216,17 +316,27 @@ def main(argv=None) -> int:
         cams = rec.calibration.cameras_of_kind("oblique")
         times = np.asarray(res.times, float)
         for r in ends_against_truth(rec.truth.people, res.internal, res.ends, rec.truth.visibility, cams):
-            fall = None
+            fall = during = split = None
             if r["reason"] == "existence" and log is not None:
-                fall = log.fall(r["track"], int(np.argmin(np.abs(times - r["t"]))))
-            rows.append({"recording": d, "seed": rec.seed, **r, "fall": fall})
+                k_end = int(np.argmin(np.abs(times - r["t"])))
+                fall, during = log.fall(r["track"], k_end), log.during_fall(r["track"], k_end)
+                if during is not None:
+                    split = misses_by_truth(log.fall_misses(r["track"], k_end), times, rec.truth.visibility, r["who"])
+                if during is not None and split is not None and a.misses:
+                    misses += [{"recording": d, "seed": rec.seed, "track": r["track"], "class": r["class"], "who": r["who"], **m}
+                               for m in miss_rows(log, r["track"], k_end, times, rec.truth.people, rec.truth.visibility, r["who"])]
+            rows.append({"recording": d, "seed": rec.seed, **r, "fall": fall, "mu_fall": None if during is None else round(during[0], 3),
+                         "in_image": None if during is None else during[1],
+                         **{k: None if split is None else split[n] for n, k in enumerate(("miss_seen", "miss_hidden", "miss_out"))}})
     df = pd.DataFrame(rows)
     if len(df):
         df["other"] = df["other"].astype("Int64")  # empty where the end is no duplicate
-        for k in ("views", "views_1s", "fall"):
+        for k in ("views", "views_1s", "fall", "in_image"):
             df[k] = df[k].astype("Int64")  # empty without the truth's visibility / for another reason
     if csv:
         df.to_csv(csv, index=False)
+    if a.misses:
+        pd.DataFrame(misses).to_csv(a.misses, index=False)
     if not len(df):
         print(f"{len(dirs)} recordings: no confirmed track dropped")
         return 0
@@ -236,6 +346,27 @@ def main(argv=None) -> int:
     if len(drops):
         print("\nexistence drops by frames from the accept bound to the drop:")
         print(drops.assign(fall=drops["fall"].map(fall_bin)).groupby(["fall", "class"]).size().unstack(fill_value=0).to_string())
+        fell = drops[drops["in_image"].notna()]
+        if len(fell):
+            print("\nthose falling from the bound, by the tracker's own view over the fall (the highest standing "
+                  "probability weighed; the fewest cameras' images its projection fell in):")
+            print(fell.assign(standing=np.where(fell["mu_fall"].astype(float) >= 0.5, "likelier standing", "likelier walking"),
+                              in_image=fell["in_image"].astype(int).clip(upper=2).map({0: "0", 1: "1", 2: "2+"}))
+                  .groupby(["standing", "in_image", "class"]).size().unstack(fill_value=0).to_string())
+        split = fell[fell["miss_seen"].notna()]
+        if len(split):
+            print("\nthe evidence against them over the fall (log-odds summed over the cameras and frames without "
+                  "a window), by what the truth says of the camera and the person: seen; in its image but hidden; "
+                  "out of its image:")
+            print(split.groupby("class")[["miss_seen", "miss_hidden", "miss_out"]].agg(["sum", "median"]).round(2).to_string())
+    if misses:
+        m = pd.DataFrame(misses)
+        m = m[m["class"] == "person untracked"]
+        if len(m):
+            print("\nthe evidence against the tracks of people left untracked, by camera and the truth (--misses), with the "
+                  "median rows by which the person's projected cylinder lies lower in the image than the track's (its top):")
+            print(m.assign(lower=m["person_top"] - m["track_top"]).groupby(["camera", "truth"])
+                  .agg(misses=("evidence", "size"), evidence=("evidence", "sum"), lower_px=("lower", "median")).round(2).to_string())
     lost = df[df["class"] == "person untracked"]
     if len(lost):
         print(f"\na person left untracked ({len(lost)}):")
