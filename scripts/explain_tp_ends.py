@@ -109,6 +109,7 @@ class ExistenceLog:
 
         def step(jt, *args, **kwargs):
             log.k += 1
+            log.jt = jt
             return log.orig[0](jt, *args, **kwargs)
 
         def existence(tr, *args, **kwargs):
@@ -120,7 +121,6 @@ class ExistenceLog:
 
         def walk_evidence(jt, tr, c, p, *args, **kwargs):
             out = log.orig[2](jt, tr, c, p, *args, **kwargs)
-            log.jt = jt
             log.evidence.setdefault(tr.tid, {}).setdefault(log.k, {})[c] = float(out)
             log.windows.setdefault(tr.tid, {}).setdefault(log.k, {})[c] = np.array(p.win, float)
             return out
@@ -322,7 +322,7 @@ def main(argv=None) -> int:
                 fall, during = log.fall(r["track"], k_end), log.during_fall(r["track"], k_end)
                 if during is not None:
                     split = misses_by_truth(log.fall_misses(r["track"], k_end), times, rec.truth.visibility, r["who"])
-                if during is not None and split is not None and a.misses:
+                if split is not None and a.misses:  # split: only for a fall (during) with the truth's visibility
                     misses += [{"recording": d, "seed": rec.seed, "track": r["track"], "class": r["class"], "who": r["who"], **m}
                                for m in miss_rows(log, r["track"], k_end, times, rec.truth.people, rec.truth.visibility, r["who"])]
             rows.append({"recording": d, "seed": rec.seed, **r, "fall": fall, "mu_fall": None if during is None else round(during[0], 3),

@@ -168,8 +168,8 @@ class Tracer:
                 d = tr.s - before
                 what, kind = "", name
                 if name == "update_plane":
-                    what = f" {'own' if kwargs.get('own', True) else 'edge'} share {kwargs.get('weight', 1.0):.2f}"
-                    kind += " own" if kwargs.get("own", True) else " edge"
+                    side = "own" if kwargs.get("own", True) else "edge"
+                    what, kind = f" {side} share {kwargs.get('weight', 1.0):.2f}", f"{name} {side}"
                 tracer.moves.append((tracer.frames[-1][0], c, kind, d))
                 if tracer.show_updates:
                     tracer.frames[-1][1].append(f"      {c} {name}{what}: dx {d[0]:+.3f},{d[1]:+.3f} dv {d[2]:+.3f},{d[3]:+.3f}")

@@ -211,7 +211,6 @@ def test_one_frames_pulls_add_up_to_its_step_towards_the_person(rec_dir):
     second frame) add up to the track's step along the unit vector to the person, read from the
     printed states; an unknown person is refused by name."""
     import numpy as np
-    import pytest as _pytest
 
     lines = tt.trace(rec_dir, 0, 2.2, 2.2, pulls="target")
     nums = lambda s, key: np.array([float(v) for v in s.split(key)[1].split()[0].split(",")])
@@ -222,5 +221,5 @@ def test_one_frames_pulls_add_up_to_its_step_towards_the_person(rec_dir):
     u = (xy - x0) / np.linalg.norm(xy - x0)
     total = sum(p for _, p, _ in _pull_rows(lines).values())
     assert abs(total - (x1 - x0) @ u) <= 0.012
-    with _pytest.raises(SystemExit, match="no true person 'nobody'"):
+    with pytest.raises(SystemExit, match="no true person 'nobody'"):
         tt.trace(rec_dir, 0, 2.2, 2.2, pulls="nobody")
