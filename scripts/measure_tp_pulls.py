@@ -63,7 +63,7 @@ def pulls(d: str, params: dict | None = None, kinds=kind_of) -> dict:
     times = np.asarray(res.times, float)
     me = tt.person_rows(ts.people_at(rec.truth.people, times, ("x", "y", "vx", "vy")), ts.TARGET, "measure_tp_pulls")
     out: dict = {}
-    for _, gap, speeds, frame, motion in tt.frame_pulls(tracer, times, me, sorted(tracer.states)):
+    for _, gap, speeds, frame, motion, *_ in tt.frame_pulls(tracer, times, me, sorted(tracer.states)):
         kind = kinds(gap[0], *speeds)
         if kind is None:
             continue

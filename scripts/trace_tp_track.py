@@ -1,7 +1,7 @@
 """Frame trace of one target_planes track: what each camera showed it and how it moved.
 
     python -m scripts.trace_tp_track DIR --from T0 --to T1 [--track ID] [--multi] [--updates] [--costs] [--pulls PERSON]
-                                     [--param KEY=VALUE ...]
+                                     [--axes gap|course] [--param KEY=VALUE ...]
 
 Runs target_planes on one occlusion_lab recording (single-target with the experiment's click,
 ``experiment_tsutsui.run_target``, or every mover with ``--multi``) and prints, for each frame in
@@ -37,7 +37,12 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   "motion", is the prediction against the person's own step: minus (the person's change of
   position, velocity less the track's change outside the updates: dt times its velocity, the
   caps and mode mixing), so the rows add up to how much the gap closed, frame by frame along its
-  direction;
+  direction (a row "between frames" holds what moved the track outside the frames' steps: the
+  prune holding it inside the walls or on the floor); those per-frame directions turn, so the
+  sums over frames need not add up to the change in the gap. With ``--axes course`` each update's changes are summed as vectors instead
+  and read along the person's course over the frames and across it, and the rows add up to the
+  gap's change on those fixed axes (issue 12's hundred-and-second session: where the look-alike's
+  track stays short of it in the south-west corner);
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
   camera whose image it falls in, "(unseen)" after a person the recording's truth says that
@@ -183,17 +188,30 @@ class Tracer:
             setattr(tp_joint.JointTracker, name, orig)
 
 
+BETWEEN = ("", "between frames")  # the pull row of a change of the track made between two frames (``frame_pulls``)
+
+
+def nearest_row(me):
+    """t -> the row of ``me`` (a person's true rows indexed by time) nearest in time."""
+    t_me = me.index.to_numpy(float)
+    return lambda t: me.iloc[int(np.argmin(np.abs(t_me - t)))]
+
+
 def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
     """Per traced frame k of ``ks`` (frame indices, ascending): (k, the gap to the person at the
     frame's start (m, m/s), the person's and the track's speed (m/s), {(camera, update): [position
-    pull, velocity pull, updates made]}, the motion row's [position, velocity]) - the module docstring's
-    pulls; ``me`` the person's true rows (x, y, vx, vy) indexed by time. The motion row counts
-    the person's own step from the previous frame only where that frame is the one before."""
+    pull, velocity pull, updates made]}, the motion row's [position, velocity], and the same
+    unprojected: {(camera, update): summed change of (x, y, vx, vy)} and the motion row's
+    (x, y, vx, vy), the track's change outside the updates less the person's own step) - the
+    module docstring's pulls; ``me`` the person's true rows (x, y, vx, vy) indexed by time. The
+    motion row counts the person's own step from the previous frame only where that frame is
+    the one before; there, a change of the track between the two frames (outside the step: the
+    prune holding it inside the walls or on the floor, ``JointTracker.prune``) is the row
+    ``BETWEEN``, so that the rows add up over a run of frames."""
     by_frame: dict[int, list] = {}
     for k, c, kind, d in tracer.moves:
         by_frame.setdefault(k, []).append((c, kind, d))
-    t_me = me.index.to_numpy(float)
-    at = lambda t: me.iloc[int(np.argmin(np.abs(t_me - t)))]
+    at = nearest_row(me)
     for n, k in enumerate(ks):
         s0, s1 = tracer.states[k]
         row = at(times[k])
@@ -201,9 +219,11 @@ def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
         e = [px - s0[:2], pv - s0[2:]]
         u = [x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.zeros(2) for x in e]
         pulls: dict[tuple[str, str], np.ndarray] = {}
+        steps: dict[tuple[str, str], np.ndarray] = {}
         moved = np.zeros(4)
         for c, kind, d in by_frame.get(k, []):
             pulls[(c, kind)] = pulls.get((c, kind), np.zeros(3)) + [d[:2] @ u[0], d[2:] @ u[1], 1]
+            steps[(c, kind)] = steps.get((c, kind), np.zeros(4)) + d
             moved += d
         # the person's own step over the frame against the track's step outside the updates
         if n and ks[n - 1] == k - 1:
@@ -213,8 +233,14 @@ def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
             own = np.zeros(4)
         rest = (s1 - s0) - moved
         motion = np.array([-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1]])
+        if n and ks[n - 1] == k - 1:
+            # moved between the frames, outside the step: the prune's holds inside the walls and on the floor
+            jump = s0 - tracer.states[k - 1][1]
+            if np.abs(jump).max() > 1e-12:
+                pulls[BETWEEN] = np.array([jump[:2] @ u[0], jump[2:] @ u[1], 1.0])
+                steps[BETWEEN] = jump
         yield (k, (float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))), (float(np.linalg.norm(pv)), float(np.linalg.norm(s0[2:]))),
-               pulls, motion)
+               pulls, motion, steps, rest - own)
 
 
 def person_rows(truth, person: str, who: str = "trace_tp_track"):
@@ -236,7 +262,7 @@ def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float,
         return []
     rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [position pull, velocity pull, count]
     gap = []
-    for _, g, _, pulls, motion in frame_pulls(tracer, times, me, ks):
+    for _, g, _, pulls, motion, _, _ in frame_pulls(tracer, times, me, ks):
         gap.append(g)
         for key, pv in pulls.items():
             rows.setdefault(key, np.zeros(3))[:] += pv
@@ -251,11 +277,51 @@ def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float,
     return out
 
 
+def course_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float, t1: float) -> list[str]:
+    """``--pulls`` with ``--axes course``: the same rows, each update's changes summed as vectors
+    over the traced frames in [t0, t1] s and then read along fixed axes - along the person's
+    course (the unit vector of their displacement from the first frame to the last) and across
+    it (its left normal) - so that, unlike the per-frame directions, the rows add up to how much
+    of the gap (person less track, position and velocity) closed along and across, frame runs
+    where the track was traced back to back. The motion row is the track's change outside the
+    updates less the person's own step."""
+    me = person_rows(truth, person)
+    ks = [k for k in sorted(tracer.states) if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
+    if not ks:
+        return []
+    at = nearest_row(me)
+    first, last = at(times[ks[0]]), at(times[ks[-1]])
+    course = np.array([last.x - first.x, last.y - first.y])
+    if np.linalg.norm(course) < 1e-6:
+        raise SystemExit(f"trace_tp_track: {person} did not move between {times[ks[0]]:.2f} and {times[ks[-1]]:.2f} s; "
+                         "--axes course needs a course (use --axes gap)")
+    along = course / np.linalg.norm(course)
+    axes = np.array([along, [-along[1], along[0]]])  # rows: along, across (left)
+    rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [x, y, vx, vy, count]
+    for _, _, _, pulls, _, steps, motion in frame_pulls(tracer, times, me, ks):
+        for key, d in steps.items():
+            rows.setdefault(key, np.zeros(5))[:] += [*d, pulls[key][2]]
+        rows.setdefault(("", "motion"), np.zeros(5))[:] += [*motion, 1]
+    gap = lambda k, s: (np.array([at(times[k]).x, at(times[k]).y, at(times[k]).vx, at(times[k]).vy]) - s)
+    g0, g1 = gap(ks[0], tracer.states[ks[0]][0]), gap(ks[-1], tracer.states[ks[-1]][1])
+    on = lambda v: (axes @ v[:2], axes @ v[2:4])
+    (p0, v0), (p1, v1) = on(g0), on(g1)
+    out = [f"pulls along {person}'s course ({along[0]:+.2f},{along[1]:+.2f}), {times[ks[0]]:.2f}-{times[ks[-1]]:.2f} s "
+           f"({len(ks)} frames): gap along {p0[0]:+.2f} m, across {p0[1]:+.2f} m, velocity {v0[0]:+.2f}, {v0[1]:+.2f} m/s "
+           f"at the start; {p1[0]:+.2f} m, {p1[1]:+.2f} m, {v1[0]:+.2f}, {v1[1]:+.2f} m/s after the last frame",
+           f"    {'camera':8s} {'update':18s} {'n':>4s} {'along, m':>9s} {'across, m':>10s} {'along, m/s':>11s} {'across, m/s':>12s}"]
+    for c, kind in sorted(rows, key=lambda key: (key != ("", "motion"), key)):
+        (pa, pc), (va, vc) = on(rows[(c, kind)])
+        out.append(f"    {c or '-':8s} {kind:18s} {int(rows[(c, kind)][4]):4d} {pa:+9.3f} {pc:+10.3f} {va:+11.3f} {vc:+12.3f}")
+    return out
+
+
 def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: dict | None = None,
-          updates: bool = False, costs: bool = False, pulls: str | None = None) -> list[str]:
+          updates: bool = False, costs: bool = False, pulls: str | None = None, axes: str = "gap") -> list[str]:
     """The trace lines of track ``tid`` over [t0, t1] s of the recording in folder ``d``, each
     frame's true positions after it (``updates``: each Kalman update's change of the state too;
-    ``pulls``: after the frames, the updates' pulls towards that true person, ``pull_table``)."""
+    ``pulls``: after the frames, the updates' pulls towards that true person, ``pull_table``, or
+    with ``axes="course"`` along and across the person's course, ``course_table``)."""
     if not t1 >= t0:
         raise SystemExit(f"trace_tp_track: --to ({t1}) must not be before --from ({t0})")
     ts.refuse_lookahead("trace_tp_track", params, "trace")
@@ -289,7 +355,8 @@ def trace(d: str, tid: int, t0: float, t1: float, multi: bool = False, params: d
             if seen:
                 out.append(f"        truth in {c}: {seen}")
     if pulls is not None and frames:
-        out += pull_table(tracer, times, ts.people_at(rec.truth.people, times, ("x", "y", "vx", "vy")), pulls, t0, t1)
+        table = course_table if axes == "course" else pull_table
+        out += table(tracer, times, ts.people_at(rec.truth.people, times, ("x", "y", "vx", "vy")), pulls, t0, t1)
     return out
 
 
@@ -306,8 +373,10 @@ def main(argv=None) -> int:
                     "alone in each window it gates, and the explanation forced to each option")
     ap.add_argument("--pulls", metavar="PERSON", help="after the frames, which updates drew the track towards that true person "
                     "(e.g. target) and which away, in position and velocity, summed over the frames")
+    ap.add_argument("--axes", choices=("gap", "course"), default="gap", help="--pulls along each frame's direction to the person "
+                    "(gap, default) or summed as vectors and read along and across the person's course over the frames (course)")
     a = ap.parse_args(argv)
-    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates, a.costs, a.pulls)
+    lines = trace(a.recording, a.track, a.t0, a.t1, a.multi, ts.parse_params(a.param), a.updates, a.costs, a.pulls, a.axes)
     if not lines:
         print(f"track {a.track} does not exist between {a.t0:g} and {a.t1:g} s")
         return 1

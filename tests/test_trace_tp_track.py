@@ -223,3 +223,68 @@ def test_one_frames_pulls_add_up_to_its_step_towards_the_person(rec_dir):
     assert abs(total - (x1 - x0) @ u) <= 0.012
     with pytest.raises(SystemExit, match="no true person 'nobody'"):
         tt.trace(rec_dir, 0, 2.2, 2.2, pulls="nobody")
+
+
+def test_course_axes_rows_add_up_to_the_gaps_change_along_and_across(rec_dir):
+    """``--axes course``: the updates' changes summed as vectors and read along the target's
+    course over the frames and across it; with the motion row (the track's change outside the
+    updates less the target's own step) the rows add up, on each axis, to how much the gap
+    closed from the first frame's start to after the last frame, both printed in the header.
+    The per-frame table of the same frames need not add up so; the update counts are the same.
+    A person who does not move has no course and is refused by name."""
+    import numpy as np
+
+    lines = tt.trace(rec_dir, 0, 1.5, 2.5, pulls="target", axes="course")
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("pulls along target's course ("))
+    head = lines[k]
+    nums = [float(w.rstrip(",;m/s")) for w in head.split("):", 1)[1].replace(",", " ").split() if w[0] in "+-"]
+    g0, g1 = np.array(nums[:4]), np.array(nums[4:8])  # along, across, velocity along, across
+    rows = {}
+    for ln in lines[k + 2:]:
+        w = ln.split()
+        rows[(w[0], " ".join(w[1:-5]))] = (int(w[-5]), np.array([float(v) for v in w[-4:]]))
+    assert rows[("-", "motion")][0] == 11 and len(rows) > 1
+    total = sum(v for _, v in rows.values())
+    assert np.allclose(total, g0 - g1, atol=0.0005 * len(rows) + 0.011)  # rows to 3 decimals, header to 2
+    assert abs(total[0]) > 0.001 or abs(total[1]) > 0.001
+    per_frame = _pull_rows(tt.trace(rec_dir, 0, 1.5, 2.5, pulls="target"))
+    assert {key: n for key, (n, _) in rows.items()} == {key: n for key, (n, _, _) in per_frame.items()}
+    still = tt.Tracer(0, moves=True)
+    still.close()
+    still.states = {0: (np.zeros(4), np.zeros(4)), 1: (np.zeros(4), np.zeros(4))}
+    with pytest.raises(SystemExit, match="still did not move"):
+        tt.course_table(still, np.array([0.0, 0.1]), _standing(), "still", 0.0, 0.1)
+
+
+def _standing():
+    import pandas as pd
+
+    return pd.DataFrame({"t": [0.0, 0.1], "person_id": ["still"] * 2, "x": [1.0] * 2, "y": [2.0] * 2, "vx": [0.0] * 2, "vy": [0.0] * 2})
+
+
+def test_course_rows_count_a_move_between_frames_and_add_up_exactly():
+    """Hand-made states of three frames, the track moved once between two of them (as the prune
+    holds a track inside the walls) and once by an update: the course table has the row
+    "between frames" with that move, and its rows add up, along and across, to the gap closed
+    (the person walks along +x at 1 m/s; the track starts 0.5 m behind and 0.2 m to the right)."""
+    import numpy as np
+    import pandas as pd
+
+    tr = tt.Tracer(0, moves=True)
+    tr.close()
+    s = lambda x, y, vx=1.0, vy=0.0: np.array([x, y, vx, vy])
+    tr.states = {0: (s(-0.5, -0.2), s(-0.4, -0.2)), 1: (s(-0.4, -0.1), s(-0.2, -0.1)), 2: (s(-0.2, -0.1), s(-0.1, -0.1))}
+    tr.moves = [(1, "obl_ne", "update_plane own", np.array([0.1, 0.0, 0.0, 0.0]))]
+    times = np.array([0.0, 0.1, 0.2])
+    truth = pd.DataFrame({"t": times, "person_id": "p", "x": times, "y": 0.0, "vx": 1.0, "vy": 0.0})
+    lines = tt.course_table(tr, times, truth, "p", 0.0, 0.2)
+    assert lines[0].startswith("pulls along p's course (+1.00,+0.00), 0.00-0.20 s (3 frames): gap along +0.50 m, across +0.20 m")
+    rows = {}
+    for ln in lines[2:]:
+        w = ln.split()
+        rows[(w[0], " ".join(w[1:-5]))] = np.array([float(v) for v in w[-4:]])
+    assert np.allclose(rows[("-", "between frames")], [0.0, 0.1, 0.0, 0.0])  # +0.1 m in y: towards the person's left
+    assert np.allclose(rows[("obl_ne", "update_plane own")], [0.1, 0.0, 0.0, 0.0])
+    total = sum(rows.values())
+    # gap after the last frame: person at (0.2, 0), track at (-0.1, -0.1): along 0.3, across 0.1
+    assert np.allclose(total, [0.5 - 0.3, 0.2 - 0.1, 0.0, 0.0], atol=1e-9)
