@@ -1418,7 +1418,8 @@ class JointTracker:
                             self.update_plane(tr, c, p, float(boxes.win[j, 1] if side < 0 else boxes.win[j, 0]), self.edge_sigma(p), float(side))
                         else:
                             self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
-                            if cfg.width_depth and self.detectable(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs):
+                            if (cfg.width_depth and self.detectable(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs)
+                                    and not (cfg.fragment_width and boxes.width[j] < 0.5 * p.width)):
                                 self.update_width(tr, c, float(boxes.width[j]), p)
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])

@@ -1391,6 +1391,33 @@ def test_a_windows_width_measures_depth_along_the_line_of_sight():
     assert err[True] < 0.7 * err[False], err
 
 
+def test_a_fragments_width_does_not_measure_depth():
+    """``fragment_width``: a window of the track alone at the person's column but under half as
+    wide as the body's image (a fragment: a limb, a sliver, the part out of a shadow) is not read
+    as a person twice as far, for a track whose position is 0.6 m uncertain; the frame's update then leaves the track where it would be
+    without the width (``width_depth`` off), while without ``fragment_width`` the width moves it.
+    A window as wide as the body measures depth with it on as before."""
+    south, _ = right_angle_pair()
+    truth = np.array([3.0, -1.0])
+    w_true = _body_width(south, truth)
+    r = window_row(south, truth, (0.0, 0.0))
+
+    def after(width, **cfg):
+        cols = [r[0] - 0.5 * width, r[0] + 0.5 * width]
+        frame = {"south": CameraBoxes(np.array([1], object), np.array([r[0]]), np.array([[cols[0], cols[1], r[3], r[4]]]), np.zeros((1, 2)))}
+        _, jt = _tracker([south], **cfg)
+        tr = JointTrack(0, np.r_[truth, 0.0, 0.0], np.diag([0.6**2, 0.6**2, 0.1**2, 0.1**2]), confirmed=True, seen=True, exist=EXIST_ACCEPT)
+        jt.step([tr], frame, 0.0)
+        assert tr.status["south"][0] == TRACKING
+        return tr.s[:2].copy()
+
+    frag = 0.45 * w_true
+    np.testing.assert_allclose(after(frag, width_depth=True, fragment_width=True), after(frag, width_depth=False))
+    assert np.linalg.norm(after(frag, width_depth=True, fragment_width=False) - after(frag, width_depth=False)) > 0.05
+    whole = after(w_true * 0.8, width_depth=True, fragment_width=True)
+    np.testing.assert_allclose(whole, after(w_true * 0.8, width_depth=True, fragment_width=False))
+    assert np.linalg.norm(whole - after(w_true * 0.8, width_depth=False)) > 1e-4
+
 def test_a_fragments_flow_hardly_tells_whose_it_is():
     """``fragment_flow_sigma``: a window a third as wide as the person (a fragment of the flow
     region: a limb, a sliver stuck on the background) whose flow is none, against the walking
