@@ -299,6 +299,14 @@ class Projection:
         return max(self.win[1] - self.win[0], 1.0)
 
 
+def is_fragment(p: Projection, width: float) -> bool:
+    """Whether a window ``width`` px wide, explained as the one person ``p``, is a fragment of
+    them: narrower than half their projection (a limb, a sliver stuck on the background, the part
+    out of an obstacle's shadow). Its flow says little about whose it is (``fragment_var``) and
+    its width is not the body's (``fragment_width``)."""
+    return float(width) < 0.5 * p.width
+
+
 def kf_update(tr: JointTrack, H: np.ndarray, z: np.ndarray, R: np.ndarray, gate: float | None = None, soft: bool = False,
               cap: float | None = None, weight: float = 1.0) -> bool:
     """Kalman update of ``tr`` with z = H s + noise(R). When the innovation's squared
@@ -1220,7 +1228,8 @@ class JointTracker:
         return geo.cylinder_image_width(self.Ps[c], xy, cfg.radius, cfg.height - cfg.radius, cfg.radius)
 
     def update_width(self, tr: JointTrack, c: str, width: float, p: Projection) -> None:
-        """A window of the track alone, its person seen whole (``width_depth``): its width as a
+        """A window of the track alone, its person seen whole (``width_depth``; with
+        ``fragment_width`` not a fragment, ``is_fragment``): its width as a
         measurement of depth (a person's image is wider the nearer the camera), linearised at
         the prediction (central differences, 1 cm); noise as the explanation's width term,
         hypot(2 box_sigma, ``edge_sigma_frac`` w); beyond the plane gate (a gross width error)
@@ -1252,7 +1261,7 @@ class JointTracker:
         image speed), else 0. Such a window's flow then says little about whose it is. The flow
         update (``update_flow``) keeps the calibrated noise and its gate: the same noise there
         too lost head-on development 191 and 130 (docs/target_planes.md, twenty-ninth session)."""
-        return self.cfg.fragment_flow_sigma**2 if width < 0.5 * p.width else 0.0
+        return self.cfg.fragment_flow_sigma**2 if is_fragment(p, width) else 0.0
 
     def flow_map(self, J: np.ndarray) -> np.ndarray:
         """Floor velocity -> the window's flow (2, 2): eq. 7's J (at the body centre) times the
@@ -1419,7 +1428,7 @@ class JointTracker:
                         else:
                             self.update_plane(tr, c, p, float(boxes.u[j]), float(np.sqrt(self.centroid_var(p, boxes.width[j]))))
                             if (cfg.width_depth and self.detectable(c, tr.xy, p.win) and not self.overlapped(i, p.win, projs)
-                                    and not (cfg.fragment_width and boxes.width[j] < 0.5 * p.width)):
+                                    and not (cfg.fragment_width and is_fragment(p, boxes.width[j]))):
                                 self.update_width(tr, c, float(boxes.width[j]), p)
                         self.update_depth(tr, c, boxes, j)
                         self.update_flow(tr, c, p, boxes.flow[j])
