@@ -39,10 +39,11 @@ Runs target_planes on one occlusion_lab recording (single-target with the experi
   caps and mode mixing), so the rows add up to how much the gap closed, frame by frame along its
   direction (a row "between frames" holds what moved the track outside the frames' steps: the
   prune holding it inside the walls or on the floor); those per-frame directions turn, so the
-  sums over frames need not add up to the change in the gap. With ``--axes course`` each update's changes are summed as vectors instead
-  and read along the person's course over the frames and across it, and the rows add up to the
-  gap's change on those fixed axes (issue 12's hundred-and-second session: where the look-alike's
-  track stays short of it in the south-west corner);
+  sums over frames need not add up to the change in the gap. With ``--axes course`` each
+  update's changes are summed as vectors instead and read along the person's course over the
+  frames and across it, and the rows add up to the gap's change on those fixed axes (issue 12's
+  hundred-and-second session: where the look-alike's track stays short of it in the south-west
+  corner);
 - the true positions of the people, read here by the experimenter (the tracker never sees them),
   and the columns of each person's cylinder (the person model's height and radius) in every
   camera whose image it falls in, "(unseen)" after a person the recording's truth says that
@@ -282,9 +283,9 @@ def course_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: floa
     over the traced frames in [t0, t1] s and then read along fixed axes - along the person's
     course (the unit vector of their displacement from the first frame to the last) and across
     it (its left normal) - so that, unlike the per-frame directions, the rows add up to how much
-    of the gap (person less track, position and velocity) closed along and across, frame runs
-    where the track was traced back to back. The motion row is the track's change outside the
-    updates less the person's own step."""
+    of the gap (person less track, position and velocity) closed along and across, over frames
+    traced back to back. The motion row is the track's change outside the updates less the
+    person's own step; the row "between frames" what moved the track outside the steps."""
     me = person_rows(truth, person)
     ks = [k for k in sorted(tracer.states) if t0 - 1e-9 <= times[k] <= t1 + 1e-9]
     if not ks:
