@@ -238,14 +238,14 @@ def misses_by_truth(misses, times, visibility: pd.DataFrame | None, who: str) ->
     return round(out["seen"], 2), round(out["hidden"], 2), round(out["out"], 2)
 
 
-def miss_rows(log: ExistenceLog, tid: int, k_end: int, times, people: pd.DataFrame, visibility: pd.DataFrame,
+def miss_rows(log: ExistenceLog, tid: int, misses, times, people: pd.DataFrame, visibility: pd.DataFrame,
               who: str) -> list[dict]:
     """One row per camera and frame of track ``tid``'s fall with evidence against it
-    (``fall_misses``): the evidence, ``truth_view``, and the track's projected cylinder there
+    (``misses``, the log's ``fall_misses``): the evidence, ``truth_view``, and the track's projected cylinder there
     against the person model's cylinder at the true person's position (``tp_geometry.
     cylinder_window`` with the tracker's ``height`` and ``radius``), columns and rows, px."""
     jt, rows = log.jt, []
-    for k, c, v in log.fall_misses(tid, k_end):
+    for k, c, v in misses:
         t = float(times[k])
         xy = _people(people, t).loc[who, ["x", "y"]].to_numpy(float)
         mine, theirs = log.windows[tid][k][c], geo.cylinder_window(jt.Ps[c], xy, jt.cfg.height, jt.cfg.radius)
@@ -320,11 +320,12 @@ def main(argv=None) -> int:
             if r["reason"] == "existence" and log is not None:
                 k_end = int(np.argmin(np.abs(times - r["t"])))
                 fall, during = log.fall(r["track"], k_end), log.during_fall(r["track"], k_end)
+                fell = log.fall_misses(r["track"], k_end)  # empty, as ``during`` is None, without a fall
                 if during is not None:
-                    split = misses_by_truth(log.fall_misses(r["track"], k_end), times, rec.truth.visibility, r["who"])
+                    split = misses_by_truth(fell, times, rec.truth.visibility, r["who"])
                 if split is not None and a.misses:  # split: only for a fall (during) with the truth's visibility
                     misses += [{"recording": d, "seed": rec.seed, "track": r["track"], "class": r["class"], "who": r["who"], **m}
-                               for m in miss_rows(log, r["track"], k_end, times, rec.truth.people, rec.truth.visibility, r["who"])]
+                               for m in miss_rows(log, r["track"], fell, times, rec.truth.people, rec.truth.visibility, r["who"])]
             rows.append({"recording": d, "seed": rec.seed, **r, "fall": fall, "mu_fall": None if during is None else round(during[0], 3),
                          "in_image": None if during is None else during[1],
                          **{k: None if split is None else split[n] for n, k in enumerate(("miss_seen", "miss_hidden", "miss_out"))}})

@@ -63,15 +63,15 @@ def pulls(d: str, params: dict | None = None, kinds=kind_of) -> dict:
     times = np.asarray(res.times, float)
     me = tt.person_rows(ts.people_at(rec.truth.people, times, ("x", "y", "vx", "vy")), ts.TARGET, "measure_tp_pulls")
     out: dict = {}
-    for _, gap, speeds, frame, motion, *_ in tt.frame_pulls(tracer, times, me, sorted(tracer.states)):
-        kind = kinds(gap[0], *speeds)
+    for f in tt.frame_pulls(tracer, times, me, sorted(tracer.states)):
+        kind = kinds(f.gap[0], *f.speeds)
         if kind is None:
             continue
         acc = out.setdefault(kind, {"frames": 0})
         acc["frames"] += 1
-        for (_, update), pv in frame.items():
+        for (_, update), pv in f.pulls.items():
             acc.setdefault(update.removeprefix("update_"), np.zeros(3))[:] += pv
-        acc.setdefault("motion", np.zeros(3))[:] += [*motion, 1]
+        acc.setdefault("motion", np.zeros(3))[:] += [*f.motion, 1]
     return out
 
 

@@ -57,6 +57,7 @@ The frame traces in docs/target_planes.md can be re-made with it (e.g. rendered 
 from __future__ import annotations
 
 import argparse
+from typing import NamedTuple
 
 import numpy as np
 
@@ -192,6 +193,18 @@ class Tracer:
 BETWEEN = ("", "between frames")  # the pull row of a change of the track made between two frames (``frame_pulls``)
 
 
+class FramePull(NamedTuple):
+    """One traced frame's pulls (``frame_pulls``)."""
+
+    k: int  # the frame index
+    gap: tuple[float, float]  # to the person at the frame's start: m, m/s
+    speeds: tuple[float, float]  # the person's and the track's, m/s
+    pulls: dict  # (camera, update) -> [position pull, velocity pull, updates made], along the gap's directions
+    motion: np.ndarray  # the motion row's [position, velocity] pull
+    steps: dict  # (camera, update) -> summed change of (x, y, vx, vy), unprojected
+    motion_step: np.ndarray  # the motion row unprojected: the track's change outside the updates less the person's step
+
+
 def nearest_row(me):
     """t -> the row of ``me`` (a person's true rows indexed by time) nearest in time."""
     t_me = me.index.to_numpy(float)
@@ -199,12 +212,8 @@ def nearest_row(me):
 
 
 def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
-    """Per traced frame k of ``ks`` (frame indices, ascending): (k, the gap to the person at the
-    frame's start (m, m/s), the person's and the track's speed (m/s), {(camera, update): [position
-    pull, velocity pull, updates made]}, the motion row's [position, velocity], and the same
-    unprojected: {(camera, update): summed change of (x, y, vx, vy)} and the motion row's
-    (x, y, vx, vy), the track's change outside the updates less the person's own step) - the
-    module docstring's pulls; ``me`` the person's true rows (x, y, vx, vy) indexed by time. The
+    """Per traced frame k of ``ks`` (frame indices, ascending), a ``FramePull`` - the module
+    docstring's pulls, along the gap's directions and unprojected; ``me`` the person's true rows (x, y, vx, vy) indexed by time. The
     motion row counts the person's own step from the previous frame only where that frame is
     the one before; there, a change of the track between the two frames (outside the step: the
     prune holding it inside the walls or on the floor, ``JointTracker.prune``) is the row
@@ -226,22 +235,19 @@ def frame_pulls(tracer: Tracer, times: np.ndarray, me, ks: list[int]):
             pulls[(c, kind)] = pulls.get((c, kind), np.zeros(3)) + [d[:2] @ u[0], d[2:] @ u[1], 1]
             steps[(c, kind)] = steps.get((c, kind), np.zeros(4)) + d
             moved += d
-        # the person's own step over the frame against the track's step outside the updates
+        own = np.zeros(4)  # the person's own step over the frame, from the frame before where that was traced
         if n and ks[n - 1] == k - 1:
             prev = at(times[k - 1])
             own = np.array([row.x - prev.x, row.y - prev.y, row.vx - prev.vx, row.vy - prev.vy])
-        else:
-            own = np.zeros(4)
-        rest = (s1 - s0) - moved
-        motion = np.array([-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1]])
-        if n and ks[n - 1] == k - 1:
             # moved between the frames, outside the step: the prune's holds inside the walls and on the floor
             jump = s0 - tracer.states[k - 1][1]
             if np.abs(jump).max() > 1e-12:
                 pulls[BETWEEN] = np.array([jump[:2] @ u[0], jump[2:] @ u[1], 1.0])
                 steps[BETWEEN] = jump
-        yield (k, (float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))), (float(np.linalg.norm(pv)), float(np.linalg.norm(s0[2:]))),
-               pulls, motion, steps, rest - own)
+        rest = (s1 - s0) - moved  # the track's step outside the updates
+        motion = np.array([-(own[:2] - rest[:2]) @ u[0], -(own[2:] - rest[2:]) @ u[1]])
+        yield FramePull(k, (float(np.linalg.norm(e[0])), float(np.linalg.norm(e[1]))), (float(np.linalg.norm(pv)), float(np.linalg.norm(s0[2:]))),
+                        pulls, motion, steps, rest - own)
 
 
 def person_rows(truth, person: str, who: str = "trace_tp_track"):
@@ -263,11 +269,11 @@ def pull_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: float,
         return []
     rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [position pull, velocity pull, count]
     gap = []
-    for _, g, _, pulls, motion, _, _ in frame_pulls(tracer, times, me, ks):
-        gap.append(g)
-        for key, pv in pulls.items():
+    for f in frame_pulls(tracer, times, me, ks):
+        gap.append(f.gap)
+        for key, pv in f.pulls.items():
             rows.setdefault(key, np.zeros(3))[:] += pv
-        rows.setdefault(("", "motion"), np.zeros(3))[:] += [*motion, 1]
+        rows.setdefault(("", "motion"), np.zeros(3))[:] += [*f.motion, 1]
     out = [f"pulls towards {person}, {times[ks[0]]:.2f}-{times[ks[-1]]:.2f} s ({len(ks)} frames): gap {gap[0][0]:.2f} m, "
            f"{gap[0][1]:.2f} m/s at the start, {gap[-1][0]:.2f} m, {gap[-1][1]:.2f} m/s at the last frame's start",
            f"    {'camera':8s} {'update':18s} {'n':>4s} {'position, m':>12s} {'velocity, m/s':>14s}"]
@@ -299,12 +305,12 @@ def course_table(tracer: Tracer, times: np.ndarray, truth, person: str, t0: floa
     along = course / np.linalg.norm(course)
     axes = np.array([along, [-along[1], along[0]]])  # rows: along, across (left)
     rows: dict[tuple[str, str], np.ndarray] = {}  # (camera, update) -> [x, y, vx, vy, count]
-    for _, _, _, pulls, _, steps, motion in frame_pulls(tracer, times, me, ks):
-        for key, d in steps.items():
-            rows.setdefault(key, np.zeros(5))[:] += [*d, pulls[key][2]]
-        rows.setdefault(("", "motion"), np.zeros(5))[:] += [*motion, 1]
-    gap = lambda k, s: (np.array([at(times[k]).x, at(times[k]).y, at(times[k]).vx, at(times[k]).vy]) - s)
-    g0, g1 = gap(ks[0], tracer.states[ks[0]][0]), gap(ks[-1], tracer.states[ks[-1]][1])
+    for f in frame_pulls(tracer, times, me, ks):
+        for key, d in f.steps.items():
+            rows.setdefault(key, np.zeros(5))[:] += [*d, f.pulls[key][2]]
+        rows.setdefault(("", "motion"), np.zeros(5))[:] += [*f.motion_step, 1]
+    g0 = np.array([first.x, first.y, first.vx, first.vy]) - tracer.states[ks[0]][0]
+    g1 = np.array([last.x, last.y, last.vx, last.vy]) - tracer.states[ks[-1]][1]
     on = lambda v: (axes @ v[:2], axes @ v[2:4])
     (p0, v0), (p1, v1) = on(g0), on(g1)
     out = [f"pulls along {person}'s course ({along[0]:+.2f},{along[1]:+.2f}), {times[ks[0]]:.2f}-{times[ks[-1]]:.2f} s "

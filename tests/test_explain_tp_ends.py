@@ -263,10 +263,9 @@ def test_a_miss_is_told_by_the_truth_and_set_beside_the_persons_projected_cylind
     cfg = SimpleNamespace(height=1.7, radius=0.2)
     who = still([2.0, 1.6])
     track_win = geo.cylinder_window(P, np.array([2.5, 2.0]), cfg.height, cfg.radius)
-    log = SimpleNamespace(jt=SimpleNamespace(Ps={c: P}, cfg=cfg, widths={c: 320.0}),
-                          fall_misses=lambda tid, k_end: [(20, c, -1.25)], windows={3: {20: {c: track_win}}})
+    log = SimpleNamespace(jt=SimpleNamespace(Ps={c: P}, cfg=cfg, widths={c: 320.0}), windows={3: {20: {c: track_win}}})
     vis = pd.DataFrame([(T[20], c, "distractor", False, False)], columns=["t", "camera", "person_id", "in_fov", "visible"])
-    rows = miss_rows(log, 3, 22, T, people(distractor=who), vis, "distractor")
+    rows = miss_rows(log, 3, [(20, c, -1.25)], T, people(distractor=who), vis, "distractor")
     assert len(rows) == 1
     r = rows[0]
     assert (r["t"], r["camera"], r["evidence"], r["truth"], r["image_width"]) == (2.0, c, -1.25, "out", 320.0)
